@@ -1,0 +1,224 @@
+"""Fixed-step integration over batches: classical RK4 and its energy-preserving variant.
+
+The energy-preserving variant applies, after every RK4 substep, the exact
+rescaling ``(u, omega) <- c (u, omega)`` that restores the initial energy. It
+is exact because, at fixed alpha and with the mass at rest on the cart, E is a
+positive-definite quadratic form in (u, omega) (physics.md section 5); so it
+is offered only where the energy is conserved: ``mu = 0``, or a mass that does
+not move relative to the cart.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from dynamics import _kernel
+from dynamics.model import FloatArray, actuator_array, check_state, rail_actuator
+from dynamics.params import ConvoyParams
+
+
+def _check_substeps(substeps: ArrayLike, batch_size: int) -> np.ndarray:
+    array = np.asarray(substeps)
+    if array.dtype.kind not in "iu" and not (array.dtype.kind == "f" and np.all(array == np.round(array))):
+        raise ValueError(f"substeps must be integers, got {substeps!r}")
+    try:
+        counts = np.broadcast_to(array.astype(np.int64), (batch_size,)).copy()
+    except ValueError:
+        raise ValueError(f"substeps of shape {array.shape} does not match the batch size {batch_size}") from None
+    if np.any(counts < 1):
+        raise ValueError(f"substeps must be >= 1, got min {counts.min()}")
+    return counts
+
+
+def _check_dt(dt: float) -> float:
+    value = float(dt)
+    if not np.isfinite(value) or value <= 0.0:
+        raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+    return value
+
+
+class Stepper:
+    """In-place batched RK4 stepper for hot loops (environments, benchmarks).
+
+    The parameters are validated and packed once; each :meth:`step` is one call
+    into the jitted kernel, whatever the batch size.
+
+    Args:
+        params: Convoy parameters.
+        with_pose: Whether rows carry the cart's pose (x, y, theta) after alpha.
+        preserve_energy: Rescale (u, omega) after each substep to the energy at the
+            start of the call (valid only while the mass is at rest on the cart).
+    """
+
+    def __init__(self, params: ConvoyParams, *, with_pose: bool = False, preserve_energy: bool = False) -> None:
+        self.params = params
+        self.with_pose = with_pose
+        self.preserve_energy = preserve_energy
+        self.width = params.n_trailers + (5 if with_pose else 2)
+        self._packed = _kernel.pack_params(params)
+
+    def step(self, z: FloatArray, act: FloatArray, dt: float, substeps: np.ndarray) -> None:
+        """Advance ``z`` (B, width) and the mass state ``act`` (B, 6) by ``dt`` in place.
+
+        ``act`` holds (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot); the
+        accelerations are held over ``dt`` and the rest is updated exactly.
+        ``substeps`` is an int64 array (B,). Inputs are trusted to be finite:
+        callers validate at their boundary (see :func:`step_rk4`).
+        """
+        if z.ndim != 2 or z.shape[1] != self.width or act.shape != (z.shape[0], 6):
+            raise ValueError(
+                f"expected z of shape (B, {self.width}) and act of shape (B, 6); got {z.shape} and {act.shape}"
+            )
+        if self.preserve_energy and self.params.mu > 0.0 and np.any(act[:, 2:] != 0.0):
+            raise ValueError(
+                "preserve_energy needs a conserved energy: mu = 0 or a mass at rest on the cart "
+                "(xi_dot = eta_dot = xi_ddot = eta_ddot = 0)"
+            )
+        _kernel.rk4_batch(
+            self._packed, z, act, self.params.n_trailers, self.with_pose, dt, substeps, self.preserve_energy
+        )
+
+
+def _step(
+    params: ConvoyParams, z: ArrayLike, dt: float, substeps: ArrayLike, act_of_shape, preserve_energy: bool
+) -> tuple[FloatArray, FloatArray]:
+    array, with_pose = check_state(params, z)
+    batch_shape = array.shape[:-1]
+    act = act_of_shape(batch_shape)
+    rows = array.reshape(-1, array.shape[-1]).copy()
+    counts = _check_substeps(substeps, rows.shape[0])
+    Stepper(params, with_pose=with_pose, preserve_energy=preserve_energy).step(rows, act, _check_dt(dt), counts)
+    return rows.reshape(array.shape), act.reshape(*batch_shape, 6)
+
+
+def step_rk4(
+    params: ConvoyParams,
+    z: ArrayLike,
+    dt: float,
+    *,
+    substeps: ArrayLike = 1,
+    s: ArrayLike = 0.0,
+    s_dot: ArrayLike = 0.0,
+    s_ddot: ArrayLike = 0.0,
+    preserve_energy: bool = False,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Advance states by ``dt`` with the mass on the rail under constant acceleration ``s_ddot``.
+
+    Args:
+        params: Convoy parameters.
+        z: State ``(..., n+2)`` or extended state ``(..., n+5)``.
+        dt: Time to advance, > 0.
+        substeps: Number of equal RK4 substeps, scalar or one per state.
+        s, s_dot: Mass position and velocity on the rail at the start.
+        s_ddot: Mass acceleration, held constant over ``dt``.
+        preserve_energy: Use the energy-preserving variant (mu = 0 or mass at rest).
+
+    Returns:
+        The new state, and the mass's position and velocity at the end.
+
+    Example:
+        >>> p = ConvoyParams(n_trailers=2, mu=0.0)
+        >>> z1, _, _ = step_rk4(p, [1.0, 0.1, 0.2, -0.1], 0.1, substeps=4)
+        >>> z1.shape
+        (4,)
+    """
+    z_new, act = _step(
+        params, z, dt, substeps, lambda shape: rail_actuator(params, shape, s, s_dot, s_ddot), preserve_energy
+    )
+    return z_new, act[..., 1], act[..., 3]
+
+
+def step_rk4_planar(
+    params: ConvoyParams,
+    z: ArrayLike,
+    dt: float,
+    *,
+    xi: ArrayLike,
+    eta: ArrayLike,
+    xi_dot: ArrayLike = 0.0,
+    eta_dot: ArrayLike = 0.0,
+    xi_ddot: ArrayLike = 0.0,
+    eta_ddot: ArrayLike = 0.0,
+    substeps: ArrayLike = 1,
+    preserve_energy: bool = False,
+) -> tuple[FloatArray, FloatArray]:
+    """Like :func:`step_rk4` with the planar actuator.
+
+    Returns:
+        The new state and the mass state (..., 6): (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot).
+    """
+    return _step(
+        params,
+        z,
+        dt,
+        substeps,
+        lambda shape: actuator_array(
+            shape, xi=xi, eta=eta, xi_dot=xi_dot, eta_dot=eta_dot, xi_ddot=xi_ddot, eta_ddot=eta_ddot
+        ),
+        preserve_energy,
+    )
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A sampled solution: ``z[k]`` is the state at ``t[k]`` (leading batch axes follow time)."""
+
+    t: FloatArray
+    z: FloatArray
+    s: FloatArray
+    s_dot: FloatArray
+
+
+def simulate(
+    params: ConvoyParams,
+    z0: ArrayLike,
+    dt: float,
+    n_steps: int,
+    *,
+    substeps: int = 1,
+    s0: ArrayLike = 0.0,
+    s_dot0: ArrayLike = 0.0,
+    s_ddot: ArrayLike = 0.0,
+    preserve_energy: bool = False,
+) -> Trajectory:
+    """Integrate ``n_steps`` steps of length ``dt`` with a constant rail acceleration.
+
+    Args:
+        params: Convoy parameters.
+        z0: Initial state, ``(..., n+2)`` or ``(..., n+5)`` with the pose.
+        dt: Sampling interval.
+        n_steps: Number of samples after the initial one.
+        substeps: RK4 substeps per sample.
+        s0, s_dot0, s_ddot: Rail state at t = 0 and its constant acceleration.
+        preserve_energy: Use the energy-preserving variant.
+
+    Returns:
+        The trajectory sampled at ``t = 0, dt, ..., n_steps * dt``.
+    """
+    if int(n_steps) != n_steps or n_steps < 0:
+        raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
+    array, with_pose = check_state(params, z0, "z0")
+    batch_shape = array.shape[:-1]
+    act = rail_actuator(params, batch_shape, s0, s_dot0, s_ddot)
+    rows = array.reshape(-1, array.shape[-1]).copy()
+    counts = _check_substeps(substeps, rows.shape[0])
+    stepper = Stepper(params, with_pose=with_pose, preserve_energy=preserve_energy)
+    step = _check_dt(dt)
+    states = np.empty((int(n_steps) + 1, *array.shape))
+    rail = np.empty((int(n_steps) + 1, rows.shape[0], 2))
+    states[0] = array
+    rail[0] = act[:, [1, 3]]
+    for k in range(1, int(n_steps) + 1):
+        stepper.step(rows, act, step, counts)
+        states[k] = rows.reshape(array.shape)
+        rail[k] = act[:, [1, 3]]
+    times = step * np.arange(int(n_steps) + 1)
+    return Trajectory(
+        t=times,
+        z=states,
+        s=rail[..., 0].reshape(-1, *batch_shape),
+        s_dot=rail[..., 1].reshape(-1, *batch_shape),
+    )

@@ -1,0 +1,185 @@
+"""Reduced equations of motion and energy (physics.md sections 3, 4, 5 and 10).
+
+The reduced state is ``z = (u, omega, alpha_1, ..., alpha_n)`` with any leading
+batch axes. Wherever a state is accepted, the extended state
+``(u, omega, alpha_1..alpha_n, x, y, theta)`` (the pose of the cart's axle
+midpoint appended) is accepted too, and the reconstruction equations
+``x_dot = u cos(theta), y_dot = u sin(theta), theta_dot = omega`` are then
+integrated alongside.
+
+Two actuators are offered. The lateral rail (:func:`rhs`, :func:`energy`) puts
+the moving mass at body coordinates ``(xi, eta) = (b, s)``; the planar actuator
+(:func:`rhs_planar`, :func:`energy_planar`) prescribes both coordinates.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from dynamics import _kernel
+from dynamics.params import ConvoyParams
+
+FloatArray = NDArray[np.float64]
+
+
+def check_state(params: ConvoyParams, z: ArrayLike, name: str = "z") -> tuple[FloatArray, bool]:
+    """Validate a (possibly extended) state and say whether it carries a pose.
+
+    Returns:
+        The state as a float64 array and True when its last axis has length n+5.
+
+    Raises:
+        ValueError: If the last axis has the wrong length or a value is not finite.
+    """
+    if not isinstance(params, ConvoyParams):
+        raise TypeError(f"params must be a ConvoyParams, got {type(params).__name__}")
+    array = np.asarray(z, dtype=np.float64)
+    n = params.n_trailers
+    if array.ndim == 0 or array.shape[-1] not in (n + 2, n + 5):
+        raise ValueError(
+            f"{name} must have last axis of length n+2 = {n + 2} (u, omega, alpha_1..alpha_{n}) "
+            f"or n+5 = {n + 5} (with x, y, theta) for n_trailers = {n}; got shape {array.shape}"
+        )
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} contains non-finite values (NaN or inf)")
+    return array, array.shape[-1] == n + 5
+
+
+def actuator_array(batch_shape: tuple[int, ...], **values: ArrayLike) -> FloatArray:
+    """Broadcast the six mass coordinates to ``(prod(batch_shape), 6)``.
+
+    Keyword order must be xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot.
+
+    Raises:
+        ValueError: If a value does not broadcast to the batch or is not finite.
+    """
+    size = int(np.prod(batch_shape, dtype=np.int64))
+    act = np.empty((size, 6), dtype=np.float64)
+    for column, (name, value) in enumerate(values.items()):
+        array = np.asarray(value, dtype=np.float64)
+        try:
+            act[:, column] = np.broadcast_to(array, batch_shape).reshape(size)
+        except ValueError:
+            raise ValueError(
+                f"{name} of shape {array.shape} does not broadcast to the batch shape {batch_shape}"
+            ) from None
+        if not np.all(np.isfinite(array)):
+            raise ValueError(f"{name} contains non-finite values (NaN or inf)")
+    return act
+
+
+def rail_actuator(
+    params: ConvoyParams, batch_shape: tuple[int, ...], s: ArrayLike, s_dot: ArrayLike, s_ddot: ArrayLike
+) -> FloatArray:
+    """The lateral rail as a planar actuator: xi = b fixed, eta = s."""
+    return actuator_array(
+        batch_shape, xi=params.b, eta=s, xi_dot=0.0, eta_dot=s_dot, xi_ddot=0.0, eta_ddot=s_ddot
+    )
+
+
+def _rhs(params: ConvoyParams, z: FloatArray, with_pose: bool, act: FloatArray) -> FloatArray:
+    rows = z.reshape(-1, z.shape[-1])
+    out = _kernel.rhs_batch(_kernel.pack_params(params), rows, act, params.n_trailers, with_pose)
+    return out.reshape(z.shape)
+
+
+def rhs(
+    params: ConvoyParams,
+    z: ArrayLike,
+    s: ArrayLike = 0.0,
+    s_dot: ArrayLike = 0.0,
+    s_ddot: ArrayLike = 0.0,
+) -> FloatArray:
+    """Time derivative of the state with the moving mass on the lateral rail.
+
+    Args:
+        params: Convoy parameters.
+        z: State ``(..., n+2)`` or extended state ``(..., n+5)``.
+        s, s_dot, s_ddot: Position, velocity and acceleration of the mass on its
+            rail, broadcast against ``z.shape[:-1]``. The rail's range is not
+            enforced here (that is the environment's servo's job).
+
+    Returns:
+        dz/dt, same shape as ``z``.
+
+    Example:
+        >>> p = ConvoyParams(n_trailers=1, mu=0.0)
+        >>> rhs(p, [1.0, 0.0, 0.0]).tolist()
+        [0.0, 0.0, 0.0]
+    """
+    array, with_pose = check_state(params, z)
+    act = rail_actuator(params, array.shape[:-1], s, s_dot, s_ddot)
+    return _rhs(params, array, with_pose, act)
+
+
+def rhs_planar(
+    params: ConvoyParams,
+    z: ArrayLike,
+    xi: ArrayLike,
+    eta: ArrayLike,
+    xi_dot: ArrayLike = 0.0,
+    eta_dot: ArrayLike = 0.0,
+    xi_ddot: ArrayLike = 0.0,
+    eta_ddot: ArrayLike = 0.0,
+) -> FloatArray:
+    """Time derivative with the mass at prescribed body coordinates (xi, eta).
+
+    ``xi`` is measured forward and ``eta`` to the left from the cart's axle
+    midpoint; ``params.b`` is ignored.
+    """
+    array, with_pose = check_state(params, z)
+    act = actuator_array(
+        array.shape[:-1], xi=xi, eta=eta, xi_dot=xi_dot, eta_dot=eta_dot, xi_ddot=xi_ddot, eta_ddot=eta_ddot
+    )
+    return _rhs(params, array, with_pose, act)
+
+
+def _energy(params: ConvoyParams, z: FloatArray, act: FloatArray) -> FloatArray:
+    rows = z.reshape(-1, z.shape[-1])
+    out = _kernel.energy_batch(_kernel.pack_params(params), rows, act, params.n_trailers)
+    return out.reshape(z.shape[:-1])
+
+
+def energy(params: ConvoyParams, z: ArrayLike, s: ArrayLike = 0.0, s_dot: ArrayLike = 0.0) -> FloatArray:
+    """Kinetic energy of the convoy and the mass on the rail, shape ``z.shape[:-1]``.
+
+    E = (R u^2 + I0 omega^2 + mu ((u - omega s)^2 + (omega b + s_dot)^2)) / 2;
+    with mu = 0 it is the conserved energy of physics.md section 5.
+    """
+    array, _ = check_state(params, z)
+    act = rail_actuator(params, array.shape[:-1], s, s_dot, 0.0)
+    return _energy(params, array, act)
+
+
+def energy_planar(
+    params: ConvoyParams,
+    z: ArrayLike,
+    xi: ArrayLike,
+    eta: ArrayLike,
+    xi_dot: ArrayLike = 0.0,
+    eta_dot: ArrayLike = 0.0,
+) -> FloatArray:
+    """Kinetic energy with the mass at body coordinates (xi, eta)."""
+    array, _ = check_state(params, z)
+    act = actuator_array(array.shape[:-1], xi=xi, eta=eta, xi_dot=xi_dot, eta_dot=eta_dot, xi_ddot=0.0, eta_ddot=0.0)
+    return _energy(params, array, act)
+
+
+def inertia_R(params: ConvoyParams, alpha: ArrayLike) -> FloatArray:
+    """R(alpha) of physics.md section 4, the convoy's effective mass, shape ``alpha.shape[:-1]``."""
+    alpha_array = np.asarray(alpha, dtype=np.float64)
+    n = params.n_trailers
+    if alpha_array.ndim == 0 or alpha_array.shape[-1] != n:
+        raise ValueError(f"alpha must have last axis of length n = {n}; got shape {alpha_array.shape}")
+    # Energy at u = 1, omega = 0 with the mass switched off is R / 2.
+    z = np.zeros((*alpha_array.shape[:-1], n + 2))
+    z[..., 0] = 1.0
+    z[..., 2:] = alpha_array
+    if not np.all(np.isfinite(z)):
+        raise ValueError("alpha contains non-finite values (NaN or inf)")
+    rows = z.reshape(-1, n + 2)
+    pv = _kernel.pack_params(params)
+    pv[_kernel.P_MU] = 0.0
+    out = _kernel.energy_batch(pv, rows, np.zeros((rows.shape[0], 6)), n)
+    return 2.0 * out.reshape(z.shape[:-1])
