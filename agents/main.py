@@ -27,10 +27,14 @@ def simulate_and_plot(n_trailers: int, seconds: float, out: Path) -> Path:
     dt = 0.02
     coast = simulate(params, z0, dt, int(seconds / dt), substeps=2)
     n = params.n_trailers
-    xs, ys, _ = body_poses(params.l, coast.z[:, n + 2], coast.z[:, n + 3], coast.z[:, n + 4], coast.z[:, 2 : 2 + n])
+    xs, ys, _ = body_poses(
+        params.l, coast.z[:, n + 2], coast.z[:, n + 3], coast.z[:, n + 4], coast.z[:, 2 : 2 + n]
+    )
     fig, (ax_path, ax_energy) = plt.subplots(1, 2, figsize=(11, 4.5))
     for body in range(n + 1):
-        ax_path.plot(xs[:, body], ys[:, body], lw=1.2, label="cart" if body == 0 else f"trailer {body}")
+        ax_path.plot(
+            xs[:, body], ys[:, body], lw=1.2, label="cart" if body == 0 else f"trailer {body}"
+        )
     ax_path.set_aspect("equal")
     ax_path.set_xlabel("x [m]")
     ax_path.set_ylabel("y [m]")
@@ -46,13 +50,18 @@ def simulate_and_plot(n_trailers: int, seconds: float, out: Path) -> Path:
     path = out / "convoy_path_energy.png"
     fig.savefig(path, dpi=110)
     plt.close(fig)
-    print(f"simulated {seconds:g} s of n = {n}: max |dE/E0| = {np.max(np.abs(e - e[0]) / e[0]):.2e}; wrote {path}")
+    print(
+        f"simulated {seconds:g} s of n = {n}: "
+        f"max |dE/E0| = {np.max(np.abs(e - e[0]) / e[0]):.2e}; wrote {path}"
+    )
     return path
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m agents.main", description=__doc__)
-    parser.add_argument("--out", type=Path, default=Path("out"), help="output folder (default: out)")
+    parser.add_argument(
+        "--out", type=Path, default=Path("out"), help="output folder (default: out)"
+    )
     parser.add_argument("--n-trailers", type=int, default=2, help="number of trailers (default: 2)")
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated time (default: 20)")
     args = parser.parse_args(argv)

@@ -37,7 +37,7 @@ __all__ = [
 ]
 
 try:  # written alongside; importing lazily keeps the core usable while it is absent
-    from dynamics.nonholonomy import NonholonomyDegree, nonholonomy_degree  # noqa: F401
+    from dynamics.nonholonomy import NonholonomyDegree, nonholonomy_degree
 
     __all__ += ["NonholonomyDegree", "nonholonomy_degree"]
 except ImportError:  # pragma: no cover

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from dynamics.params import ConvoyParams
 
@@ -57,6 +57,7 @@ def _hitch_terms(row: np.ndarray, n: int, m: float, J: float, l: float, A: np.nd
     sum_tail_c2 = 0.0
     c_prev = 1.0
     s_prev = 0.0
+    c1s1 = 0.0
     for k in range(n):
         alpha = row[2 + k]
         c = math.cos(alpha)
@@ -64,6 +65,7 @@ def _hitch_terms(row: np.ndarray, n: int, m: float, J: float, l: float, A: np.nd
         c2 = c * c
         if k == 0:
             A_k = -s / l
+            c1s1 = c * s
         else:
             A_k = prefix_c * (s_prev - c_prev * s) / l
             prefix_c *= c_prev
@@ -79,12 +81,7 @@ def _hitch_terms(row: np.ndarray, n: int, m: float, J: float, l: float, A: np.nd
         c_prev = c
         s_prev = s
     R_trailers = m * sum_prefix_c2 + J_l2 * (1.0 - prefix_c2)
-    if n > 0:
-        c1 = math.cos(row[2])
-        s1 = math.sin(row[2])
-        dR_dalpha1 = -2.0 * s1 * c1 * (m * sum_tail_c2 - J_l2 * tail_c2)
-    else:
-        dR_dalpha1 = 0.0
+    dR_dalpha1 = -2.0 * c1s1 * (m * sum_tail_c2 - J_l2 * tail_c2)
     sum_A_dR = m * sum_g_S - J_l2 * g_weighted_T
     return R_trailers, dR_dalpha1, sum_A_dR
 
@@ -110,7 +107,9 @@ def _field(
     I0 = pv[P_J0] + M * a * a
     u = row[0]
     w = row[1]
-    R_trailers, dR_dalpha1, sum_A_dR = _hitch_terms(row, n, pv[P_SMALL_M], pv[P_J], pv[P_L], out[2:])
+    R_trailers, dR_dalpha1, sum_A_dR = _hitch_terms(
+        row, n, pv[P_SMALL_M], pv[P_J], pv[P_L], out[2:]
+    )
     R = M + R_trailers
     for k in range(n):
         out[2 + k] *= u
@@ -139,7 +138,9 @@ def _field(
 
 
 @njit(cache=True, nogil=True)
-def _energy_row(pv: np.ndarray, row: np.ndarray, n: int, act: np.ndarray, scratch: np.ndarray) -> float:
+def _energy_row(
+    pv: np.ndarray, row: np.ndarray, n: int, act: np.ndarray, scratch: np.ndarray
+) -> float:
     M = pv[P_M]
     a = pv[P_A]
     mu = pv[P_MU]
@@ -154,11 +155,25 @@ def _energy_row(pv: np.ndarray, row: np.ndarray, n: int, act: np.ndarray, scratc
 
 
 @njit(cache=True)
-def rhs_batch(pv: np.ndarray, z: np.ndarray, act: np.ndarray, n: int, with_pose: bool) -> np.ndarray:
+def rhs_batch(
+    pv: np.ndarray, z: np.ndarray, act: np.ndarray, n: int, with_pose: bool
+) -> np.ndarray:
     """Time derivative of every row of ``z`` (shape (B, width))."""
     out = np.empty_like(z)
     for i in range(z.shape[0]):
-        _field(pv, z[i], n, with_pose, act[i, 0], act[i, 1], act[i, 2], act[i, 3], act[i, 4], act[i, 5], out[i])
+        _field(
+            pv,
+            z[i],
+            n,
+            with_pose,
+            act[i, 0],
+            act[i, 1],
+            act[i, 2],
+            act[i, 3],
+            act[i, 4],
+            act[i, 5],
+            out[i],
+        )
     return out
 
 
@@ -182,6 +197,7 @@ def _rk4_row(
     dt: float,
     substeps: int,
     preserve_energy: bool,
+    target_energy: float,
     k1: np.ndarray,
     k2: np.ndarray,
     k3: np.ndarray,
@@ -192,37 +208,55 @@ def _rk4_row(
     width = row.shape[0]
     h = dt / substeps
     xi0, eta0, xi_dot0, eta_dot0, xi_ddot, eta_ddot = act[0], act[1], act[2], act[3], act[4], act[5]
-    target_energy = 0.0
-    if preserve_energy:
+    if preserve_energy and not target_energy > 0.0:
         target_energy = _energy_row(pv, row, n, act, scratch)
     for step in range(substeps):
         t0 = step * h
-        for stage_index in range(4):
-            if stage_index == 0:
-                tau = t0
-                for j in range(width):
-                    stage[j] = row[j]
-                k = k1
-            elif stage_index == 1:
-                tau = t0 + 0.5 * h
-                for j in range(width):
-                    stage[j] = row[j] + 0.5 * h * k1[j]
-                k = k2
-            elif stage_index == 2:
-                tau = t0 + 0.5 * h
-                for j in range(width):
-                    stage[j] = row[j] + 0.5 * h * k2[j]
-                k = k3
-            else:
-                tau = t0 + h
-                for j in range(width):
-                    stage[j] = row[j] + h * k3[j]
-                k = k4
-            # The mass's motion is a known quadratic in time: evaluate it exactly.
-            xi = xi0 + xi_dot0 * tau + 0.5 * xi_ddot * tau * tau
-            eta = eta0 + eta_dot0 * tau + 0.5 * eta_ddot * tau * tau
-            _field(pv, stage, n, with_pose, xi, eta, xi_dot0 + xi_ddot * tau,
-                   eta_dot0 + eta_ddot * tau, xi_ddot, eta_ddot, k)
+        t_mid = t0 + 0.5 * h
+        t1 = t0 + h
+        # The mass's motion is a known quadratic in time: evaluate it exactly at each stage.
+        _field(
+            pv,
+            row,
+            n,
+            with_pose,
+            xi0 + xi_dot0 * t0 + 0.5 * xi_ddot * t0 * t0,
+            eta0 + eta_dot0 * t0 + 0.5 * eta_ddot * t0 * t0,
+            xi_dot0 + xi_ddot * t0,
+            eta_dot0 + eta_ddot * t0,
+            xi_ddot,
+            eta_ddot,
+            k1,
+        )
+        xi_mid = xi0 + xi_dot0 * t_mid + 0.5 * xi_ddot * t_mid * t_mid
+        eta_mid = eta0 + eta_dot0 * t_mid + 0.5 * eta_ddot * t_mid * t_mid
+        xi_dot_mid = xi_dot0 + xi_ddot * t_mid
+        eta_dot_mid = eta_dot0 + eta_ddot * t_mid
+        for j in range(width):
+            stage[j] = row[j] + 0.5 * h * k1[j]
+        _field(
+            pv, stage, n, with_pose, xi_mid, eta_mid, xi_dot_mid, eta_dot_mid, xi_ddot, eta_ddot, k2
+        )
+        for j in range(width):
+            stage[j] = row[j] + 0.5 * h * k2[j]
+        _field(
+            pv, stage, n, with_pose, xi_mid, eta_mid, xi_dot_mid, eta_dot_mid, xi_ddot, eta_ddot, k3
+        )
+        for j in range(width):
+            stage[j] = row[j] + h * k3[j]
+        _field(
+            pv,
+            stage,
+            n,
+            with_pose,
+            xi0 + xi_dot0 * t1 + 0.5 * xi_ddot * t1 * t1,
+            eta0 + eta_dot0 * t1 + 0.5 * eta_ddot * t1 * t1,
+            xi_dot0 + xi_ddot * t1,
+            eta_dot0 + eta_ddot * t1,
+            xi_ddot,
+            eta_ddot,
+            k4,
+        )
         for j in range(width):
             row[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
         if preserve_energy:
@@ -239,7 +273,10 @@ def _rk4_row(
     act[3] = eta_dot0 + eta_ddot * dt
 
 
-@njit(cache=True)
+_ROWS_PER_CHUNK = 64
+
+
+@njit(cache=True, parallel=True)
 def rk4_batch(
     pv: np.ndarray,
     z: np.ndarray,
@@ -249,14 +286,39 @@ def rk4_batch(
     dt: float,
     substeps: np.ndarray,
     preserve_energy: bool,
+    target_energy: np.ndarray,
 ) -> None:
     """Advance every row of ``z`` and ``act`` in place by ``dt`` with classical RK4.
 
     Row i takes ``substeps[i]`` equal substeps, so a batch can mix fidelities.
+    With ``preserve_energy``, row i is rescaled to ``target_energy[i]`` (or, where
+    that is NaN or <= 0, to its energy at the start of the call): a target held
+    across calls keeps rounding errors from accumulating over long runs.
+    Rows are independent, so chunks of rows run on all cores; each row's
+    arithmetic is the same whatever the chunking, so results do not depend on
+    the number of threads.
     """
     width = z.shape[1]
-    buffers = np.empty((5, width))
-    scratch = np.empty(max(n, 1))
-    for i in range(z.shape[0]):
-        _rk4_row(pv, z[i], act[i], n, with_pose, dt, substeps[i], preserve_energy,
-                 buffers[0], buffers[1], buffers[2], buffers[3], buffers[4], scratch)
+    n_rows = z.shape[0]
+    n_chunks = (n_rows + _ROWS_PER_CHUNK - 1) // _ROWS_PER_CHUNK
+    for chunk in prange(n_chunks):
+        buffers = np.empty((5, width))
+        scratch = np.empty(max(n, 1))
+        for i in range(chunk * _ROWS_PER_CHUNK, min(n_rows, (chunk + 1) * _ROWS_PER_CHUNK)):
+            _rk4_row(
+                pv,
+                z[i],
+                act[i],
+                n,
+                with_pose,
+                dt,
+                substeps[i],
+                preserve_energy,
+                target_energy[i],
+                buffers[0],
+                buffers[1],
+                buffers[2],
+                buffers[3],
+                buffers[4],
+                scratch,
+            )

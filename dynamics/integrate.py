@@ -10,6 +10,7 @@ not move relative to the cart.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,12 +23,16 @@ from dynamics.params import ConvoyParams
 
 def _check_substeps(substeps: ArrayLike, batch_size: int) -> np.ndarray:
     array = np.asarray(substeps)
-    if array.dtype.kind not in "iu" and not (array.dtype.kind == "f" and np.all(array == np.round(array))):
+    if array.dtype.kind not in "iu" and not (
+        array.dtype.kind == "f" and np.all(array == np.round(array))
+    ):
         raise ValueError(f"substeps must be integers, got {substeps!r}")
     try:
         counts = np.broadcast_to(array.astype(np.int64), (batch_size,)).copy()
     except ValueError:
-        raise ValueError(f"substeps of shape {array.shape} does not match the batch size {batch_size}") from None
+        raise ValueError(
+            f"substeps of shape {array.shape} does not match the batch size {batch_size}"
+        ) from None
     if np.any(counts < 1):
         raise ValueError(f"substeps must be >= 1, got min {counts.min()}")
     return counts
@@ -53,44 +58,74 @@ class Stepper:
             start of the call (valid only while the mass is at rest on the cart).
     """
 
-    def __init__(self, params: ConvoyParams, *, with_pose: bool = False, preserve_energy: bool = False) -> None:
+    def __init__(
+        self, params: ConvoyParams, *, with_pose: bool = False, preserve_energy: bool = False
+    ) -> None:
         self.params = params
         self.with_pose = with_pose
         self.preserve_energy = preserve_energy
         self.width = params.n_trailers + (5 if with_pose else 2)
         self._packed = _kernel.pack_params(params)
 
-    def step(self, z: FloatArray, act: FloatArray, dt: float, substeps: np.ndarray) -> None:
+    def step(
+        self,
+        z: FloatArray,
+        act: FloatArray,
+        dt: float,
+        substeps: np.ndarray,
+        target_energy: FloatArray | None = None,
+    ) -> None:
         """Advance ``z`` (B, width) and the mass state ``act`` (B, 6) by ``dt`` in place.
 
         ``act`` holds (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot); the
         accelerations are held over ``dt`` and the rest is updated exactly.
         ``substeps`` is an int64 array (B,). Inputs are trusted to be finite:
-        callers validate at their boundary (see :func:`step_rk4`).
+        callers validate at their boundary (see :func:`step_rk4`). With
+        ``preserve_energy``, ``target_energy`` (B,) is the energy each row is held
+        to; by default, its energy at the start of the call. Holding one target
+        over a long run keeps rounding errors from accumulating call after call.
         """
         if z.ndim != 2 or z.shape[1] != self.width or act.shape != (z.shape[0], 6):
             raise ValueError(
-                f"expected z of shape (B, {self.width}) and act of shape (B, 6); got {z.shape} and {act.shape}"
+                f"expected z of shape (B, {self.width}) and act of shape (B, 6); "
+                f"got {z.shape} and {act.shape}"
             )
         if self.preserve_energy and self.params.mu > 0.0 and np.any(act[:, 2:] != 0.0):
             raise ValueError(
                 "preserve_energy needs a conserved energy: mu = 0 or a mass at rest on the cart "
                 "(xi_dot = eta_dot = xi_ddot = eta_ddot = 0)"
             )
+        if target_energy is None:
+            target_energy = np.full(z.shape[0], np.nan)
         _kernel.rk4_batch(
-            self._packed, z, act, self.params.n_trailers, self.with_pose, dt, substeps, self.preserve_energy
+            self._packed,
+            z,
+            act,
+            self.params.n_trailers,
+            self.with_pose,
+            dt,
+            substeps,
+            self.preserve_energy,
+            target_energy,
         )
 
 
 def _step(
-    params: ConvoyParams, z: ArrayLike, dt: float, substeps: ArrayLike, act_of_shape, preserve_energy: bool
+    params: ConvoyParams,
+    z: ArrayLike,
+    dt: float,
+    substeps: ArrayLike,
+    act_of_shape: Callable[[tuple[int, ...]], FloatArray],
+    preserve_energy: bool,
 ) -> tuple[FloatArray, FloatArray]:
     array, with_pose = check_state(params, z)
     batch_shape = array.shape[:-1]
     act = act_of_shape(batch_shape)
     rows = array.reshape(-1, array.shape[-1]).copy()
     counts = _check_substeps(substeps, rows.shape[0])
-    Stepper(params, with_pose=with_pose, preserve_energy=preserve_energy).step(rows, act, _check_dt(dt), counts)
+    Stepper(params, with_pose=with_pose, preserve_energy=preserve_energy).step(
+        rows, act, _check_dt(dt), counts
+    )
     return rows.reshape(array.shape), act.reshape(*batch_shape, 6)
 
 
@@ -126,7 +161,12 @@ def step_rk4(
         (4,)
     """
     z_new, act = _step(
-        params, z, dt, substeps, lambda shape: rail_actuator(params, shape, s, s_dot, s_ddot), preserve_energy
+        params,
+        z,
+        dt,
+        substeps,
+        lambda shape: rail_actuator(params, shape, s, s_dot, s_ddot),
+        preserve_energy,
     )
     return z_new, act[..., 1], act[..., 3]
 
@@ -156,7 +196,13 @@ def step_rk4_planar(
         dt,
         substeps,
         lambda shape: actuator_array(
-            shape, xi=xi, eta=eta, xi_dot=xi_dot, eta_dot=eta_dot, xi_ddot=xi_ddot, eta_ddot=eta_ddot
+            shape,
+            xi=xi,
+            eta=eta,
+            xi_dot=xi_dot,
+            eta_dot=eta_dot,
+            xi_ddot=xi_ddot,
+            eta_ddot=eta_ddot,
         ),
         preserve_energy,
     )
@@ -207,15 +253,20 @@ def simulate(
     counts = _check_substeps(substeps, rows.shape[0])
     stepper = Stepper(params, with_pose=with_pose, preserve_energy=preserve_energy)
     step = _check_dt(dt)
+    target = (
+        _kernel.energy_batch(stepper._packed, rows, act, params.n_trailers)
+        if preserve_energy
+        else None
+    )
     states = np.empty((int(n_steps) + 1, *array.shape))
     rail = np.empty((int(n_steps) + 1, rows.shape[0], 2))
     states[0] = array
     rail[0] = act[:, [1, 3]]
     for k in range(1, int(n_steps) + 1):
-        stepper.step(rows, act, step, counts)
+        stepper.step(rows, act, step, counts, target)
         states[k] = rows.reshape(array.shape)
         rail[k] = act[:, [1, 3]]
-    times = step * np.arange(int(n_steps) + 1)
+    times = step * np.arange(int(n_steps) + 1, dtype=np.float64)
     return Trajectory(
         t=times,
         z=states,

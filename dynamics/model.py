@@ -54,9 +54,15 @@ def actuator_array(batch_shape: tuple[int, ...], **values: ArrayLike) -> FloatAr
     Raises:
         ValueError: If a value does not broadcast to the batch or is not finite.
     """
+    return _actuator_columns(batch_shape, list(values.items()))
+
+
+def _actuator_columns(
+    batch_shape: tuple[int, ...], columns: list[tuple[str, ArrayLike]]
+) -> FloatArray:
     size = int(np.prod(batch_shape, dtype=np.int64))
     act = np.empty((size, 6), dtype=np.float64)
-    for column, (name, value) in enumerate(values.items()):
+    for column, (name, value) in enumerate(columns):
         array = np.asarray(value, dtype=np.float64)
         try:
             act[:, column] = np.broadcast_to(array, batch_shape).reshape(size)
@@ -70,11 +76,23 @@ def actuator_array(batch_shape: tuple[int, ...], **values: ArrayLike) -> FloatAr
 
 
 def rail_actuator(
-    params: ConvoyParams, batch_shape: tuple[int, ...], s: ArrayLike, s_dot: ArrayLike, s_ddot: ArrayLike
+    params: ConvoyParams,
+    batch_shape: tuple[int, ...],
+    s: ArrayLike,
+    s_dot: ArrayLike,
+    s_ddot: ArrayLike,
 ) -> FloatArray:
     """The lateral rail as a planar actuator: xi = b fixed, eta = s."""
-    return actuator_array(
-        batch_shape, xi=params.b, eta=s, xi_dot=0.0, eta_dot=s_dot, xi_ddot=0.0, eta_ddot=s_ddot
+    return _actuator_columns(
+        batch_shape,
+        [
+            ("b", params.b),
+            ("s", s),
+            ("xi_dot", 0.0),
+            ("s_dot", s_dot),
+            ("xi_ddot", 0.0),
+            ("s_ddot", s_ddot),
+        ],
     )
 
 
@@ -130,7 +148,13 @@ def rhs_planar(
     """
     array, with_pose = check_state(params, z)
     act = actuator_array(
-        array.shape[:-1], xi=xi, eta=eta, xi_dot=xi_dot, eta_dot=eta_dot, xi_ddot=xi_ddot, eta_ddot=eta_ddot
+        array.shape[:-1],
+        xi=xi,
+        eta=eta,
+        xi_dot=xi_dot,
+        eta_dot=eta_dot,
+        xi_ddot=xi_ddot,
+        eta_ddot=eta_ddot,
     )
     return _rhs(params, array, with_pose, act)
 
@@ -141,7 +165,9 @@ def _energy(params: ConvoyParams, z: FloatArray, act: FloatArray) -> FloatArray:
     return out.reshape(z.shape[:-1])
 
 
-def energy(params: ConvoyParams, z: ArrayLike, s: ArrayLike = 0.0, s_dot: ArrayLike = 0.0) -> FloatArray:
+def energy(
+    params: ConvoyParams, z: ArrayLike, s: ArrayLike = 0.0, s_dot: ArrayLike = 0.0
+) -> FloatArray:
     """Kinetic energy of the convoy and the mass on the rail, shape ``z.shape[:-1]``.
 
     E = (R u^2 + I0 omega^2 + mu ((u - omega s)^2 + (omega b + s_dot)^2)) / 2;
@@ -162,7 +188,9 @@ def energy_planar(
 ) -> FloatArray:
     """Kinetic energy with the mass at body coordinates (xi, eta)."""
     array, _ = check_state(params, z)
-    act = actuator_array(array.shape[:-1], xi=xi, eta=eta, xi_dot=xi_dot, eta_dot=eta_dot, xi_ddot=0.0, eta_ddot=0.0)
+    act = actuator_array(
+        array.shape[:-1], xi=xi, eta=eta, xi_dot=xi_dot, eta_dot=eta_dot, xi_ddot=0.0, eta_ddot=0.0
+    )
     return _energy(params, array, act)
 
 
@@ -171,7 +199,9 @@ def inertia_R(params: ConvoyParams, alpha: ArrayLike) -> FloatArray:
     alpha_array = np.asarray(alpha, dtype=np.float64)
     n = params.n_trailers
     if alpha_array.ndim == 0 or alpha_array.shape[-1] != n:
-        raise ValueError(f"alpha must have last axis of length n = {n}; got shape {alpha_array.shape}")
+        raise ValueError(
+            f"alpha must have last axis of length n = {n}; got shape {alpha_array.shape}"
+        )
     # Energy at u = 1, omega = 0 with the mass switched off is R / 2.
     z = np.zeros((*alpha_array.shape[:-1], n + 2))
     z[..., 0] = 1.0

@@ -46,7 +46,7 @@ class ConvoyParams:
     def __post_init__(self) -> None:
         n = self.n_trailers
         if isinstance(n, bool) or not isinstance(n, int):
-            if isinstance(n, float) and n.is_integer():
+            if isinstance(n, float) and not isinstance(n, bool) and n.is_integer():
                 object.__setattr__(self, "n_trailers", int(n))
             else:
                 raise ValueError(f"n_trailers must be an integer >= 0, got {n!r}")
@@ -67,7 +67,7 @@ class ConvoyParams:
         for field in ("J", "mu"):
             if getattr(self, field) < 0.0:
                 raise ValueError(f"{field} must be >= 0, got {getattr(self, field)!r}")
-        if self.J >= self.m * self.l**2:
+        if self.m * self.l**2 <= self.J:
             warnings.warn(
                 f"J = {self.J} >= m*l**2 = {self.m * self.l**2}: allowed, but no physical "
                 "trailer with its mass at the axle has it (thesis eq. 3.35)",

@@ -39,7 +39,9 @@ def body_poses(
         raise ValueError("alpha must have a last axis (the n hitch angles)")
     batch = alpha_array.shape[:-1]
     try:
-        x0, y0, th0 = (np.broadcast_to(np.asarray(v, dtype=np.float64), batch) for v in (x, y, theta))
+        x0, y0, th0 = (
+            np.broadcast_to(np.asarray(v, dtype=np.float64), batch) for v in (x, y, theta)
+        )
     except ValueError:
         raise ValueError(f"x, y, theta must broadcast to alpha's batch shape {batch}") from None
     for name, value in (("x", x0), ("y", y0), ("theta", th0), ("alpha", alpha_array)):
