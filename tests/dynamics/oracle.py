@@ -84,7 +84,7 @@ class OracleParams:
     a: float
     m: float
     J: float
-    l: float  # noqa: E741  (the textbook name, as in dynamics.ConvoyParams)
+    l: float
     mu: float
 
     @classmethod
