@@ -15,12 +15,14 @@ See ``docs/physics.md`` for the model. The public API:
 
 from dynamics.integrate import Stepper, Trajectory, simulate, step_rk4, step_rk4_planar
 from dynamics.model import energy, energy_planar, inertia_R, rhs, rhs_planar
+from dynamics.nonholonomy import NonholonomyDegree, nonholonomy_degree
 from dynamics.params import ConvoyParams
 from dynamics.plane import body_poses
 from dynamics.singular import is_jackknifed, singular_margin
 
 __all__ = [
     "ConvoyParams",
+    "NonholonomyDegree",
     "Stepper",
     "Trajectory",
     "body_poses",
@@ -28,6 +30,7 @@ __all__ = [
     "energy_planar",
     "inertia_R",
     "is_jackknifed",
+    "nonholonomy_degree",
     "rhs",
     "rhs_planar",
     "simulate",
@@ -35,10 +38,3 @@ __all__ = [
     "step_rk4",
     "step_rk4_planar",
 ]
-
-try:  # written alongside; importing lazily keeps the core usable while it is absent
-    from dynamics.nonholonomy import NonholonomyDegree, nonholonomy_degree
-
-    __all__ += ["NonholonomyDegree", "nonholonomy_degree"]
-except ImportError:  # pragma: no cover
-    pass
