@@ -273,7 +273,46 @@ def _rk4_row(
     act[3] = eta_dot0 + eta_ddot * dt
 
 
+#: Below this many rows the serial loop wins: waking worker threads costs more
+#: than a small batch's arithmetic (milliseconds on a loaded machine).
+PARALLEL_MIN_ROWS = 256
 _ROWS_PER_CHUNK = 64
+
+
+@njit(cache=True)
+def rk4_batch_serial(
+    pv: np.ndarray,
+    z: np.ndarray,
+    act: np.ndarray,
+    n: int,
+    with_pose: bool,
+    dt: float,
+    substeps: np.ndarray,
+    preserve_energy: bool,
+    target_energy: np.ndarray,
+) -> None:
+    """Same as :func:`rk4_batch` on the calling thread (single envs, small batches)."""
+    width = z.shape[1]
+    buffers = np.empty((5, width))
+    scratch = np.empty(max(n, 1))
+    for i in range(z.shape[0]):
+        _rk4_row(
+            pv,
+            z[i],
+            act[i],
+            n,
+            with_pose,
+            dt,
+            substeps[i],
+            preserve_energy,
+            target_energy[i],
+            buffers[0],
+            buffers[1],
+            buffers[2],
+            buffers[3],
+            buffers[4],
+            scratch,
+        )
 
 
 @njit(cache=True, parallel=True)

@@ -97,7 +97,12 @@ class Stepper:
             )
         if target_energy is None:
             target_energy = np.full(z.shape[0], np.nan)
-        _kernel.rk4_batch(
+        kernel = (
+            _kernel.rk4_batch
+            if z.shape[0] >= _kernel.PARALLEL_MIN_ROWS
+            else _kernel.rk4_batch_serial
+        )
+        kernel(
             self._packed,
             z,
             act,
