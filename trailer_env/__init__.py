@@ -1,0 +1,58 @@
+"""Gymnasium environments of a cart pulling n trailers, steered only by a moving mass.
+
+Importing the package registers the scenes (namespace ``trailer_env``):
+
+==========================  ==================  =====================================
+id                          max_episode_steps   task
+==========================  ==================  =====================================
+``trailer_env/Reverse-v0``  400 (20 s)          back up without folding (headline)
+``trailer_env/Coast-v0``    300 (15 s)          straighten from a random coasting state
+``trailer_env/Heading-v0``  300 (15 s)          reach and hold a target heading
+``trailer_env/Dock-v0``     400 (20 s)          reverse the last axle onto a dock
+==========================  ==================  =====================================
+
+Each id has an ``entry_point`` (the single env, :mod:`trailer_env.scenes`) and a
+``vector_entry_point`` (the native batched env, :mod:`trailer_env.vector`)::
+
+    import gymnasium as gym
+    import trailer_env
+
+    env = gym.make("trailer_env/Reverse-v0", n_trailers=3, mu=0.4)
+    envs = gym.make_vec(
+        "trailer_env/Reverse-v0", num_envs=1024, vectorization_mode="vector_entry_point"
+    )
+
+Keyword arguments: ``n_trailers``, any :class:`dynamics.ConvoyParams` field, ``dt``,
+``fidelity``, ``action_mode``, ``rail_accel_max``, ``servo_bandwidth``,
+``singular_band``, ``fold_angle`` (see :mod:`trailer_env.settings`). The
+stable-baselines3 adapter lives in :mod:`trailer_env.sb3` (imported on demand).
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+from trailer_env.fidelity import Fidelity
+from trailer_env.scenes import CoastEnv, DockEnv, HeadingEnv, ReverseEnv
+from trailer_env.settings import EnvSettings
+
+#: Scene name -> max_episode_steps.
+SCENES: dict[str, int] = {"Reverse": 400, "Coast": 300, "Heading": 300, "Dock": 400}
+
+
+def _register() -> None:
+    for name, max_steps in SCENES.items():
+        env_id = f"trailer_env/{name}-v0"
+        if env_id in gym.registry:
+            continue
+        gym.register(
+            id=env_id,
+            entry_point=f"trailer_env.scenes:{name}Env",
+            vector_entry_point=f"trailer_env.vector:{name}VectorEnv",
+            max_episode_steps=max_steps,
+        )
+
+
+_register()
+
+__all__ = ["SCENES", "CoastEnv", "DockEnv", "EnvSettings", "Fidelity", "HeadingEnv", "ReverseEnv"]

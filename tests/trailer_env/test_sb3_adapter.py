@@ -1,0 +1,93 @@
+"""The stable-baselines3 adapter over the batch core, and SB3's own multiprocess vector env."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from stable_baselines3 import PPO
+from stable_baselines3.common.env_util import make_vec_env
+from stable_baselines3.common.vec_env import SubprocVecEnv, VecMonitor
+
+from tests.trailer_env.helpers import make
+from trailer_env.sb3 import ConvoySB3VecEnv
+
+
+def test_same_step_reset_with_terminal_observation() -> None:
+    venv = ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=2, max_episode_steps=4, n_trailers=1)
+    venv.seed(0)
+    venv.reset()
+    for _ in range(3):
+        _, _, dones, _ = venv.step(np.zeros((2, 1)))
+        assert not dones.any()
+    obs, rewards, dones, infos = venv.step(np.zeros((2, 1)))
+    assert dones.all() and rewards.dtype == np.float32
+    for i in range(2):
+        assert infos[i]["TimeLimit.truncated"] is True
+        terminal = infos[i]["terminal_observation"]
+        assert terminal.shape == obs[i].shape and not np.array_equal(terminal, obs[i])
+        assert np.all(obs[i][-2:] == 0.0)  # a fresh episode: the mass at rest at the centre
+        assert type(infos[i]["is_success"]) is bool and type(infos[i]["cost"]) is float
+
+
+def test_adapter_replays_the_single_env_seeded_seed_plus_i(rng: np.random.Generator) -> None:
+    count, seed = 3, 21
+    venv = ConvoySB3VecEnv("trailer_env/Coast-v0", num_envs=count, n_trailers=2)
+    singles = [make("Coast", n_trailers=2) for _ in range(count)]
+    venv.seed(seed)
+    obs = venv.reset()
+    for i, env in enumerate(singles):
+        np.testing.assert_array_equal(obs[i], env.reset(seed=seed + i)[0])
+    ended = 0
+    for _ in range(120):
+        actions = rng.uniform(-1, 1, (count, 1)).astype(np.float32)
+        obs, rewards, dones, infos = venv.step(actions)
+        for i, env in enumerate(singles):
+            single_obs, reward, terminated, truncated, _ = env.step(actions[i])
+            assert reward == pytest.approx(rewards[i], rel=1e-6)
+            assert dones[i] == (terminated or truncated)
+            if dones[i]:
+                ended += 1
+                np.testing.assert_array_equal(infos[i]["terminal_observation"], single_obs)
+                single_obs, _ = env.reset()
+            np.testing.assert_array_equal(obs[i], single_obs)
+    assert ended > 0
+
+
+def test_ppo_trains_on_the_adapter() -> None:
+    venv = VecMonitor(ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=8, n_trailers=1))
+    model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=256)
+    action, _ = model.predict(venv.reset(), deterministic=True)
+    assert action.shape == (8, 1)
+
+
+def test_adapter_rejects_bad_input() -> None:
+    with pytest.raises(ValueError, match="mu"):
+        ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=2, mu=-1.0)
+    with pytest.raises(ValueError, match="trailer_env scene"):
+        ConvoySB3VecEnv("CartPole-v1", num_envs=2)
+    venv = ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=2)
+    venv.reset()
+    with pytest.raises(ValueError, match="non-finite"):
+        venv.step(np.array([[0.0], [np.inf]]))
+
+
+def test_subproc_vec_env_pickles_and_steps() -> None:
+    """SB3's SubprocVecEnv pickles the env factory into fresh worker processes.
+
+    The workers have not imported trailer_env: the module-prefixed id imports it.
+    """
+    venv = make_vec_env(
+        "trailer_env:trailer_env/Dock-v0", n_envs=2, seed=3, vec_env_cls=SubprocVecEnv
+    )
+    try:
+        obs = venv.reset()
+        for _ in range(5):
+            obs, _, _, _ = venv.step(np.zeros((2, 1), dtype=np.float32))
+        reference = make("Dock")
+        expected = reference.reset(seed=4)[0]
+        for _ in range(5):
+            expected = reference.step(np.zeros(1, dtype=np.float32))[0]
+        np.testing.assert_array_equal(obs[1], expected)
+    finally:
+        venv.close()

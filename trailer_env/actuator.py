@@ -1,0 +1,136 @@
+"""The moving-mass actuator: action modes, the position servo and the end-of-rail guard.
+
+The mass moves on a rail of half-length ``s_max`` (physics.md section 10). Its
+acceleration is what enters the dynamics; it is held constant over each control
+period ``dt`` (zero-order hold), so within a period the mass's position is an
+exact quadratic in time, which :class:`dynamics.Stepper` integrates exactly.
+
+Action modes (``EnvSettings.action_mode``); actions outside [-1, 1] are clipped:
+
+* ``"servo"`` (default): the action ``a`` is a target position ``s* = a s_max``.
+  A servo with natural frequency ``w = min(servo_bandwidth, 0.25 / dt)`` tracks
+  it: desired velocity ``v* = sign(e) min(w |e|, sqrt(A |e|))`` for the error
+  ``e = s* - s`` (linear near the target, a braking curve at half the bound far
+  from it), acceleration ``4 w (v* - s_dot)`` (critically damped when linear),
+  clipped to ``[-A, A]`` with ``A = rail_accel_max``, then passed through the guard.
+* ``"accel"``: the action is the acceleration, ``a A``, through the same guard.
+  The rail's ends act as hard stops enforced by the guard: the mass is braked
+  early enough never to reach beyond them.
+* ``"planar"``: a 2-D action, target ``(xi*, eta*) = (b + a_0 s_max, a_1 s_max)``
+  in the square of half-width ``s_max`` around ``(b, 0)``; one servo and one guard per axis.
+
+The guard. Let ``g(t) = s(t) + max(s_dot(t), 0)^2 / (2 A)``, the farthest point the
+mass would reach braking at full rate. If ``g(0) <= s_max`` and the acceleration
+``a`` in ``[-A, A]`` is held over ``[0, dt]``, then ``g`` is non-decreasing while
+``s_dot > 0`` and equal to ``s`` (decreasing) while ``s_dot < 0``; so ``max g`` over
+the period is ``g(dt)`` or the turning point ``s + s_dot^2 / (2|a|)``, both explicit
+in ``a`` and both increasing in ``a``. The guard takes the largest admissible ``a``
+(closed form, :func:`rail_accel_upper`) and the mirror image for the other end, so
+``|s| <= s_max`` holds at every instant and the invariant carries over to the next
+period. Both bounds are compatible whenever ``A dt^2 <= 2 s_max``; the settings
+demand ``A dt^2 <= s_max``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+MODE_CODES = {"servo": 0, "accel": 1, "planar": 2}
+
+
+@njit(cache=True)
+def rail_accel_upper(s: float, v: float, s_max: float, accel_max: float, dt: float) -> float:
+    """Largest acceleration in [-A, A] that keeps the mass able to stop before +s_max.
+
+    Assumes the invariant ``s + max(v, 0)^2 / (2 A) <= s_max`` at the start.
+    """
+    room = s_max - s
+    # Case "v(dt) >= 0": s(dt) + v(dt)^2 / (2A) <= s_max, a quadratic in a.
+    qa = dt * dt / (2.0 * accel_max)
+    qb = 0.5 * dt * dt + v * dt / accel_max
+    qc = v * dt + v * v / (2.0 * accel_max) - room
+    disc = qb * qb - 4.0 * qa * qc
+    if disc >= 0.0:
+        root = math.sqrt(disc)
+        # The larger root, in the form that avoids cancellation.
+        upper = -2.0 * qc / (qb + root) if qb > 0.0 else (-qb + root) / (2.0 * qa)
+        if upper >= -v / dt:
+            return max(min(upper, accel_max), -accel_max)
+    if v > 0.0:
+        # The mass turns within the period: its turning point s + v^2 / (2|a|) <= s_max.
+        if room <= 0.0:
+            return -accel_max
+        return max(-v * v / (2.0 * room), -accel_max)
+    # Unreachable in exact arithmetic (v <= 0 admits a = -v / dt); stopping is always safe.
+    return min(-v / dt, accel_max)
+
+
+@njit(cache=True)
+def guard_accel(
+    accel: float, s: float, v: float, s_max: float, accel_max: float, dt: float
+) -> float:
+    """Clip a desired acceleration to [-A, A] and to what keeps the mass on the rail."""
+    upper = rail_accel_upper(s, v, s_max, accel_max, dt)
+    lower = -rail_accel_upper(-s, -v, s_max, accel_max, dt)
+    accel = min(max(accel, -accel_max), accel_max)
+    return max(min(accel, upper), lower)
+
+
+@njit(cache=True)
+def servo_accel(
+    target: float, s: float, v: float, s_max: float, accel_max: float, dt: float, frequency: float
+) -> float:
+    """The servo's guarded acceleration towards ``target`` (see the module docstring)."""
+    error = target - s
+    speed = min(frequency * abs(error), math.sqrt(accel_max * abs(error)))
+    desired = math.copysign(speed, error)
+    return guard_accel(4.0 * frequency * (desired - v), s, v, s_max, accel_max, dt)
+
+
+@njit(cache=True)
+def apply_actions(
+    action: np.ndarray,
+    act: np.ndarray,
+    mode: int,
+    b: float,
+    s_max: float,
+    accel_max: float,
+    dt: float,
+    frequency: float,
+) -> int:
+    """Write the guarded accelerations for ``action`` (B, 1 or 2) into ``act[:, 4:6]``.
+
+    ``act`` rows are (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot). Actions are
+    clipped to [-1, 1]. Returns -1, or the index of the first row holding a
+    non-finite action (nothing is written from that row on).
+    """
+    for i in range(action.shape[0]):
+        for j in range(action.shape[1]):
+            if not math.isfinite(action[i, j]):
+                return i
+        command = min(max(action[i, 0], -1.0), 1.0)
+        s = act[i, 1]
+        v = act[i, 3]
+        if mode == 0:
+            act[i, 5] = servo_accel(command * s_max, s, v, s_max, accel_max, dt, frequency)
+        elif mode == 1:
+            act[i, 5] = guard_accel(command * accel_max, s, v, s_max, accel_max, dt)
+        else:
+            # Planar: axis 0 is xi about b, axis 1 is eta.
+            act[i, 4] = servo_accel(
+                command * s_max, act[i, 0] - b, act[i, 2], s_max, accel_max, dt, frequency
+            )
+            lateral = min(max(action[i, 1], -1.0), 1.0)
+            act[i, 5] = servo_accel(lateral * s_max, s, v, s_max, accel_max, dt, frequency)
+    return -1
+
+
+@njit(cache=True)
+def clamp_to_rail(act: np.ndarray, b: float, s_max: float) -> None:
+    """Remove rounding-level excursions past the rail's ends (the guard keeps them below 1e-15)."""
+    for i in range(act.shape[0]):
+        act[i, 1] = min(max(act[i, 1], -s_max), s_max)
+        act[i, 0] = min(max(act[i, 0], b - s_max), b + s_max)

@@ -1,0 +1,364 @@
+"""The batched core: B environments of one scene held as arrays and stepped together.
+
+Every environment, single or vectorised, is a :class:`ConvoyCore` subclass (a
+scene) with a batch size: the Gymnasium env uses B = 1, the vector env B = N.
+One control step is a fixed pipeline over the whole batch:
+
+1. :func:`trailer_env.kernels.prepare_step`: action -> guarded mass acceleration
+   (:mod:`trailer_env.actuator`), the fidelity's substep counts, a backup of the state;
+2. ONE integrator call (``dynamics.Stepper.step`` by default) for the whole batch;
+3. :meth:`ConvoyCore.refresh`: observations, singular margin, cost, jackknife flags and
+   energy (:func:`trailer_env.kernels.observe`), then the scene's ``_update_task``;
+4. the scene's hooks ``_advance``, ``_is_success``, ``_is_terminated``, ``_reward``.
+
+Scenes override the hooks (``_reset_row``, ``_update_task``, ``_advance``,
+``_is_success``, ``_is_terminated``, ``_reward``, ``_after_reset``,
+``_task_feature_bounds``); they never step the physics themselves. Per-row work
+is done in numba kernels or numpy over the batch, never in a Python loop over
+environments (resets excepted: each environment draws its start from its own
+generator, which is what makes the vector env replay single environments).
+
+Observation layout (rail actuator; ``n`` trailers), float32:
+
+====================  =========================================================
+index                 value
+====================  =========================================================
+0                     u, forward speed of the cart's axle midpoint (m/s)
+1                     omega, the cart's turning rate (rad/s)
+2 .. n+1              sin(alpha_k), k = 1..n
+n+2 .. 2n+1           cos(alpha_k), k = 1..n
+2n+2                  s / s_max, the mass's position on the rail, in [-1, 1]
+2n+3                  s_dot / v_max, its velocity, v_max = 2 sqrt(rail_accel_max s_max)
+2n+4 ..               the scene's task features
+====================  =========================================================
+
+With the planar actuator, indices 2n+2 .. 2n+5 hold (xi - b) / s_max,
+eta / s_max, xi_dot / v_max, eta_dot / v_max, and task features start at 2n+6.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+
+from dynamics import _kernel
+from trailer_env.actuator import MODE_CODES, clamp_to_rail
+from trailer_env.kernels import PARALLEL_MIN_ROWS, observe, observe_parallel, prepare_step
+from trailer_env.settings import EnvSettings
+
+
+class NonFiniteStateError(ValueError):
+    """The state holds NaN or infinite values."""
+
+
+#: Substeps used to retry a step whose result was not finite (never seen with "auto").
+_RETRY_FACTOR = 8
+
+
+class ConvoyCore:
+    """B environments of one scene (subclass it to make a scene).
+
+    Args:
+        settings: Shared settings (parameters, dt, actuator, fidelity).
+        batch_size: Number of environments B >= 1.
+        track_pose: Integrate the cart's pose (x, y, theta) even if the scene does
+            not need it (rendering). The reduced state's trajectory is identical
+            either way: the pose is appended to the state, it does not feed back.
+
+    Attributes (all arrays have leading axis B):
+        z: State (u, omega, alpha_1..alpha_n[, x, y, theta]).
+        act: Mass state (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot); rail: xi = b.
+        obs: Observations, float32.
+        singular_margin, cost, jackknifed, energy, energy0: per environment.
+        reward, terminated, success: results of the last step.
+        substeps: Substeps used by the last step.
+    """
+
+    #: Truncation length registered for the scene (steps).
+    max_episode_steps: ClassVar[int] = 400
+    #: Whether the scene itself needs the cart's pose (x, y, theta).
+    uses_pose: ClassVar[bool] = False
+    #: Number of task features appended to the observation.
+    n_task_features: ClassVar[int] = 0
+    #: Reward on the step that ends in a jackknife (added to the scene's reward).
+    fold_penalty: ClassVar[float] = 10.0
+    #: Reward per step spent in the singular band (subtracted).
+    band_penalty: ClassVar[float] = 0.5
+
+    def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
+        if (
+            isinstance(batch_size, bool)
+            or not isinstance(batch_size, (int, np.integer))
+            or batch_size < 1
+        ):
+            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+        self.settings = settings
+        self.params = settings.params
+        self.n = settings.n_trailers
+        self.batch_size = int(batch_size)
+        self.with_pose = self.uses_pose or track_pose
+        self.planar = settings.action_mode == "planar"
+        n, size = self.n, self.batch_size
+        self.n_common = 2 + 2 * n + (4 if self.planar else 2)
+        self.obs_dim = self.n_common + self.n_task_features
+        self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
+        self.act = np.zeros((size, 6))
+        self.act[:, 0] = self.params.b
+        fidelity = settings.fidelity
+        self.substeps = np.full(
+            size, 1 if fidelity.auto else int(fidelity.substeps), dtype=np.int64
+        )
+        self.obs = np.zeros((size, self.obs_dim), dtype=np.float32)
+        self.singular_margin = np.ones(size)
+        self.cost = np.zeros(size)
+        self.jackknifed = np.zeros(size, dtype=bool)
+        self.energy = np.zeros(size)
+        self.energy0 = np.zeros(size)
+        self.reward = np.zeros(size)
+        self.terminated = np.zeros(size, dtype=bool)
+        self.success = np.zeros(size, dtype=bool)
+        self._integrator = fidelity.make_integrator(self.params, self.with_pose)
+        self._packed = _kernel.pack_params(self.params)  # the energy kernel's parameters
+        self._mode = MODE_CODES[settings.action_mode]
+        self._all_rows = np.arange(size, dtype=np.int64)
+        self._z_backup = np.empty_like(self.z)
+        self._act_backup = np.empty_like(self.act)
+        # Kernel arguments fixed for the core's life, packed once (the single env's step is ~10 us).
+        self._dt = settings.dt
+        self._b = self.params.b
+        self._s_max = self.params.s_max
+        self._prepare_args = (
+            self._mode, self._b, self._s_max, settings.rail_accel_max, settings.dt,
+            settings.servo_frequency, self.params.l, fidelity.auto, fidelity.tolerance,
+            fidelity.max_substeps, self.substeps, self._z_backup, self._act_backup,
+        )  # fmt: skip
+        observe_settings = np.array(
+            [
+                self._b,
+                self._s_max,
+                settings.rail_speed_max,
+                settings.singular_band,
+                settings.fold_angle,
+            ]
+        )
+        self._observe_args = (
+            n, self.planar, observe_settings, self._packed, self.obs, self.singular_margin,
+            self.cost, self.jackknifed, self.energy,
+        )  # fmt: skip
+
+    # ----------------------------------------------------------------- hooks
+    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
+        """Sample row ``i``'s starting state into ``z[i]`` and the scene's task arrays.
+
+        ``z[i]`` and ``act[i]`` arrive zeroed (the mass at rest at the rail's centre).
+        """
+        raise NotImplementedError
+
+    def _update_task(self, rows: slice | np.ndarray) -> None:
+        """Recompute derived task quantities and ``obs[rows, n_common:]`` (rows index the batch)."""
+
+    def _is_success(self) -> np.ndarray:
+        """Boolean (B,): the task is achieved. Default: never."""
+        return np.zeros(self.batch_size, dtype=bool)
+
+    def _is_terminated(self) -> np.ndarray:
+        """Boolean (B,): the episode ends. Default: jackknife or success."""
+        return self.jackknifed | self.success
+
+    def _reward(self) -> np.ndarray:
+        """Float (B,) reward of the step just taken."""
+        raise NotImplementedError
+
+    def _advance(self) -> None:
+        """Per-step bookkeeping after the state advanced (counters); may update ``obs`` features.
+
+        Called once per step, after :meth:`refresh` and before the success, termination
+        and reward hooks (never on a reset).
+        """
+
+    def _after_reset(self, rows: np.ndarray) -> None:
+        """Initialise per-episode bookkeeping (potentials, counters) of ``rows`` after a reset."""
+
+    def _task_feature_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the task features (default unbounded)."""
+        return np.full(self.n_task_features, -np.inf), np.full(self.n_task_features, np.inf)
+
+    def set_task(self, i: int, **task: Any) -> None:
+        """Set row ``i``'s task values by hand (e.g. a target); scenes without any refuse all."""
+        if task:
+            raise ValueError(f"unknown task value(s) {sorted(task)} for {type(self).__name__}")
+
+    def render_extras(self, i: int) -> dict[str, Any]:
+        """Extra :class:`~trailer_env.rendering.RenderFrame` fields for row ``i`` (targets)."""
+        return {}
+
+    def render_view_size(self) -> float | None:
+        """Metres across the rendered picture; None lets the renderer fit the convoy."""
+        return None
+
+    # ------------------------------------------------------------------ core
+    @property
+    def actuator_work(self) -> np.ndarray:
+        """Work done by the actuator since the reset, E - E(reset) (J).
+
+        The energy's rate of change is the actuator's power (physics.md section 10),
+        so the energy change is the integral of that power; the difference is the
+        integrator's error, about 1e-7 relative per step at the default fidelity.
+        """
+        return self.energy - self.energy0
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of one observation, float32."""
+        n = self.n
+        low = np.full(self.n_common, -np.inf)
+        high = np.full(self.n_common, np.inf)
+        low[2 : 2 + 2 * n] = -1.0
+        high[2 : 2 + 2 * n] = 1.0
+        low[2 + 2 * n :] = -1.0
+        high[2 + 2 * n :] = 1.0
+        task_low, task_high = self._task_feature_bounds()
+        return (
+            np.concatenate([low, task_low]).astype(np.float32),
+            np.concatenate([high, task_high]).astype(np.float32),
+        )
+
+    def reset_rows(self, rows: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
+        """Start new episodes in ``rows`` (int array), row ``rows[j]`` drawing from ``rngs[j]``."""
+        self.z[rows] = 0.0
+        self.act[rows] = 0.0
+        self.act[rows, 0] = self.params.b
+        for i, rng in zip(rows.tolist(), rngs, strict=True):
+            self._reset_row(i, rng)
+        self.refresh(rows)
+        self.energy0[rows] = self.energy[rows]
+        self.reward[rows] = 0.0
+        self.terminated[rows] = False
+        self._after_reset(rows)
+        self.success[rows] = self._is_success()[rows]
+
+    def refresh(self, rows: np.ndarray | None = None) -> None:
+        """Recompute everything derived from the state of ``rows`` (int array; default all).
+
+        Call it after changing ``z`` or ``act`` by hand.
+        """
+        every = rows is None or rows.size == self.batch_size
+        indices = self._all_rows if every else np.asarray(rows, dtype=np.int64)
+        kernel = observe_parallel if indices.size >= PARALLEL_MIN_ROWS else observe
+        if kernel(self.z, self.act, indices, *self._observe_args):
+            raise NonFiniteStateError("the state contains non-finite values (NaN or inf)")
+        self._update_task(slice(None) if every else indices)
+
+    def step(self, action: np.ndarray) -> None:
+        """Advance every environment by ``dt`` under ``action`` (B, action_dim), float64.
+
+        Raises:
+            ValueError: If an action is NaN or infinite (nothing is stepped).
+        """
+        bad = prepare_step(action, self.z, self.act, *self._prepare_args)
+        if bad >= 0:
+            raise ValueError(
+                f"action contains non-finite values (NaN or inf), environment {bad}: {action[bad]}"
+            )
+        self._integrator.step(self.z, self.act, self._dt, self.substeps)
+        clamp_to_rail(self.act, self._b, self._s_max)
+        try:
+            self.refresh()
+        except NonFiniteStateError:
+            self._retry_finer()
+        self._advance()
+        self.success[:] = self._is_success()
+        self.terminated[:] = self._is_terminated()
+        self.reward[:] = self._reward()
+
+    def _retry_finer(self) -> None:
+        """Redo a step that produced non-finite values with more substeps, or give up cleanly."""
+        np.copyto(self.z, self._z_backup)
+        np.copyto(self.act, self._act_backup)
+        self.substeps *= _RETRY_FACTOR
+        self._integrator.step(self.z, self.act, self._dt, self.substeps)
+        clamp_to_rail(self.act, self._b, self._s_max)
+        if not np.all(np.isfinite(self.z)):
+            np.copyto(self.z, self._z_backup)
+            np.copyto(self.act, self._act_backup)
+            self.refresh()
+            raise FloatingPointError(
+                "the integration diverged even with more substeps; the state was left at the "
+                "previous step (use fidelity='auto' or more substeps)"
+            )
+        self.refresh()
+
+    def info_row(self, i: int) -> dict[str, Any]:
+        """The ``info`` dict of environment ``i`` (Python scalars)."""
+        return {
+            "cost": float(self.cost[i]),
+            "singular_margin": float(self.singular_margin[i]),
+            "energy": float(self.energy[i]),
+            "actuator_work": float(self.energy[i] - self.energy0[i]),
+            "is_success": bool(self.success[i]),
+            "jackknifed": bool(self.jackknifed[i]),
+        }
+
+    def info_batch(self) -> dict[str, np.ndarray]:
+        """The same quantities as arrays (B,) (copies)."""
+        return {
+            "cost": self.cost.copy(),
+            "singular_margin": self.singular_margin.copy(),
+            "energy": self.energy.copy(),
+            "actuator_work": self.energy - self.energy0,
+            "is_success": self.success.copy(),
+            "jackknifed": self.jackknifed.copy(),
+        }
+
+
+class ShapedCore(ConvoyCore):
+    """A scene whose reward is potential-based shaping plus fixed bonuses and penalties.
+
+    Reward of a step: ``potential(after) - potential(before) - time_penalty
+    - band_penalty * cost + success_bonus * success - fold_penalty * jackknifed
+    - failure_penalty * failed``. The potential differences telescope, so over an
+    episode they add up to a bounded amount, and the per-step penalties over a full
+    episode stay below ``fold_penalty``: folding on purpose never pays.
+    """
+
+    time_penalty: ClassVar[float] = 0.01
+    band_penalty: ClassVar[float] = 0.05
+    success_bonus: ClassVar[float] = 10.0
+    fold_penalty: ClassVar[float] = 20.0
+    failure_penalty: ClassVar[float] = 10.0
+
+    def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
+        super().__init__(settings, batch_size, track_pose=track_pose)
+        self.previous_potential = np.zeros(self.batch_size)
+        self.failed = np.zeros(self.batch_size, dtype=bool)
+
+    def _potential(self) -> np.ndarray:
+        """Potential of every row's current state (higher is closer to the goal)."""
+        raise NotImplementedError
+
+    def _is_failed(self) -> np.ndarray:
+        """Boolean (B,): the episode ends in a failure other than a jackknife. Default: never."""
+        return np.zeros(self.batch_size, dtype=bool)
+
+    def _is_terminated(self) -> np.ndarray:
+        self.failed[:] = self._is_failed()
+        return self.jackknifed | self.success | self.failed
+
+    def _after_reset(self, rows: np.ndarray) -> None:
+        self.previous_potential[rows] = self._potential()[rows]
+        self.failed[rows] = False
+
+    def _reward(self) -> np.ndarray:
+        potential = self._potential()
+        reward = (
+            potential
+            - self.previous_potential
+            - self.time_penalty
+            - self.band_penalty * self.cost
+            + self.success_bonus * self.success
+            - self.fold_penalty * self.jackknifed
+            - self.failure_penalty * self.failed
+        )
+        self.previous_potential[:] = potential
+        return reward

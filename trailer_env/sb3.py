@@ -1,0 +1,180 @@
+"""A stable-baselines3 ``VecEnv`` over the native batch core (imports stable_baselines3).
+
+stable-baselines3 does not accept Gymnasium's ``VectorEnv``. :class:`ConvoySB3VecEnv`
+implements SB3's own interface directly on a scene's :class:`~trailer_env.core.ConvoyCore`
+with B = num_envs, so training steps every environment with one kernel call::
+
+    from stable_baselines3 import PPO
+    from trailer_env.sb3 import ConvoySB3VecEnv
+
+    venv = ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=64, n_trailers=2)
+    PPO("MlpPolicy", venv).learn(100_000)
+
+SB3 semantics: an environment that ends is reset within the same step; its
+last observation is in ``infos[i]["terminal_observation"]`` and
+``infos[i]["TimeLimit.truncated"]`` says whether it was cut by the time limit.
+Seeding follows SB3 (``venv.seed(s)`` seeds environment i with ``s + i`` at the next
+``reset()``), which matches the native vector env and ``gym.make`` + ``reset(seed=s + i)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+
+from trailer_env.core import ConvoyCore
+from trailer_env.settings import settings_from_kwargs
+from trailer_env.vector import ConvoyVectorEnv, as_action_batch, seed_generators
+
+
+def core_class_of(env_id: str) -> type[ConvoyCore]:
+    """The scene core registered for ``env_id`` (e.g. "trailer_env/Reverse-v0")."""
+    import trailer_env  # noqa: F401  (registers the ids)
+
+    spec = gym.spec(env_id)
+    entry = spec.vector_entry_point
+    if entry is None:
+        raise ValueError(f"{env_id} has no vector_entry_point")
+    creator: Any = entry
+    if isinstance(entry, str):
+        creator = gym.envs.registration.load_env_creator(entry)
+    if not (isinstance(creator, type) and issubclass(creator, ConvoyVectorEnv)):
+        raise ValueError(f"{env_id} is not a trailer_env scene")
+    return creator.core_class
+
+
+class ConvoySB3VecEnv(VecEnv):
+    """SB3 vectorised environment of one scene, stepped as one batch.
+
+    Args:
+        env_id: A registered id, e.g. "trailer_env/Reverse-v0".
+        num_envs: Number of environments.
+        max_episode_steps: Truncation length; default the id's registered value.
+        **kwargs: Settings as for ``gym.make`` (``n_trailers``, ``mu``, ``dt`` ...).
+    """
+
+    def __init__(
+        self, env_id: str, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any
+    ):
+        core_class = core_class_of(env_id)
+        self.env_id = env_id
+        self.settings = settings_from_kwargs(**kwargs)
+        self.core = core_class(self.settings, num_envs)
+        registered = gym.spec(env_id).max_episode_steps
+        steps = (
+            max_episode_steps
+            if max_episode_steps is not None
+            else registered or core_class.max_episode_steps
+        )
+        if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+            raise ValueError(f"max_episode_steps must be an integer >= 1, got {steps!r}")
+        self.max_episode_steps = int(steps)
+        low, high = self.core.observation_bounds()
+        observation_space = spaces.Box(low, high, dtype=np.float32)
+        action_space = spaces.Box(-1.0, 1.0, (self.settings.action_dim,), dtype=np.float32)
+        self.render_mode = None
+        super().__init__(self.core.batch_size, observation_space, action_space)
+        self.elapsed_steps = np.zeros(self.num_envs, dtype=np.int64)
+        self._generators: list[np.random.Generator] | None = None
+        self._all_rows = np.arange(self.num_envs)
+        self._actions = np.zeros((self.num_envs, self.settings.action_dim))
+
+    def reset(self) -> np.ndarray:
+        """Reset every environment (with the seeds set by :meth:`seed`, if any)."""
+        seeds = self._seeds if any(seed is not None for seed in self._seeds) else None
+        self._generators = seed_generators(seeds, self.num_envs, self._generators)
+        self.core.reset_rows(self._all_rows, self._generators)
+        self.elapsed_steps[:] = 0
+        self.reset_infos = [self.core.info_row(i) for i in range(self.num_envs)]
+        self._reset_seeds()
+        self._reset_options()
+        return self.core.obs.copy()
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = as_action_batch(actions, self.num_envs, self.settings.action_dim)
+
+    def step_wait(self) -> VecEnvStepReturn:
+        if self._generators is None:
+            raise RuntimeError("call reset() before step()")
+        core = self.core
+        core.step(self._actions)
+        self.elapsed_steps += 1
+        terminated = core.terminated.copy()
+        truncated = (self.elapsed_steps >= self.max_episode_steps) & ~terminated
+        dones = terminated | truncated
+        rewards = core.reward.astype(np.float32)
+        infos = self._infos()
+        rows = np.flatnonzero(dones)
+        if rows.size:
+            for i in rows.tolist():
+                infos[i]["terminal_observation"] = core.obs[i].copy()
+                infos[i]["TimeLimit.truncated"] = bool(truncated[i])
+            core.reset_rows(rows, [self._generators[i] for i in rows.tolist()])
+            self.elapsed_steps[rows] = 0
+        return core.obs.copy(), rewards, dones, infos
+
+    def _infos(self) -> list[dict[str, Any]]:
+        core = self.core
+        columns = zip(
+            core.cost.tolist(),
+            core.singular_margin.tolist(),
+            core.energy.tolist(),
+            (core.energy - core.energy0).tolist(),
+            core.success.tolist(),
+            core.jackknifed.tolist(),
+            strict=True,
+        )
+        return [
+            {
+                "cost": cost,
+                "singular_margin": margin,
+                "energy": energy,
+                "actuator_work": work,
+                "is_success": success,
+                "jackknifed": jackknifed,
+            }
+            for cost, margin, energy, work, success, jackknifed in columns
+        ]
+
+    def close(self) -> None:
+        """Nothing to release."""
+
+    def _indices(self, indices: VecEnvIndices) -> Iterable[int]:
+        if indices is None:
+            return range(self.num_envs)
+        if isinstance(indices, int):
+            return [indices]
+        return indices
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        """Attributes are shared by the batch: the same value for every index."""
+        value = getattr(self, attr_name)
+        return [value for _ in self._indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        raise AttributeError(
+            "the batch's settings are fixed at construction; build a new ConvoySB3VecEnv"
+        )
+
+    def env_method(
+        self,
+        method_name: str,
+        *method_args: Any,
+        indices: VecEnvIndices = None,
+        **method_kwargs: Any,
+    ) -> list[Any]:
+        method = getattr(self, method_name)
+        return [method(*method_args, **method_kwargs) for _ in self._indices(indices)]
+
+    def env_is_wrapped(
+        self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None
+    ) -> list[bool]:
+        return [False for _ in self._indices(indices)]
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [None for _ in range(self.num_envs)]

@@ -1,0 +1,142 @@
+"""Coast-v0: from a random coasting state, straighten the convoy without nearing a singularity."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from trailer_env.core import ShapedCore
+from trailer_env.env import ConvoyEnv
+
+SPEED_RANGE = (0.5, 1.5)
+#: Half-widths of the starting hitch angles and turning rate, forwards and backwards.
+#: Backwards the straight convoy is unstable and the moving mass recovers only small
+#: deviations (see Reverse-v0), so the backward range is smaller.
+FORWARD_ANGLE_RANGE = 0.5
+FORWARD_OMEGA_RANGE = 0.2
+REVERSE_ANGLE_RANGE = 0.1
+REVERSE_OMEGA_RANGE = 0.05
+#: Straight: every |alpha_k| and |omega| below these.
+SUCCESS_ANGLE = 0.05
+SUCCESS_OMEGA = 0.05
+ANGLE_WEIGHT = 10.0
+OMEGA_WEIGHT = 1.0
+
+
+class CoastCore(ShapedCore):
+    """Batched task logic of Coast-v0 (no task features, no pose)."""
+
+    max_episode_steps = 300
+
+    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
+        z = self.z[i]
+        while True:
+            forward = rng.random() < 0.5
+            angle_range = FORWARD_ANGLE_RANGE if forward else REVERSE_ANGLE_RANGE
+            omega_range = FORWARD_OMEGA_RANGE if forward else REVERSE_OMEGA_RANGE
+            z[0] = (1.0 if forward else -1.0) * rng.uniform(*SPEED_RANGE)
+            z[1] = rng.uniform(-omega_range, omega_range)
+            z[2 : 2 + self.n] = rng.uniform(-angle_range, angle_range, self.n)
+            if not _is_straight(z[None, : 2 + self.n], self.n)[0]:
+                return
+
+    def _potential(self) -> np.ndarray:
+        z = self.z
+        omega_term = OMEGA_WEIGHT * np.minimum(np.abs(z[:, 1]), 1.0)
+        if self.n == 0:
+            return -omega_term
+        return -ANGLE_WEIGHT * np.mean(1.0 - np.cos(z[:, 2 : 2 + self.n]), axis=1) - omega_term
+
+    def _is_success(self) -> np.ndarray:
+        return _is_straight(self.z, self.n)
+
+
+def _is_straight(z: np.ndarray, n: int) -> np.ndarray:
+    straight = np.abs(z[:, 1]) < SUCCESS_OMEGA
+    if n > 0:
+        straight &= np.max(np.abs(z[:, 2 : 2 + n]), axis=1) < SUCCESS_ANGLE
+    return straight
+
+
+class CoastEnv(ConvoyEnv):
+    """Straighten a coasting convoy, forwards or backwards, without nearing a singularity.
+
+    ## Description
+
+    The convoy of Reverse-v0 (a cart, ``n_trailers`` trailers, no motor, one moving
+    mass on a lateral rail of the cart; physics.md sections 1-10) starts from a random
+    coasting state: moving forwards or backwards at a random speed, turning, its hitch
+    angles up to 0.5 rad forwards, 0.1 rad backwards. Forwards, a straight convoy is a
+    stable node (physics.md section 6) and the convoy straightens by itself; backwards
+    it is an unstable node, and the hitch angles grow unless the mass steers the cart.
+    The agent must bring
+    the convoy to a straight configuration, every hitch angle and the turning rate
+    small, without passing near a singular configuration (two consecutive bodies
+    nearly perpendicular, section 9) and without folding.
+
+    ## Action Space
+
+    `Box(-1, 1, (1,), float32)` by default: the target position `s* = action * s_max` of
+    the mass on its rail, tracked by a servo with acceleration bounded by
+    `rail_accel_max` and guarded so that `|s| <= s_max` at every instant. Other modes:
+    `action_mode="accel"` (rail acceleration), `"planar"` (2-D target around `(b, 0)`).
+    Out-of-range actions are clipped; NaN or infinite ones raise ValueError
+    (`trailer_env.actuator`).
+
+    ## Observation Space
+
+    `Box` of float32, length `2n + 4` (`2n + 6` in planar mode); no task features:
+
+    | Index        | Observation                                      | Min  | Max |
+    |--------------|--------------------------------------------------|------|-----|
+    | 0            | u, forward speed of the cart's axle (m/s)        | -Inf | Inf |
+    | 1            | omega, the cart's turning rate (rad/s)           | -Inf | Inf |
+    | 2 .. n+1     | sin(alpha_k), hitch angle k = 1..n               | -1   | 1   |
+    | n+2 .. 2n+1  | cos(alpha_k)                                     | -1   | 1   |
+    | 2n+2         | s / s_max, the mass on its rail                  | -1   | 1   |
+    | 2n+3         | s_dot / v_max, v_max = 2 sqrt(rail_accel_max s_max) | -1 | 1   |
+
+    In planar mode indices 2n+2 .. 2n+5 are (xi - b) / s_max, eta / s_max,
+    xi_dot / v_max, eta_dot / v_max.
+
+    ## Rewards
+
+    Potential-based: with `Phi = -10 mean_k (1 - cos alpha_k) - min(|omega|, 1)`, each
+    step earns `Phi(after) - Phi(before) - 0.01 - 0.05 cost`, plus `+10` when the convoy
+    is straight and `-20` when it jackknifes. The per-step penalties over a full episode
+    (at most 18) stay below the fold penalty, so folding on purpose never pays.
+
+    ## Starting State
+
+    `|u| ~ U(0.5, 1.5)` m/s, forwards or backwards with probability 1/2 each. Forwards
+    `omega ~ U(-0.2, 0.2)` rad/s and each `alpha_k ~ U(-0.5, 0.5)` rad; backwards, where
+    the straight convoy is unstable and the mass recovers only small deviations,
+    `omega ~ U(-0.05, 0.05)` and `alpha_k ~ U(-0.1, 0.1)`. Redrawn if already straight.
+    The mass starts at rest at the centre of its rail.
+
+    ## Episode End
+
+    Terminated on success, the convoy straight (every `|alpha_k| < 0.05` rad and
+    `|omega| < 0.05` rad/s), or on a jackknife (any `|alpha_k| >= fold_angle`, default
+    pi/2). Truncated after 300 steps (15 s at `dt = 0.05`).
+
+    ## Information
+
+    `cost` (1.0 inside the singular band `singular_margin < singular_band`, else 0.0),
+    `singular_margin`, `energy`, `actuator_work`, `jackknifed`, `is_success` (straight).
+
+    ## Arguments
+
+    As Reverse-v0: `n_trailers` (default 2), ConvoyParams fields, `dt`, `fidelity`,
+    `action_mode`, `rail_accel_max`, `servo_bandwidth`, `singular_band`, `fold_angle`,
+    `render_mode`.
+
+    ## References
+
+    * `docs/physics.md` of this project.
+    * A. Bravo-Doddoli and L. C. García-Naranjo, "The dynamics of an articulated
+      n-trailer vehicle", Regular and Chaotic Dynamics 20 (2015); A. Bravo-Doddoli's thesis.
+    * J. M. Osborne and D. V. Zenkov, "Steering the Chaplygin sleigh by a moving mass",
+      Proc. 44th IEEE CDC (2005).
+    """
+
+    core_class = CoastCore

@@ -1,0 +1,179 @@
+"""Reverse-v0: back the convoy up without folding it, steering only with the moving mass."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from trailer_env.core import ConvoyCore
+from trailer_env.env import ConvoyEnv
+
+#: Starting speed range (reversing), m/s, and the half-widths of the starting perturbations.
+SPEED_RANGE = (0.8, 1.2)
+ANGLE_NOISE = 0.05
+OMEGA_NOISE = 0.05
+TURN_WEIGHT = 0.1
+FORWARD_PENALTY = 0.5
+
+
+@njit(cache=True)
+def reverse_reward(
+    z: np.ndarray,
+    n: int,
+    cost: np.ndarray,
+    jackknifed: np.ndarray,
+    band_penalty: float,
+    fold_penalty: float,
+    out: np.ndarray,
+) -> None:
+    """Straightness minus turning, band, forward-motion and fold penalties (see ReverseEnv)."""
+    for i in range(z.shape[0]):
+        straightness = 1.0
+        if n > 0:
+            total = 0.0
+            for k in range(n):
+                total += math.cos(z[i, 2 + k])
+            straightness = total / n
+        omega = z[i, 1]
+        reward = straightness - TURN_WEIGHT * min(omega * omega, 1.0) - band_penalty * cost[i]
+        if z[i, 0] > 0.0:
+            reward -= FORWARD_PENALTY
+        if jackknifed[i]:
+            reward -= fold_penalty
+        out[i] = reward
+
+
+class ReverseCore(ConvoyCore):
+    """Batched task logic of Reverse-v0 (no task features, no pose)."""
+
+    max_episode_steps = 400
+
+    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
+        z = self.z[i]
+        z[0] = -rng.uniform(*SPEED_RANGE)
+        z[1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
+        z[2 : 2 + self.n] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE, self.n)
+
+    def _is_success(self) -> np.ndarray:
+        return ~self.jackknifed
+
+    def _is_terminated(self) -> np.ndarray:
+        return self.jackknifed
+
+    def _reward(self) -> np.ndarray:
+        reverse_reward(
+            self.z,
+            self.n,
+            self.cost,
+            self.jackknifed,
+            self.band_penalty,
+            self.fold_penalty,
+            self.reward,
+        )
+        return self.reward
+
+
+class ReverseEnv(ConvoyEnv):
+    """Back a convoy of ``n`` trailers up without folding it, steering only with a moving mass.
+
+    ## Description
+
+    A cart pulls ``n_trailers`` trailers, each hitched to the axle midpoint of the body
+    ahead by a rod of length ``l``; every axle's wheels forbid sideways slip. Nothing
+    drives the wheels: the convoy coasts, its kinetic energy changed only by the one
+    actuator, a point mass ``mu`` that the cart carries on a lateral rail ``b`` ahead of
+    its axle (physics.md section 10). Moving the mass perturbs the cart's turning rate
+    through the moving-mass term ``-mu b s_ddot``.
+
+    The episode starts with the convoy nearly straight and moving backwards. A straight
+    convoy reversing is an unstable node of the dynamics (physics.md section 6): the
+    cart's turning rate and every hitch angle grow exponentially, at rates of about
+    ``|u| / l``, which is why backing up a trailer is hard. Left alone the convoy folds
+    (jackknifes) within about three seconds. The agent must keep every hitch angle
+    small and out of the singular band (two consecutive bodies nearly perpendicular,
+    physics.md section 9) for the whole episode. The actuator's authority is small: a
+    full stroke of the mass turns the cart by about 0.5 rad, and only while the mass
+    moves (see Heading-v0), so perturbations must be caught early. The linear
+    controller of `trailer_env.controllers` keeps about two thirds of the two-trailer
+    episodes from folding.
+
+    ## Action Space
+
+    `Box(-1, 1, (1,), float32)` by default (`action_mode="servo"`): the target position
+    `s* = action * s_max` of the mass on its rail, tracked by a servo whose acceleration
+    is bounded by `rail_accel_max` and guarded so that `|s| <= s_max` at every instant.
+    `action_mode="accel"`: the action is the rail acceleration in units of
+    `rail_accel_max` (same guard). `action_mode="planar"`: `Box(-1, 1, (2,))`, a target
+    `(xi, eta) = (b + a_0 s_max, a_1 s_max)` for a mass free to move in the cart's plane.
+    Out-of-range actions are clipped to [-1, 1]; NaN or infinite actions raise ValueError.
+    See `trailer_env.actuator`.
+
+    ## Observation Space
+
+    `Box` of float32, length `2n + 4` (`2n + 6` in planar mode):
+
+    | Index        | Observation                                      | Min  | Max |
+    |--------------|--------------------------------------------------|------|-----|
+    | 0            | u, forward speed of the cart's axle (m/s)        | -Inf | Inf |
+    | 1            | omega, the cart's turning rate (rad/s)           | -Inf | Inf |
+    | 2 .. n+1     | sin(alpha_k), hitch angle k = 1..n               | -1   | 1   |
+    | n+2 .. 2n+1  | cos(alpha_k)                                     | -1   | 1   |
+    | 2n+2         | s / s_max, the mass on its rail                  | -1   | 1   |
+    | 2n+3         | s_dot / v_max, v_max = 2 sqrt(rail_accel_max s_max) | -1 | 1   |
+
+    In planar mode indices 2n+2 .. 2n+5 are (xi - b) / s_max, eta / s_max,
+    xi_dot / v_max, eta_dot / v_max. Reverse-v0 adds no task features.
+
+    ## Rewards
+
+    Each step: `mean_k cos(alpha_k)` (1 when n = 0) `- 0.1 min(omega^2, 1)`
+    `- 0.5 cost` (cost = 1 inside the singular band) `- 0.5` if the cart moves forward
+    (u > 0: it stopped reversing) `- 10` on the step that jackknifes. A straight convoy
+    earns about 1 per step, 400 over a full episode.
+
+    ## Starting State
+
+    `u ~ -U(0.8, 1.2)` m/s, `omega ~ U(-0.05, 0.05)` rad/s, each `alpha_k ~ U(-0.05, 0.05)`
+    rad, the mass at rest at the centre of its rail.
+
+    ## Episode End
+
+    Terminated when the convoy jackknifes: any `|alpha_k| >= fold_angle` (default pi/2,
+    physics.md section 9). Truncated after 400 steps (20 s at the default `dt = 0.05`),
+    by `gym.make`'s TimeLimit or by the vector env.
+
+    ## Information
+
+    `cost` (1.0 inside the singular band `singular_margin < singular_band`, default
+    0.3, else 0.0, the safety-gymnasium convention), `singular_margin`
+    (`min_(k<n) |cos alpha_k|`), `energy` (J, the mass included), `actuator_work`
+    (J since the reset), `jackknifed`, `is_success` (not jackknifed).
+
+    ## Arguments
+
+    ```python
+    import gymnasium as gym
+    import trailer_env
+    env = gym.make("trailer_env/Reverse-v0", n_trailers=3, mu=0.4, dt=0.05,
+                   fidelity="rk4", action_mode="servo", render_mode="rgb_array")
+    ```
+
+    `n_trailers` (default 2), any `dynamics.ConvoyParams` field (the environments use
+    `mu = 0.5, b = 1.0, s_max = 0.5` by default, see `trailer_env.settings`), `dt`,
+    `fidelity` (`trailer_env.fidelity.Fidelity`, a dict, an integrator name or a substep
+    count), `action_mode`, `rail_accel_max` (4 m/s^2), `servo_bandwidth` (5 rad/s),
+    `singular_band` (0.3), `fold_angle` (pi/2), `render_mode`.
+
+    ## References
+
+    * `docs/physics.md` of this project (the model, sections 3-10).
+    * A. Bravo-Doddoli, "Dinámica de un vehículo articulado de n remolques", thesis.
+    * A. Bravo-Doddoli and L. C. García-Naranjo, "The dynamics of an articulated
+      n-trailer vehicle", Regular and Chaotic Dynamics 20 (2015) 497-517.
+    * J. M. Osborne and D. V. Zenkov, "Steering the Chaplygin sleigh by a moving mass",
+      Proc. 44th IEEE CDC (2005): steering by a moving mass.
+    """
+
+    core_class = ReverseCore
