@@ -87,7 +87,7 @@ def _hitch_terms(row: np.ndarray, n: int, m: float, J: float, l: float, A: np.nd
 
 
 @njit(cache=True, nogil=True)
-def _field(
+def field_row(
     pv: np.ndarray,
     row: np.ndarray,
     n: int,
@@ -138,7 +138,7 @@ def _field(
 
 
 @njit(cache=True, nogil=True)
-def _energy_row(
+def energy_row(
     pv: np.ndarray, row: np.ndarray, n: int, act: np.ndarray, scratch: np.ndarray
 ) -> float:
     M = pv[P_M]
@@ -161,7 +161,7 @@ def rhs_batch(
     """Time derivative of every row of ``z`` (shape (B, width))."""
     out = np.empty_like(z)
     for i in range(z.shape[0]):
-        _field(
+        field_row(
             pv,
             z[i],
             n,
@@ -183,7 +183,7 @@ def energy_batch(pv: np.ndarray, z: np.ndarray, act: np.ndarray, n: int) -> np.n
     out = np.empty(z.shape[0])
     scratch = np.empty(max(n, 1))
     for i in range(z.shape[0]):
-        out[i] = _energy_row(pv, z[i], n, act[i], scratch)
+        out[i] = energy_row(pv, z[i], n, act[i], scratch)
     return out
 
 
@@ -209,13 +209,13 @@ def _rk4_row(
     h = dt / substeps
     xi0, eta0, xi_dot0, eta_dot0, xi_ddot, eta_ddot = act[0], act[1], act[2], act[3], act[4], act[5]
     if preserve_energy and not target_energy > 0.0:
-        target_energy = _energy_row(pv, row, n, act, scratch)
+        target_energy = energy_row(pv, row, n, act, scratch)
     for step in range(substeps):
         t0 = step * h
         t_mid = t0 + 0.5 * h
         t1 = t0 + h
         # The mass's motion is a known quadratic in time: evaluate it exactly at each stage.
-        _field(
+        field_row(
             pv,
             row,
             n,
@@ -234,17 +234,17 @@ def _rk4_row(
         eta_dot_mid = eta_dot0 + eta_ddot * t_mid
         for j in range(width):
             stage[j] = row[j] + 0.5 * h * k1[j]
-        _field(
+        field_row(
             pv, stage, n, with_pose, xi_mid, eta_mid, xi_dot_mid, eta_dot_mid, xi_ddot, eta_ddot, k2
         )
         for j in range(width):
             stage[j] = row[j] + 0.5 * h * k2[j]
-        _field(
+        field_row(
             pv, stage, n, with_pose, xi_mid, eta_mid, xi_dot_mid, eta_dot_mid, xi_ddot, eta_ddot, k3
         )
         for j in range(width):
             stage[j] = row[j] + h * k3[j]
-        _field(
+        field_row(
             pv,
             stage,
             n,
@@ -262,7 +262,7 @@ def _rk4_row(
         if preserve_energy:
             # At fixed alpha and a mass at rest on the cart, E is a quadratic form in
             # (u, omega): one scale factor restores it exactly.
-            current = _energy_row(pv, row, n, act, scratch)
+            current = energy_row(pv, row, n, act, scratch)
             if current > 0.0:
                 scale = math.sqrt(target_energy / current)
                 row[0] *= scale
@@ -361,3 +361,33 @@ def rk4_batch(
                 buffers[4],
                 scratch,
             )
+
+
+@njit(cache=True, nogil=True)
+def singular_margin_row(row: np.ndarray, offset: int, n: int) -> float:
+    """min over k < n of |cos(alpha_k)| for the angles ``row[offset:offset + n]`` (1 if n <= 1)."""
+    margin = 1.0
+    for k in range(n - 1):
+        margin = min(margin, abs(math.cos(row[offset + k])))
+    return margin
+
+
+@njit(cache=True, nogil=True)
+def is_folded_row(row: np.ndarray, offset: int, n: int, fold_angle: float) -> bool:
+    """Whether any wrapped |alpha_k|, the last included, reaches ``fold_angle``."""
+    for k in range(n):
+        alpha = row[offset + k]
+        if abs(math.atan2(math.sin(alpha), math.cos(alpha))) >= fold_angle:
+            return True
+    return False
+
+
+@njit(cache=True)
+def singular_batch(
+    alpha: np.ndarray, fold_angle: float, margin: np.ndarray, folded: np.ndarray
+) -> None:
+    """Singular margin and fold flag of every row of ``alpha`` (B, n)."""
+    n = alpha.shape[1]
+    for i in range(alpha.shape[0]):
+        margin[i] = singular_margin_row(alpha[i], 0, n)
+        folded[i] = is_folded_row(alpha[i], 0, n, fold_angle)

@@ -2,7 +2,7 @@
 
 Every row of a batch takes its own steps: a row near a singular configuration
 shrinks its step without slowing the others down. The field is
-:func:`dynamics._kernel._field`, the one implementation of the equations; this
+:func:`dynamics._kernel.field_row`, the one implementation of the equations; this
 module only adds the embedded Runge-Kutta pair (Dormand and Prince 1980, the
 method behind MATLAB's ode45 and scipy's RK45) and its step-size controller
 (Hairer, Norsett and Wanner, Solving ODEs I, section II.4).
@@ -25,16 +25,14 @@ Two entry points:
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numba import njit
-from numba.core.caching import NullCache
 from numpy.typing import ArrayLike, NDArray
 
 from dynamics import _kernel
+from dynamics.jit import cached_njit
 from dynamics.model import FloatArray, check_state, rail_actuator
 from dynamics.params import ConvoyParams
 
@@ -93,7 +91,7 @@ def _eval(
     """The field at time ``tau`` into the call: the mass's quadratic motion is evaluated exactly."""
     xi = act[0] + act[2] * tau + 0.5 * act[4] * tau * tau
     eta = act[1] + act[3] * tau + 0.5 * act[5] * tau * tau
-    _kernel._field(
+    _kernel.field_row(
         pv,
         y,
         n,
@@ -250,7 +248,7 @@ def _dopri_row(
     return h, accepted, rejected, evaluations, status
 
 
-@njit
+@cached_njit()
 def dopri_batch(
     pv: np.ndarray,
     z: np.ndarray,
@@ -298,30 +296,6 @@ def dopri_batch(
         counts[i, 1] = rejected
         counts[i, 2] = evaluations
         status[i] = code
-
-
-def _cache_keyed_on_kernel(dispatcher: Any) -> None:
-    """Cache the compiled kernel on disk, invalidated when this file *or* ``_kernel.py`` changes.
-
-    numba keys a cache on the caller's source file only, so a plain ``cache=True``
-    here would keep running an old ``_field`` after ``_kernel.py`` is edited. The
-    stamp is numba's private detail: if it moves, we go without the disk cache
-    (compiling once per process, about a second) rather than risk stale physics.
-    """
-    try:
-        dispatcher.enable_caching()
-        cache_file = dispatcher._cache._cache_file
-        kernel_file = os.stat(_kernel.__file__)
-        cache_file._source_stamp = (
-            cache_file._source_stamp,
-            kernel_file.st_mtime,
-            kernel_file.st_size,
-        )
-    except Exception:  # pragma: no cover - depends on numba internals
-        dispatcher._cache = NullCache()
-
-
-_cache_keyed_on_kernel(dopri_batch)
 
 
 @dataclass(frozen=True)

@@ -39,9 +39,9 @@ class ConvoyParams:
     m: float = 1.0
     J: float = 0.1
     l: float = 1.0
-    mu: float = 0.25
-    b: float = 0.5
-    s_max: float = 0.3
+    mu: float = 0.5
+    b: float = 1.0
+    s_max: float = 0.5
 
     def __post_init__(self) -> None:
         n = self.n_trailers

@@ -3,18 +3,24 @@
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
+from dynamics import _kernel
 from dynamics.model import FloatArray
 
 
-def _angles(alpha: ArrayLike) -> FloatArray:
+def _classify(alpha: ArrayLike, fold_angle: float) -> tuple[FloatArray, NDArray[np.bool_]]:
     array = np.asarray(alpha, dtype=np.float64)
     if array.ndim == 0:
         raise ValueError("alpha must have a last axis (the n hitch angles)")
     if not np.all(np.isfinite(array)):
         raise ValueError("alpha contains non-finite values (NaN or inf)")
-    return array
+    batch = int(np.prod(array.shape[:-1], dtype=np.int64))
+    rows = np.ascontiguousarray(array.reshape(batch, array.shape[-1]))
+    margin = np.empty(rows.shape[0])
+    folded = np.empty(rows.shape[0], dtype=np.bool_)
+    _kernel.singular_batch(rows, float(fold_angle), margin, folded)
+    return margin.reshape(array.shape[:-1]), folded.reshape(array.shape[:-1])
 
 
 def singular_margin(alpha: ArrayLike) -> FloatArray:
@@ -34,19 +40,12 @@ def singular_margin(alpha: ArrayLike) -> FloatArray:
         >>> float(singular_margin([0.0, 3.0]))
         1.0
     """
-    array = _angles(alpha)
-    if array.shape[-1] <= 1:
-        return np.ones(array.shape[:-1])
-    return np.min(np.abs(np.cos(array[..., :-1])), axis=-1)
+    return _classify(alpha, np.pi)[0]
 
 
-def is_jackknifed(alpha: ArrayLike, fold_angle: float = np.pi / 2) -> np.ndarray:
+def is_jackknifed(alpha: ArrayLike, fold_angle: float = np.pi / 2) -> NDArray[np.bool_]:
     """Whether any hitch angle, the last included, has |alpha_k| >= ``fold_angle``.
 
     Angles are wrapped to (-pi, pi] first. Returns a boolean array ``alpha.shape[:-1]``.
     """
-    array = _angles(alpha)
-    wrapped = np.abs(np.angle(np.exp(1j * array)))
-    if array.shape[-1] == 0:
-        return np.zeros(array.shape[:-1], dtype=bool)
-    return np.any(wrapped >= fold_angle, axis=-1)
+    return _classify(alpha, fold_angle)[1]

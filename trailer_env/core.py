@@ -43,7 +43,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from dynamics import _kernel
+from dynamics.jit import pack_params
 from trailer_env.actuator import MODE_CODES, clamp_to_rail
 from trailer_env.kernels import PARALLEL_MIN_ROWS, observe, observe_parallel, prepare_step
 from trailer_env.settings import EnvSettings
@@ -120,7 +120,7 @@ class ConvoyCore:
         self.terminated = np.zeros(size, dtype=bool)
         self.success = np.zeros(size, dtype=bool)
         self._integrator = fidelity.make_integrator(self.params, self.with_pose)
-        self._packed = _kernel.pack_params(self.params)  # the energy kernel's parameters
+        self._packed = pack_params(self.params)  # the energy kernel's parameters
         self._mode = MODE_CODES[settings.action_mode]
         self._all_rows = np.arange(size, dtype=np.int64)
         self._z_backup = np.empty_like(self.z)

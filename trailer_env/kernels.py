@@ -12,9 +12,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
-from dynamics._kernel import _energy_row
+from dynamics.jit import cached_njit, energy_row, is_folded_row, singular_margin_row
+from trailer_env import actuator, fidelity
 from trailer_env.actuator import apply_actions
 from trailer_env.fidelity import auto_substeps
 
@@ -26,7 +27,7 @@ _CHUNK = 64
 OBS_B, OBS_S_MAX, OBS_SPEED_MAX, OBS_BAND, OBS_FOLD = range(5)
 
 
-@njit(cache=True)
+@cached_njit(depends_on=(actuator, fidelity))
 def prepare_step(
     action: np.ndarray,
     z: np.ndarray,
@@ -60,7 +61,7 @@ def prepare_step(
     return -1
 
 
-@njit(cache=True)
+@cached_njit(depends_on=(actuator, fidelity))
 def _observe_row(
     i: int,
     z: np.ndarray,
@@ -84,18 +85,11 @@ def _observe_row(
     speed_max = settings[OBS_SPEED_MAX]
     obs[i, 0] = z[i, 0]
     obs[i, 1] = z[i, 1]
-    row_margin = 1.0
-    folded = False
     for k in range(n):
-        alpha = z[i, 2 + k]
-        sine = math.sin(alpha)
-        cosine = math.cos(alpha)
-        obs[i, 2 + k] = sine
-        obs[i, 2 + n + k] = cosine
-        if k < n - 1 and abs(cosine) < row_margin:
-            row_margin = abs(cosine)
-        if abs(math.atan2(sine, cosine)) >= settings[OBS_FOLD]:
-            folded = True
+        obs[i, 2 + k] = math.sin(z[i, 2 + k])
+        obs[i, 2 + n + k] = math.cos(z[i, 2 + k])
+    row_margin = singular_margin_row(z[i], 2, n)
+    folded = is_folded_row(z[i], 2, n, settings[OBS_FOLD])
     base = 2 + 2 * n
     if planar:
         obs[i, base] = (act[i, 0] - b) / s_max
@@ -108,11 +102,11 @@ def _observe_row(
     margin[i] = row_margin
     cost[i] = 1.0 if row_margin < settings[OBS_BAND] else 0.0
     jackknifed[i] = folded
-    energy[i] = _energy_row(pv, z[i], n, act[i], scratch)
+    energy[i] = energy_row(pv, z[i], n, act[i], scratch)
     return True
 
 
-@njit(cache=True)
+@cached_njit(depends_on=(actuator, fidelity))
 def observe(
     z: np.ndarray,
     act: np.ndarray,
@@ -144,7 +138,7 @@ def observe(
     return bad
 
 
-@njit(cache=True, parallel=True)
+@cached_njit(depends_on=(actuator, fidelity), parallel=True)
 def observe_parallel(
     z: np.ndarray,
     act: np.ndarray,

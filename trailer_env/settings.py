@@ -5,16 +5,14 @@ core and the controllers all read it. :func:`settings_from_kwargs` turns the
 keyword arguments of ``gym.make`` (``n_trailers``, ``dt``, ConvoyParams field
 overrides such as ``mu=0.4`` ...) into settings.
 
-Default parameters. The environments start from :class:`dynamics.ConvoyParams`
-but override the actuator: ``mu = 0.5`` (half the cart's mass), ``b = 1.0`` m
-(rail one metre ahead of the axle) and ``s_max = 0.5`` m. With ConvoyParams'
-own actuator (``mu = 0.25, b = 0.5, s_max = 0.3``) a full stroke of the mass
-turns the cart by only ``mu b 2 s_max / (I0 + mu b^2)``, about 0.15 rad, and the
-linear controller of :mod:`trailer_env.controllers` keeps a reversing two-trailer
-convoy (Reverse-v0) from folding in 8 % of 50 episodes; with the environments'
-defaults the stroke is worth about 0.53 rad and the same controller succeeds in
-64 %, while the zero action folds every episode within about 3 s either way:
-hard, but feasible.
+Default parameters are :class:`dynamics.ConvoyParams`' own. Its actuator (``mu =
+0.5``, half the cart's mass, on a rail ``b = 1.0`` m ahead of the axle with
+``s_max = 0.5`` m) was sized for these tasks: a full stroke of the mass turns
+the cart by about ``mu b 2 s_max / (I0 + mu b^2)``, 0.53 rad. With a weaker one
+(``mu = 0.25, b = 0.5, s_max = 0.3``: 0.15 rad) the linear controller of
+:mod:`trailer_env.controllers` keeps a reversing two-trailer convoy (Reverse-v0)
+from folding in 8 % of 50 episodes, against 64 % with the defaults, while the
+zero action folds every episode within about 3 s either way: hard, but feasible.
 """
 
 from __future__ import annotations
@@ -31,15 +29,7 @@ from trailer_env.fidelity import Fidelity
 
 ACTION_MODES = ("servo", "accel", "planar")
 
-#: Overrides of ConvoyParams' defaults used by every scene (see the module docstring).
-ENV_PARAM_DEFAULTS: dict[str, float] = {"mu": 0.5, "b": 1.0, "s_max": 0.5}
-
 _PARAM_FIELDS = frozenset(f.name for f in dataclasses.fields(ConvoyParams))
-
-
-def default_params(n_trailers: int = 2) -> ConvoyParams:
-    """ConvoyParams with the environments' actuator defaults."""
-    return ConvoyParams(n_trailers=n_trailers, **ENV_PARAM_DEFAULTS)
 
 
 def _positive(name: str, value: Any) -> float:
@@ -71,7 +61,7 @@ class EnvSettings:
         fold_angle: Jackknife when any ``|alpha_k| >= fold_angle`` (radians, in (0, pi]).
     """
 
-    params: ConvoyParams = field(default_factory=default_params)
+    params: ConvoyParams = field(default_factory=ConvoyParams)
     dt: float = 0.05
     fidelity: Fidelity = field(default_factory=Fidelity)
     action_mode: str = "servo"
@@ -149,7 +139,7 @@ def settings_from_kwargs(
 
     Args:
         n_trailers: Number of trailers, default 2 (must agree with ``params`` when both are given).
-        params: Full parameters; by default :func:`default_params`.
+        params: Full parameters; by default ConvoyParams' own.
         dt, fidelity, action_mode, rail_accel_max, servo_bandwidth, singular_band, fold_angle:
             See :class:`EnvSettings`.
         **param_overrides: Any ConvoyParams field, e.g. ``mu=0.4``.
@@ -170,7 +160,7 @@ def settings_from_kwargs(
         raise ValueError(f"n_trailers must be an integer >= 0, got {n_trailers!r}")
     if params is None:
         count = 2 if n_trailers is None else int(n_trailers)
-        base = {**ENV_PARAM_DEFAULTS, "n_trailers": count, **param_overrides}
+        base = {"n_trailers": count, **param_overrides}
         params = ConvoyParams(**base)  # type: ignore[arg-type]
     elif not isinstance(params, ConvoyParams):
         raise ValueError(f"params must be a ConvoyParams, got {type(params).__name__}")

@@ -10,12 +10,12 @@ import pytest
 from dynamics import ConvoyParams
 from tests.trailer_env.helpers import make
 from trailer_env.fidelity import Fidelity
-from trailer_env.settings import ENV_PARAM_DEFAULTS, EnvSettings, settings_from_kwargs
+from trailer_env.settings import EnvSettings, settings_from_kwargs
 
 
 def test_defaults_override_the_actuator_only() -> None:
     settings = settings_from_kwargs()
-    assert settings.params == ConvoyParams(n_trailers=2, **ENV_PARAM_DEFAULTS)
+    assert settings.params == ConvoyParams(n_trailers=2)
     assert settings.dt == 0.05
     assert settings.fidelity == Fidelity(integrator="rk4", substeps="auto", tolerance=0.1)
     assert settings.action_mode == "servo"

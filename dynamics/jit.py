@@ -1,0 +1,77 @@
+"""Numba-level building blocks, for jitted code outside :mod:`dynamics` (environments).
+
+Call these from ``@njit`` functions: they are the package's one implementation of
+the field, the energy and the singular tests, row by row. Row and parameter
+conventions are those of :mod:`dynamics._kernel` (``pv`` from :func:`pack_params`;
+a row is ``(u, omega, alpha_1..alpha_n[, x, y, theta])``; ``act`` is the mass's
+``(xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)``).
+
+:func:`cached_njit` compiles with numba's disk cache keyed on the source files
+the function inlines, not only on its own: numba alone would keep running a
+stale copy of, say, the field after ``dynamics/_kernel.py`` changes.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from types import ModuleType
+from typing import Any
+
+from numba import njit
+from numba.core.caching import NullCache
+
+from dynamics import _kernel
+from dynamics._kernel import (
+    energy_row,
+    field_row,
+    is_folded_row,
+    pack_params,
+    singular_margin_row,
+)
+
+__all__ = [
+    "cached_njit",
+    "energy_row",
+    "field_row",
+    "is_folded_row",
+    "pack_params",
+    "singular_margin_row",
+]
+
+
+def _key_cache_on(dispatcher: Any, modules: Sequence[ModuleType]) -> None:
+    """Extend the cache's source stamp with the modules' stamps (numba private detail).
+
+    If numba's internals move, fall back to no disk cache (compile once per
+    process) rather than risk running stale code.
+    """
+    try:
+        dispatcher.enable_caching()
+        cache_file = dispatcher._cache._cache_file
+        stamps = tuple(
+            (os.stat(module.__file__).st_mtime, os.stat(module.__file__).st_size)
+            for module in modules
+            if module.__file__
+        )
+        cache_file._source_stamp = (cache_file._source_stamp, *stamps)
+    except Exception:  # pragma: no cover - depends on numba internals
+        dispatcher._cache = NullCache()
+
+
+def cached_njit(
+    *, depends_on: Sequence[ModuleType] = (), **options: Any
+) -> Callable[[Callable[..., Any]], Any]:
+    """``numba.njit`` with a disk cache invalidated by this module's kernels and ``depends_on``.
+
+    Args:
+        depends_on: Modules whose jitted functions the decorated one calls.
+        **options: Passed to ``numba.njit`` (e.g. ``parallel=True``).
+    """
+
+    def decorate(function: Callable[..., Any]) -> Any:
+        dispatcher = njit(**options)(function)
+        _key_cache_on(dispatcher, (_kernel, *depends_on))
+        return dispatcher
+
+    return decorate
