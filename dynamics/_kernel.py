@@ -279,6 +279,29 @@ PARALLEL_MIN_ROWS = 256
 _ROWS_PER_CHUNK = 64
 
 
+@njit(cache=True, nogil=True)
+def _rk4_rows(
+    pv: np.ndarray,
+    z: np.ndarray,
+    act: np.ndarray,
+    n: int,
+    with_pose: bool,
+    dt: float,
+    substeps: np.ndarray,
+    preserve_energy: bool,
+    target_energy: np.ndarray,
+    start: int,
+    stop: int,
+) -> None:
+    """RK4 on rows ``start:stop`` with one set of scratch buffers."""
+    buffers = np.empty((5, z.shape[1]))
+    scratch = np.empty(max(n, 1))
+    for i in range(start, stop):
+        _rk4_row(pv, z[i], act[i], n, with_pose, dt, substeps[i], preserve_energy,
+                 target_energy[i], buffers[0], buffers[1], buffers[2], buffers[3], buffers[4],
+                 scratch)  # fmt: skip
+
+
 @njit(cache=True)
 def rk4_batch_serial(
     pv: np.ndarray,
@@ -292,27 +315,7 @@ def rk4_batch_serial(
     target_energy: np.ndarray,
 ) -> None:
     """Same as :func:`rk4_batch` on the calling thread (single envs, small batches)."""
-    width = z.shape[1]
-    buffers = np.empty((5, width))
-    scratch = np.empty(max(n, 1))
-    for i in range(z.shape[0]):
-        _rk4_row(
-            pv,
-            z[i],
-            act[i],
-            n,
-            with_pose,
-            dt,
-            substeps[i],
-            preserve_energy,
-            target_energy[i],
-            buffers[0],
-            buffers[1],
-            buffers[2],
-            buffers[3],
-            buffers[4],
-            scratch,
-        )
+    _rk4_rows(pv, z, act, n, with_pose, dt, substeps, preserve_energy, target_energy, 0, z.shape[0])
 
 
 @njit(cache=True, parallel=True)
@@ -337,30 +340,11 @@ def rk4_batch(
     arithmetic is the same whatever the chunking, so results do not depend on
     the number of threads.
     """
-    width = z.shape[1]
     n_rows = z.shape[0]
-    n_chunks = (n_rows + _ROWS_PER_CHUNK - 1) // _ROWS_PER_CHUNK
-    for chunk in prange(n_chunks):
-        buffers = np.empty((5, width))
-        scratch = np.empty(max(n, 1))
-        for i in range(chunk * _ROWS_PER_CHUNK, min(n_rows, (chunk + 1) * _ROWS_PER_CHUNK)):
-            _rk4_row(
-                pv,
-                z[i],
-                act[i],
-                n,
-                with_pose,
-                dt,
-                substeps[i],
-                preserve_energy,
-                target_energy[i],
-                buffers[0],
-                buffers[1],
-                buffers[2],
-                buffers[3],
-                buffers[4],
-                scratch,
-            )
+    for chunk in prange((n_rows + _ROWS_PER_CHUNK - 1) // _ROWS_PER_CHUNK):
+        stop = min(n_rows, (chunk + 1) * _ROWS_PER_CHUNK)
+        _rk4_rows(pv, z, act, n, with_pose, dt, substeps, preserve_energy, target_energy,
+                  chunk * _ROWS_PER_CHUNK, stop)  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
