@@ -1,4 +1,4 @@
-"""Shared pieces of the benchmark commands: scenes, CPU timing, output paths, CSV.
+"""Shared pieces of the benchmark commands: scenes, CPU timing, output paths, CSV, charts.
 
 The scenes use the default :class:`dynamics.ConvoyParams` with the moving mass at
 rest at the middle of its rail, so the energy is conserved (physics.md section
@@ -9,10 +9,12 @@ homogeneity of physics.md section 5 any other speed is a change of time unit.
 
 from __future__ import annotations
 
+import argparse
+import contextlib
 import csv
 import os
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -154,8 +156,23 @@ def set_threads(threads: int | None) -> int:
     """
     import numba
 
-    numba.set_num_threads(numba.config.NUMBA_NUM_THREADS if threads is None else threads)
+    # numba fills its config module at import time: mypy cannot see the attribute.
+    all_cores = numba.config.NUMBA_NUM_THREADS  # type: ignore[attr-defined]
+    numba.set_num_threads(all_cores if threads is None else threads)
     return int(numba.get_num_threads())
+
+
+@contextlib.contextmanager
+def one_thread() -> Iterator[None]:
+    """Run the block on one numba thread (see :func:`set_threads`), then restore the count."""
+    import numba
+
+    previous = numba.get_num_threads()
+    set_threads(1)
+    try:
+        yield
+    finally:
+        set_threads(previous)
 
 
 def machine_note() -> str:
@@ -163,3 +180,47 @@ def machine_note() -> str:
     import platform
 
     return f"{platform.processor() or platform.machine()}, {os.cpu_count()} CPUs"
+
+
+def parse_command(
+    prog: str,
+    description: str | None,
+    quick_help: str,
+    argv: list[str] | None,
+    results_help: str = "CSV folder",
+) -> argparse.Namespace:
+    """The options every benchmark command takes: ``--quick``, ``--results``, ``--images``.
+
+    Args:
+        prog: The command, e.g. ``python -m benchmarks.stability``.
+        description: Help text (the module's docstring).
+        quick_help: What ``--quick`` cuts.
+        argv: Arguments (None: ``sys.argv[1:]``).
+        results_help: Help for ``--results``.
+
+    Returns:
+        The parsed arguments.
+    """
+    parser = argparse.ArgumentParser(
+        prog=prog, description=description, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument("--quick", action="store_true", help=quick_help)
+    parser.add_argument("--results", type=Path, default=RESULTS, help=results_help)
+    parser.add_argument("--images", type=Path, default=IMAGES, help="PNG folder")
+    return parser.parse_args(argv)
+
+
+def save_figure(fig: Any, path: Path, dpi: int = 90) -> Path:
+    """Lay out, write (creating the folder) and close a matplotlib figure."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return path
+
+
+def report_written(what: str, start: float) -> None:
+    """Print what a command wrote and how long it took since ``start`` (perf_counter)."""
+    print(f"wrote {what} in {time.perf_counter() - start:.0f} s")

@@ -16,16 +16,23 @@ Outputs: ``benchmarks/results/energy_drift.csv`` and ``docs/img/bench_energy_dri
 
 from __future__ import annotations
 
-import argparse
 import inspect
 import time
 from pathlib import Path
 from typing import Any
 
-import numba
 import numpy as np
 
-from benchmarks._common import IMAGES, RESULTS, SCENES, pyplot, scene_state, set_threads, write_csv
+from benchmarks._common import (
+    SCENES,
+    one_thread,
+    parse_command,
+    pyplot,
+    report_written,
+    save_figure,
+    scene_state,
+    write_csv,
+)
 from dynamics import ConvoyParams, Stepper, energy
 
 DT = 0.05
@@ -71,30 +78,17 @@ def scenarios() -> dict[str, tuple[ConvoyParams, np.ndarray]]:
 
 def variants() -> tuple[str, ...]:
     """The variants this version of :class:`dynamics.Stepper` supports."""
-    names = ("RK4", "RK4 energy-preserving")
+    names: tuple[str, ...] = ("RK4", "RK4 energy-preserving")
     if "target_energy" in inspect.signature(Stepper.step).parameters:
         names += ("RK4 energy-preserving, E0 held",)
     return names
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.energy_drift",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument("--quick", action="store_true", help="10^4 steps instead of 10^5")
-    parser.add_argument("--results", type=Path, default=RESULTS, help="CSV folder")
-    parser.add_argument("--images", type=Path, default=IMAGES, help="PNG folder")
-    args = parser.parse_args(argv)
-    start = time.perf_counter()
-    previous_threads = numba.get_num_threads()
-    set_threads(1)
-    steps = STEPS // 10 if args.quick else STEPS
+def measure(steps: int) -> tuple[dict[tuple[str, str], np.ndarray], list[dict[str, Any]]]:
+    """Drift curves per (scene, variant) over ``steps`` control steps, and a CSV row each."""
     rows: list[dict[str, Any]] = []
     curves = {}
-    scenes = scenarios()
-    for scene, (params, z0) in scenes.items():
+    for scene, (params, z0) in scenarios().items():
         for variant in variants():
             errors = drift(params, z0, variant, steps)
             curves[scene, variant] = errors
@@ -112,7 +106,12 @@ def main(argv: list[str] | None = None) -> int:
                 f"{scene:38s} {variant:32s}: max |E - E0| / E0 over {steps} steps = "
                 f"{errors.max():.2e} ({errors.max() / EPSILON:.1f} eps), final {errors[-1]:.2e}"
             )
-    write_csv(args.results / "energy_drift.csv", rows)
+    return curves, rows
+
+
+def plot(curves: dict[tuple[str, str], np.ndarray], steps: int, path: Path) -> Path:
+    """One log-log panel of the drift curves per scene."""
+    scenes = list(dict.fromkeys(scene for scene, _ in curves))
     plt = pyplot()
     fig, axes = plt.subplots(1, len(scenes), figsize=(15, 4), sharey=True)
     index = np.arange(1, steps + 1)
@@ -132,16 +131,20 @@ def main(argv: list[str] | None = None) -> int:
     axes[0].set_ylabel("|E - E0| / E0")
     axes[-1].legend(fontsize=7)
     fig.suptitle("Energy drift over control steps (values below 1e-18 drawn at 1e-18)", fontsize=10)
-    fig.tight_layout()
-    path = args.images / "bench_energy_drift.png"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    print(
-        f"wrote {args.results / 'energy_drift.csv'} and {path} "
-        f"in {time.perf_counter() - start:.0f} s"
+    return save_figure(fig, path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_command(
+        "python -m benchmarks.energy_drift", __doc__, "10^4 steps instead of 10^5", argv
     )
-    set_threads(previous_threads)
+    start = time.perf_counter()
+    steps = STEPS // 10 if args.quick else STEPS
+    with one_thread():
+        curves, rows = measure(steps)
+    write_csv(args.results / "energy_drift.csv", rows)
+    path = plot(curves, steps, args.images / "bench_energy_drift.png")
+    report_written(f"{args.results / 'energy_drift.csv'} and {path}", start)
     return 0
 
 

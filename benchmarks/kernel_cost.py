@@ -17,7 +17,6 @@ Outputs: ``benchmarks/results/kernel_cost.csv``, ``docs/img/bench_kernel_cost.pn
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -26,11 +25,12 @@ from typing import Any
 import numpy as np
 
 from benchmarks._common import (
-    IMAGES,
-    RESULTS,
     best_of_rounds,
     machine_note,
+    parse_command,
     pyplot,
+    report_written,
+    save_figure,
     set_threads,
     write_csv,
 )
@@ -174,11 +174,7 @@ def plot(rows: list[dict[str, Any]], path: Path) -> Path:
     ax_n.grid(True, which="major", alpha=0.3)
     ax_n.legend(fontsize=7)
     fig.suptitle(f"dynamics.Stepper, default convoy, mass moving ({machine_note()})", fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def summary(rows: list[dict[str, Any]]) -> list[str]:
@@ -204,27 +200,16 @@ def summary(rows: list[dict[str, Any]]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.kernel_cost",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    args = parse_command(
+        "python -m benchmarks.kernel_cost", __doc__, "n in (1, 3, 8, 32), B in (1, 64, 4096)", argv
     )
-    parser.add_argument(
-        "--quick", action="store_true", help="n in (1, 3, 8, 32), B in (1, 64, 4096)"
-    )
-    parser.add_argument("--results", type=Path, default=RESULTS, help="CSV folder")
-    parser.add_argument("--images", type=Path, default=IMAGES, help="PNG folder")
-    args = parser.parse_args(argv)
     start = time.perf_counter()
     rows = measure(args.quick)
     write_csv(args.results / "kernel_cost.csv", rows)
     for line in summary(rows):
         print(line)
     path = plot(rows, args.images / "bench_kernel_cost.png")
-    print(
-        f"wrote {args.results / 'kernel_cost.csv'} and {path} "
-        f"in {time.perf_counter() - start:.0f} s"
-    )
+    report_written(f"{args.results / 'kernel_cost.csv'} and {path}", start)
     return 0
 
 

@@ -44,7 +44,6 @@ Outputs: ``benchmarks/results/stability_limits.csv``, ``stability_failures.csv``
 
 from __future__ import annotations
 
-import argparse
 import math
 import time
 from collections.abc import Callable
@@ -52,15 +51,26 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numba
 import numpy as np
 from scipy.optimize import brentq
 
-from benchmarks._common import IMAGES, RESULTS, machine_note, pyplot, set_threads, write_csv
+from benchmarks._common import (
+    machine_note,
+    one_thread,
+    parse_command,
+    pyplot,
+    report_written,
+    save_figure,
+    write_csv,
+)
 from dynamics import ConvoyParams, Stepper, energy, rhs
 from dynamics.adaptive import DP_A, DP_B, AdaptiveStepper, integrate_adaptive
 
-METHODS = ("RK4", "RK4 energy-preserving", "DOPRI5 fixed step")
+RK4 = "RK4"
+RK4_ENERGY_PRESERVING = "RK4 energy-preserving"
+DOPRI5_FIXED = "DOPRI5 fixed step"
+METHODS = (RK4, RK4_ENERGY_PRESERVING, DOPRI5_FIXED)
+"""The fixed-step methods compared; the names label the CSV rows and the charts."""
 PERTURBATION = 1e-6
 
 
@@ -78,7 +88,7 @@ def dopri5_stability(z: complex) -> complex:
 
 def stability_function(method: str) -> Callable[[complex], complex]:
     """R(z) of a method (the energy-preserving step has RK4's)."""
-    return dopri5_stability if method.startswith("DOPRI5") else rk4_stability
+    return dopri5_stability if method == DOPRI5_FIXED else rk4_stability
 
 
 def real_axis_limit(method: str) -> float:
@@ -93,18 +103,23 @@ def decay_rates(params: ConvoyParams, speed: float) -> tuple[float, float]:
     return abs(cart * speed), abs(speed) / params.l
 
 
+def resting_mass_action(params: ConvoyParams) -> np.ndarray:
+    """The steppers' action (1, 6) holding the moving mass at rest at (b, 0)."""
+    return np.array([[params.b, 0.0, 0.0, 0.0, 0.0, 0.0]])
+
+
 def advance(method: str, params: ConvoyParams, z: np.ndarray, h: float, steps: int) -> None:
     """Take ``steps`` fixed steps of size h in place (z: (1, n+2)); mass at rest at s = 0."""
-    act = np.array([[params.b, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    act = resting_mass_action(params)
     with np.errstate(all="ignore"):
-        if method.startswith("DOPRI5"):
+        if method == DOPRI5_FIXED:
             # Tolerances no error can fail, steps capped at h: the fixed-step method.
             stepper = AdaptiveStepper(
                 params, rtol=1e300, atol=1e300, max_step=h, max_steps=steps + 2
             )
             stepper.step(z, act, h * steps, np.full(1, h))
         else:
-            stepper_rk4 = Stepper(params, preserve_energy=method == "RK4 energy-preserving")
+            stepper_rk4 = Stepper(params, preserve_energy=method == RK4_ENERGY_PRESERVING)
             stepper_rk4.step(z, act, h * steps, np.array([steps], dtype=np.int64))
 
 
@@ -172,7 +187,7 @@ RK4_TABLEAU = (
 
 def linear_propagator(method: str, jacobian: np.ndarray, h: float) -> np.ndarray:
     """The matrix of one step of the method on dv/dt = J v."""
-    a, b = (DP_A[:6, :6], DP_B[:6]) if method.startswith("DOPRI5") else RK4_TABLEAU
+    a, b = (DP_A[:6, :6], DP_B[:6]) if method == DOPRI5_FIXED else RK4_TABLEAU
     size = jacobian.shape[0]
     propagator = np.empty((size, size))
     for column in range(size):
@@ -273,15 +288,28 @@ FAILURE_PARAMS = ConvoyParams(n_trailers=1, a=0.1, mu=0.0)
 """Trailer-dominated (x = h |u| / l is the binding dimensionless step)."""
 
 
-def failure_outcome(
+def run_from_node(
     method: str, params: ConvoyParams, x: float, steps: int = 4000
-) -> dict[str, Any]:
-    """Run ``steps`` steps of h = x l / |u| from the perturbed forward node; classify the end."""
+) -> tuple[np.ndarray, float, float]:
+    """Run ``steps`` steps of h = x l / |u| from the perturbed forward node at |u| = 1.
+
+    Returns:
+        The final state (1, n+2), the initial energy and the step h.
+    """
     speed = 1.0
     h = x * params.l / speed
     z = perturbed_equilibrium(params, speed)
     e0 = float(energy(params, z[0]))
     advance(method, params, z, h, steps)
+    return z, e0, h
+
+
+def failure_outcome(
+    method: str, params: ConvoyParams, x: float, steps: int = 4000
+) -> dict[str, Any]:
+    """Run ``steps`` steps of h = x l / |u| from the perturbed forward node; classify the end."""
+    speed = 1.0
+    z, e0, h = run_from_node(method, params, x, steps)
     row: dict[str, Any] = dict(method=method, x=x)
     if not np.all(np.isfinite(z)) or abs(z[0, 0]) > 1e3 * speed:
         return row | dict(
@@ -329,7 +357,7 @@ def adaptive_steps(
     """Dimensionless steps h |u| / l that error-controlled DOPRI5 takes at the forward node."""
     stepper = AdaptiveStepper(params, rtol=tolerance, atol=tolerance, max_step=math.inf)
     z = perturbed_equilibrium(params, 1.0, 0.1)
-    act = np.array([[params.b, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    act = resting_mass_action(params)
     step = np.zeros(1)
     x_values = []
     # One accepted or rejected step per call: unit max_steps, the carried step size
@@ -369,7 +397,7 @@ def departure_time(
     else:
         path = [float(np.max(np.abs(z[0, 2:])))]
         for _ in range(samples - 1):
-            advance("RK4", params, z, sample, 1)
+            advance(RK4, params, z, sample, 1)
             path.append(float(np.max(np.abs(z[0, 2:]))))
         path = np.array(path)
     above = np.flatnonzero(path >= delta)
@@ -402,7 +430,7 @@ def rk4_linear_departure(
     """
     rate = abs(speed) / params.l
     h = x / rate
-    propagator = linear_propagator("RK4", linearisation(params, -abs(speed)), h)
+    propagator = linear_propagator(RK4, linearisation(params, -abs(speed)), h)
     v = np.zeros(params.n_trailers + 1)
     v[1] = epsilon
     previous = epsilon
@@ -427,7 +455,7 @@ def measure_horizons(quick: bool) -> list[dict[str, Any]]:
             rate = speed / params.l
             for epsilon in epsilons:
                 theory = linear_departure_theory(n, rate, epsilon, delta)
-                for method, x in (("exact", 0.0), ("RK4", 1.0), ("RK4", 2.0)):
+                for method, x in (("exact", 0.0), (RK4, 1.0), (RK4, 2.0)):
                     if method == "exact":
                         predicted = theory
                     else:
@@ -465,7 +493,7 @@ def plot_limits(limits: list[dict[str, Any]], path: Path) -> Path:
     plt = pyplot()
     fig, (ax_r, ax_m) = plt.subplots(1, 2, figsize=(11, 4.2))
     x = np.linspace(0.0, 4.0, 400)
-    for method, color in (("RK4", "C0"), ("DOPRI5 fixed step", "C2")):
+    for method, color in ((RK4, "C0"), (DOPRI5_FIXED, "C2")):
         function = stability_function(method)
         ax_r.plot(x, [abs(function(-v)) for v in x], color=color, label=f"|R(-x)|, {method}")
         limit = real_axis_limit(method)
@@ -485,8 +513,8 @@ def plot_limits(limits: list[dict[str, Any]], path: Path) -> Path:
     ax_r.set_ylabel("|R(-x)|, growth per step")
     ax_r.set_title("Stability functions on the negative real axis")
     ax_r.legend(fontsize=8, loc="upper left")
-    markers = {"RK4": "o", "RK4 energy-preserving": "s", "DOPRI5 fixed step": "^"}
-    colors = {"RK4": "C0", "RK4 energy-preserving": "C1", "DOPRI5 fixed step": "C2"}
+    markers = {RK4: "o", RK4_ENERGY_PRESERVING: "s", DOPRI5_FIXED: "^"}
+    colors = {RK4: "C0", RK4_ENERGY_PRESERVING: "C1", DOPRI5_FIXED: "C2"}
     labels = list(dict.fromkeys(row["case"] for row in limits))
     speeds = sorted({row["speed"] for row in limits})
     for method in METHODS:
@@ -520,11 +548,7 @@ def plot_limits(limits: list[dict[str, Any]], path: Path) -> Path:
     ax_m.set_title("Largest stable h max|lambda| against x* (2.7853 / 3.3066)")
     ax_m.legend(fontsize=7)
     fig.suptitle("Stability of the fixed-step integrators at the forward equilibrium", fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
 def plot_failures(
@@ -551,7 +575,7 @@ def plot_failures(
             )
     for outcome, color in OUTCOME_COLORS.items():
         ax_map.barh(0, 0, color=color, label=outcome)
-    for method, color in (("RK4", "k"), ("DOPRI5 fixed step", "k")):
+    for method, color in ((RK4, "k"), (DOPRI5_FIXED, "k")):
         ax_map.axvline(real_axis_limit(method), color=color, ls=":", lw=1)
     ax_map.set_yticks(range(len(METHODS)), METHODS, fontsize=8)
     ax_map.set_xlim(1.9, 10.1)
@@ -559,7 +583,7 @@ def plot_failures(
     ax_map.set_title("Where a perturbed forward node ends (4000 steps); dotted: x*")
     ax_map.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.18), ncol=3)
 
-    for method, style in (("RK4", "o-"), ("DOPRI5 fixed step", "^-")):
+    for method, style in ((RK4, "o-"), (DOPRI5_FIXED, "^-")):
         rows = [row for row in failures if row["method"] == method]
         finite = [
             (row["x"], row["energy_ratio"]) for row in rows if np.isfinite(row["energy_ratio"])
@@ -582,7 +606,7 @@ def plot_failures(
                 min(blown),
                 ls="--",
                 lw=1,
-                color="tab:red" if method == "RK4" else "tab:pink",
+                color="tab:red" if method == RK4 else "tab:pink",
                 label=f"{method}: first blow-up, x = {min(blown):.2f}",
             )
     ax_energy.set_xlabel("dimensionless step x = h |u| / l")
@@ -590,7 +614,7 @@ def plot_failures(
     ax_energy.set_title("Energy drift: unstable steps bleed energy until h |u| / l < x*")
     ax_energy.legend(fontsize=7)
 
-    dopri_limit = real_axis_limit("DOPRI5 fixed step")
+    dopri_limit = real_axis_limit(DOPRI5_FIXED)
     for tolerance, values in adaptive.items():
         ax_adaptive.plot(
             values, lw=0.8, label=f"rtol = atol = {tolerance:g}: mean {np.mean(values):.3f}"
@@ -606,8 +630,8 @@ def plot_failures(
     for (n, method, x), marker in (
         ((1, "exact", 0.0), "o"),
         ((3, "exact", 0.0), "s"),
-        ((1, "RK4", 2.0), "^"),
-        ((3, "RK4", 2.0), "v"),
+        ((1, RK4, 2.0), "^"),
+        ((3, RK4, 2.0), "v"),
     ):
         rows = [
             row for row in horizons if row["n"] == n and row["method"] == method and row["x"] == x
@@ -641,61 +665,47 @@ def plot_failures(
     ax_horizon.set_title("Predictability horizon ~ ln(0.01 / eps) / lambda (lines: theory)")
     ax_horizon.legend(fontsize=6, ncol=2)
     fig.suptitle(f"How the integrators fail ({machine_note()})", fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=80)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=80)
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.stability",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    args = parse_command(
+        "python -m benchmarks.stability", __doc__, "fewer cases and a coarse sweep", argv
     )
-    parser.add_argument("--quick", action="store_true", help="fewer cases and a coarse sweep")
-    parser.add_argument("--results", type=Path, default=RESULTS, help="CSV folder")
-    parser.add_argument("--images", type=Path, default=IMAGES, help="PNG folder")
-    args = parser.parse_args(argv)
     start = time.perf_counter()
-    previous_threads = numba.get_num_threads()
-    set_threads(1)
-    limits = measure_limits(args.quick)
-    write_csv(args.results / "stability_limits.csv", limits)
-    for row in limits:
-        print(
-            f"{row['method']:22s} {row['case']:40s} |u| = {row['speed']:3.1f}: "
-            f"x = {row['measured_x']:.4f} (theory {row['theory_x']:.4f}, "
-            f"{100 * row['relative_gap']:+.2f}%)"
-        )
-    failures = measure_failures(args.quick)
-    write_csv(args.results / "stability_failures.csv", failures)
-    for method in METHODS:
-        first: dict[str, float] = {}
-        for row in failures:
-            if row["method"] == method:
-                first.setdefault(row["outcome"], row["x"])
-        print(
-            f"{method:22s} first x of each outcome: "
-            + ", ".join(f"{o} {x:.2f}" for o, x in first.items())
-        )
-    adaptive = {tolerance: adaptive_steps(tolerance) for tolerance in (1e-3, 1e-6)}
-    for tolerance, values in adaptive.items():
-        print(
-            f"DOPRI5 rtol = atol = {tolerance:g} at the node: "
-            f"mean h |u| / l = {np.mean(values):.3f}"
-        )
-    horizons = measure_horizons(args.quick)
-    write_csv(args.results / "stability_horizon.csv", horizons)
-    worst = max(abs(row["measured"] / row["predicted"] - 1) for row in horizons)
-    print(f"departure times from the reversing node: worst gap to theory {100 * worst:.2f}%")
-    plot_limits(limits, args.images / "stability_limits.png")
-    plot_failures(failures, adaptive, horizons, args.images / "stability_failures.png")
-    print(
-        f"wrote {args.results}/stability_*.csv and {args.images}/stability_*.png "
-        f"in {time.perf_counter() - start:.0f} s"
-    )
-    set_threads(previous_threads)
+    with one_thread():
+        limits = measure_limits(args.quick)
+        write_csv(args.results / "stability_limits.csv", limits)
+        for row in limits:
+            print(
+                f"{row['method']:22s} {row['case']:40s} |u| = {row['speed']:3.1f}: "
+                f"x = {row['measured_x']:.4f} (theory {row['theory_x']:.4f}, "
+                f"{100 * row['relative_gap']:+.2f}%)"
+            )
+        failures = measure_failures(args.quick)
+        write_csv(args.results / "stability_failures.csv", failures)
+        for method in METHODS:
+            first: dict[str, float] = {}
+            for row in failures:
+                if row["method"] == method:
+                    first.setdefault(row["outcome"], row["x"])
+            print(
+                f"{method:22s} first x of each outcome: "
+                + ", ".join(f"{o} {x:.2f}" for o, x in first.items())
+            )
+        adaptive = {tolerance: adaptive_steps(tolerance) for tolerance in (1e-3, 1e-6)}
+        for tolerance, values in adaptive.items():
+            print(
+                f"DOPRI5 rtol = atol = {tolerance:g} at the node: "
+                f"mean h |u| / l = {np.mean(values):.3f}"
+            )
+        horizons = measure_horizons(args.quick)
+        write_csv(args.results / "stability_horizon.csv", horizons)
+        worst = max(abs(row["measured"] / row["predicted"] - 1) for row in horizons)
+        print(f"departure times from the reversing node: worst gap to theory {100 * worst:.2f}%")
+        plot_limits(limits, args.images / "stability_limits.png")
+        plot_failures(failures, adaptive, horizons, args.images / "stability_failures.png")
+    report_written(f"{args.results}/stability_*.csv and {args.images}/stability_*.png", start)
     return 0
 
 

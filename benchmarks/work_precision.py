@@ -36,27 +36,26 @@ method at equal final-state error, divided by ours, per RK4 and DOPRI5 point),
 
 from __future__ import annotations
 
-import argparse
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numba
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from benchmarks._common import (
-    IMAGES,
-    RESULTS,
     SCENES,
     best_of_rounds,
     field_for_scipy,
     machine_note,
+    one_thread,
+    parse_command,
     pyplot,
+    report_written,
+    save_figure,
     scene_params,
     scene_state,
-    set_threads,
     write_csv,
 )
 from dynamics import ConvoyParams, Stepper, energy
@@ -308,40 +307,36 @@ def plot(rows: list[dict[str, Any]], column: str, ylabel: str, title: str, path:
                 ax.set_ylabel(ylabel)
     axes[0, -1].legend(fontsize=7, loc="upper right")
     fig.suptitle(f"{title} (T = {T:g} s, |u0| = 1; {machine_note()}, one thread)", fontsize=10)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(
-        prog="python -m benchmarks.work_precision",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument(
-        "--quick", action="store_true", help="n = 3, forward scene, a third of the points"
-    )
-    parser.add_argument("--results", type=Path, default=RESULTS, help="CSV folder")
-    parser.add_argument("--images", type=Path, default=IMAGES, help="PNG folder")
-    args = parser.parse_args(argv)
-    start = time.perf_counter()
-    previous_threads = numba.get_num_threads()
-    set_threads(1)
-    cases = [(3, "forward")] if args.quick else [(n, scene) for scene in SCENES for n in (1, 3, 8)]
+def measure(quick: bool) -> list[dict[str, Any]]:
+    """Errors and timings of every method and setting, per (n, scene): rows for the CSV."""
+    cases = [(3, "forward")] if quick else [(n, scene) for scene in SCENES for n in (1, 3, 8)]
     rows: list[dict[str, Any]] = []
     runs: list[Callable[[], Any]] = []
     for n, scene in cases:
-        scene_rows, scene_runs, gap = scene_cases(n, scene, args.quick)
+        scene_rows, scene_runs, gap = scene_cases(n, scene, quick)
         rows.extend(scene_rows)
         runs.extend(scene_runs)
         print(
             f"n = {n}, {scene}: reference gap (scipy DOP853 vs DOPRI5, both at 1e-13) = {gap:.1e}"
         )
-    for row, seconds in zip(rows, best_of_rounds(runs, rounds=2 if args.quick else 3), strict=True):
+    for row, seconds in zip(rows, best_of_rounds(runs, rounds=2 if quick else 3), strict=True):
         row["cpu_per_sim_second"] = seconds / T
+    return rows
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_command(
+        "python -m benchmarks.work_precision",
+        __doc__,
+        "n = 3, forward scene, a third of the points",
+        argv,
+    )
+    start = time.perf_counter()
+    with one_thread():
+        rows = measure(args.quick)
     write_csv(args.results / "work_precision.csv", rows)
     ratios = speedups(rows)
     write_csv(args.results / "work_precision_speedup.csv", ratios)
@@ -366,11 +361,9 @@ def main(argv: list[str] | None = None) -> int:
         "Work-precision: energy",
         args.images / "bench_work_precision_energy.png",
     )
-    print(
-        f"wrote {args.results}/work_precision*.csv and {args.images}/bench_work_precision_*.png "
-        f"in {time.perf_counter() - start:.0f} s"
+    report_written(
+        f"{args.results}/work_precision*.csv and {args.images}/bench_work_precision_*.png", start
     )
-    set_threads(previous_threads)
     return 0
 
 

@@ -29,6 +29,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,6 +46,9 @@ from dynamics import (
     singular_margin,
 )
 from dynamics.nonholonomy import nonholonomy_degree
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 FloatArray = NDArray[np.float64]
 
@@ -67,7 +71,7 @@ KIND_STYLE = {
 
 
 # ----------------------------------------------------------------------------------------
-# Generic helpers: wrapping, crossing times, fits
+# Generic helpers: wrapping, crossing times, fits, saving
 # ----------------------------------------------------------------------------------------
 
 
@@ -130,6 +134,15 @@ def fit_circle(x: FloatArray, y: FloatArray) -> tuple[float, float, float]:
     (c0, c1, c2), *_ = np.linalg.lstsq(design, target, rcond=None)
     centre_x, centre_y = 0.5 * c0, 0.5 * c1
     return float(centre_x), float(centre_y), float(math.sqrt(c2 + centre_x**2 + centre_y**2))
+
+
+def save_figure(fig: Figure, path: Path) -> None:
+    """Lay out, write (100 dpi) and close a figure."""
+    import matplotlib.pyplot as plt
+
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
 
 
 # ----------------------------------------------------------------------------------------
@@ -309,9 +322,7 @@ def draw_torus_portrait(data: TorusPortrait, path: Path) -> None:
         fontsize=9,
     )
     ax.legend(loc="upper right", fontsize=8, framealpha=0.9)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # ----------------------------------------------------------------------------------------
@@ -475,9 +486,7 @@ def draw_straight_line(data: StraightLine, path: Path, shown_until: float = 14.0
         f"\nM={p.M:g}, J0={p.J0:g}, m={p.m:g}, J={p.J:g}, l={p.l:g}, E={data.E:g}",
         fontsize=10,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # ----------------------------------------------------------------------------------------
@@ -590,9 +599,7 @@ def draw_level_function(data: LevelFunction, path: Path) -> None:
         fontsize=9,
     )
     ax.legend(fontsize=8, loc="upper left")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # ----------------------------------------------------------------------------------------
@@ -756,9 +763,7 @@ def draw_invariant_circles(data: InvariantCircles, path: Path) -> None:
         "critical energy",
         fontsize=11,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # ----------------------------------------------------------------------------------------
@@ -967,9 +972,7 @@ def draw_cart_paths(data: CartPaths, path: Path) -> None:
         "n = 1, a = 0, ω0 = 1: the cart's path in the plane, reconstructed from the reduced flow",
         fontsize=11,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # ----------------------------------------------------------------------------------------
@@ -1103,9 +1106,7 @@ def draw_singular_set(slices: list[SingularSlice], path: Path) -> None:
         "(the last hitch angle never matters)",
         fontsize=10.5,
     )
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path)
 
 
 # ----------------------------------------------------------------------------------------

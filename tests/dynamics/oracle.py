@@ -334,6 +334,29 @@ def solve_full(
     return sol[:dim], sol[dim:]
 
 
+def _full_motion(
+    params: Any,
+    z: np.ndarray,
+    act: tuple[float, float, float, float, float, float],
+    pose: tuple[float, float, float],
+) -> tuple[OracleParams, np.ndarray, np.ndarray, np.ndarray]:
+    """Embed z at ``pose`` and solve for the full accelerations.
+
+    Args:
+        params: Parameters (any object with the OracleParams fields).
+        z: Reduced state, shape (n+2,).
+        act: ``(xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)`` of the moving mass.
+        pose: ``(x, y, theta)`` used to embed z.
+
+    Returns:
+        ``(p, q, qd, qdd)``: the parameters and the full state and accelerations.
+    """
+    p = OracleParams.from_any(params)
+    q, qd = full_state(p, z, *pose)
+    qdd, _ = solve_full(p, q, qd, *act)
+    return p, q, qd, qdd
+
+
 def _reduce(qdd: np.ndarray, qd: np.ndarray, theta: float) -> np.ndarray:
     """Map full accelerations (and velocities) to the reduced state's derivative."""
     n = qd.size - 3
@@ -373,10 +396,9 @@ def reduced_rhs_planar(
     Returns:
         dz/dt, shape (n+2,).
     """
-    x, y, theta = pose
-    q, qd = full_state(params, z, x, y, theta)
-    qdd, _ = solve_full(params, q, qd, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)
-    return _reduce(qdd, qd, theta)
+    act = (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)
+    _, _, qd, qdd = _full_motion(params, z, act, pose)
+    return _reduce(qdd, qd, pose[2])
 
 
 def reduced_rhs_rail(
@@ -416,14 +438,7 @@ def energy_planar(
 ) -> float:
     """Total kinetic energy (all bodies and the moving mass) of a reduced state.
 
-    Args:
-        params: Parameters (any object with the OracleParams fields).
-        z: Reduced state, shape (n+2,).
-        xi: Body-frame longitudinal position of the moving mass.
-        eta: Body-frame lateral position of the moving mass.
-        xi_dot: Its rate.
-        eta_dot: Its rate.
-        pose: ``(x, y, theta)`` used to embed z.
+    The arguments are those of :func:`reduced_rhs_planar` (the accelerations do not enter).
 
     Returns:
         The kinetic energy.
@@ -462,25 +477,14 @@ def energy_rate_planar(
 ) -> float:
     """Exact dT/dt along the oracle's own motion (symbolic chain rule).
 
-    Args:
-        params: Parameters (any object with the OracleParams fields).
-        z: Reduced state, shape (n+2,).
-        xi: Body-frame longitudinal position of the moving mass.
-        eta: Body-frame lateral position of the moving mass.
-        xi_dot: Its rate.
-        eta_dot: Its rate.
-        xi_ddot: Its second derivative.
-        eta_ddot: Its second derivative.
-        pose: ``(x, y, theta)`` used to embed z.
+    The arguments are those of :func:`reduced_rhs_planar`.
 
     Returns:
         The rate of change of the total kinetic energy.
     """
-    p = OracleParams.from_any(params)
-    q, qd = full_state(p, z, *pose)
-    qdd, _ = solve_full(p, q, qd, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)
-    fm = full_model(p.n_trailers)
-    return float(fm.T_rate(*q, *qd, *qdd, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot, *p.values()))
+    act = (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)
+    p, q, qd, qdd = _full_motion(params, z, act, pose)
+    return float(full_model(p.n_trailers).T_rate(*q, *qd, *qdd, *act, *p.values()))
 
 
 def actuator_power_planar(
@@ -500,29 +504,14 @@ def actuator_power_planar(
     ``a`` the mass's world acceleration; its reaction acts on the cart. The pair
     does work at rate ``F . v_rel``, where ``v_rel`` is the mass's velocity
     relative to the cart's material point it occupies, i.e. ``(xi_dot, eta_dot)``
-    rotated to the world frame.
-
-    Args:
-        params: Parameters (any object with the OracleParams fields).
-        z: Reduced state, shape (n+2,).
-        xi: Body-frame longitudinal position of the moving mass.
-        eta: Body-frame lateral position of the moving mass.
-        xi_dot: Its rate.
-        eta_dot: Its rate.
-        xi_ddot: Its second derivative.
-        eta_ddot: Its second derivative.
-        pose: ``(x, y, theta)`` used to embed z.
+    rotated to the world frame. The arguments are those of :func:`reduced_rhs_planar`.
 
     Returns:
         The actuator's power.
     """
-    p = OracleParams.from_any(params)
-    q, qd = full_state(p, z, *pose)
-    qdd, _ = solve_full(p, q, qd, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)
-    fm = full_model(p.n_trailers)
-    acc = _as_matrix(fm.acc_mu(*q, *qd, *qdd, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot), (2, 1))[
-        :, 0
-    ]
+    act = (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)
+    p, q, qd, qdd = _full_motion(params, z, act, pose)
+    acc = _as_matrix(full_model(p.n_trailers).acc_mu(*q, *qd, *qdd, *act), (2, 1))[:, 0]
     th0 = q[2]
     v_rel = np.array(
         [

@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib.util
 import sys
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import ModuleType
 
@@ -115,6 +115,38 @@ def _pose(rng: np.random.Generator) -> tuple[float, float, float]:
     return (rng.uniform(-5.0, 5.0), rng.uniform(-5.0, 5.0), rng.uniform(-np.pi, np.pi))
 
 
+def _random_cases(
+    stream: int, n: int, mu: float | None = None
+) -> Iterator[tuple[np.random.Generator, int, ConvoyParams, np.ndarray]]:
+    """N_SAMPLES random parameters and states from the generator seeded (SEED, stream, n).
+
+    Yields ``(rng, i, params, z)``: whatever else a test draws from ``rng`` is drawn
+    between two cases, so every test keeps its own reproducible stream.
+    """
+    rng = np.random.default_rng([SEED, stream, n])
+    for i in range(N_SAMPLES):
+        p = _draw_params(rng, n, i, mu)
+        yield rng, i, p, _draw_state(rng, n)
+
+
+def _planar_energy_of(p: ConvoyParams) -> Callable[[np.ndarray, np.ndarray, np.ndarray], float]:
+    """energy_planar as a function of (z, (xi, eta), (xi_dot, eta_dot)), for _fd_energy_rate."""
+
+    def planar_energy(z: np.ndarray, position: np.ndarray, velocity: np.ndarray) -> float:
+        return float(energy_planar(p, z, position[0], position[1], velocity[0], velocity[1]))
+
+    return planar_energy
+
+
+def _rail_energy_of(p: ConvoyParams) -> Callable[[np.ndarray, np.ndarray], float]:
+    """energy as a function of (z, (s, s_dot)), for _fd_energy_rate."""
+
+    def rail_energy(z: np.ndarray, rail: np.ndarray) -> float:
+        return float(energy(p, z, rail[0], rail[1]))
+
+    return rail_energy
+
+
 def _special_states(n: int) -> list[np.ndarray]:
     """States where some cos(alpha_k) or sin(alpha_k) vanishes exactly (or nearly).
 
@@ -216,10 +248,7 @@ def test_oracle_invariance_constraints_and_energy(n: int) -> None:
 @pytest.mark.parametrize("n", NS)
 def test_rhs_rail_matches_oracle(n: int) -> None:
     """rhs (lateral rail, xi = b, eta = s) equals the oracle at random states/params."""
-    rng = np.random.default_rng([SEED, 2, n])
-    for i in range(N_SAMPLES):
-        p = _draw_params(rng, n, i)
-        z = _draw_state(rng, n)
+    for rng, i, p, z in _random_cases(2, n):
         s, s_dot, s_ddot = _draw_rail(rng)
         got = rhs(p, z, s, s_dot, s_ddot)
         want = oracle.reduced_rhs_rail(p, z, p.b, s, s_dot, s_ddot, pose=_pose(rng))
@@ -231,10 +260,7 @@ def test_rhs_rail_matches_oracle(n: int) -> None:
 @pytest.mark.parametrize("n", NS)
 def test_rhs_planar_matches_oracle(n: int) -> None:
     """rhs_planar equals the oracle at random states, params and mass motions."""
-    rng = np.random.default_rng([SEED, 3, n])
-    for i in range(N_SAMPLES):
-        p = _draw_params(rng, n, i)
-        z = _draw_state(rng, n)
+    for rng, i, p, z in _random_cases(3, n):
         act = _draw_planar(rng)
         got = rhs_planar(p, z, *act)
         want = oracle.reduced_rhs_planar(p, z, *act, pose=_pose(rng))
@@ -246,10 +272,7 @@ def test_rhs_planar_matches_oracle(n: int) -> None:
 @pytest.mark.parametrize("n", NS)
 def test_rhs_mu_zero_matches_oracle(n: int) -> None:
     """mu = 0 (no actuator): both entry points equal the oracle without the mass."""
-    rng = np.random.default_rng([SEED, 4, n])
-    for i in range(N_SAMPLES):
-        p = _draw_params(rng, n, i, mu=0.0)
-        z = _draw_state(rng, n)
+    for rng, i, p, z in _random_cases(4, n, mu=0.0):
         want = oracle.reduced_rhs_rail(p, z, 0.0, pose=_pose(rng))
         s, s_dot, s_ddot = _draw_rail(rng)
         act = _draw_planar(rng)
@@ -275,10 +298,7 @@ def test_rhs_special_configurations(n: int) -> None:
 @pytest.mark.parametrize("n", NS)
 def test_rail_is_planar_with_xi_b(n: int) -> None:
     """rhs(p, z, s, s_dot, s_ddot) == rhs_planar(p, z, b, s, 0, s_dot, 0, s_ddot)."""
-    rng = np.random.default_rng([SEED, 6, n])
-    for i in range(N_SAMPLES):
-        p = _draw_params(rng, n, i)
-        z = _draw_state(rng, n)
+    for rng, i, p, z in _random_cases(6, n):
         s, s_dot, s_ddot = _draw_rail(rng)
         got = rhs(p, z, s, s_dot, s_ddot)
         want = rhs_planar(p, z, p.b, s, 0.0, s_dot, 0.0, s_ddot)
@@ -333,10 +353,7 @@ def test_batched_calls_match_single_calls(n: int) -> None:
 @pytest.mark.parametrize("n", NS)
 def test_energy_matches_oracle(n: int) -> None:
     """energy / energy_planar equal the oracle's total kinetic energy."""
-    rng = np.random.default_rng([SEED, 8, n])
-    for i in range(N_SAMPLES):
-        p = _draw_params(rng, n, i)
-        z = _draw_state(rng, n)
+    for rng, i, p, z in _random_cases(8, n):
         s, s_dot, _ = _draw_rail(rng)
         got = energy(p, z, s, s_dot)
         want = oracle.energy_rail(p, z, p.b, s, s_dot)
@@ -364,20 +381,13 @@ def _section10_power_planar(
 @pytest.mark.parametrize("n", NS)
 def test_energy_balance_planar(n: int) -> None:
     """d/dt energy_planar along rhs_planar = mu (a_x xi_dot + a_y eta_dot) = oracle's power."""
-    rng = np.random.default_rng([SEED, 9, n])
-    for i in range(N_SAMPLES):
-        p = _draw_params(rng, n, i)
-        z = _draw_state(rng, n)
+    for rng, i, p, z in _random_cases(9, n):
         act = _draw_planar(rng)
         zdot = rhs_planar(p, z, *act)
         pos = np.array(act[:2])
         vel = np.array(act[2:4])
         acc = np.array(act[4:])
-
-        def e_of(zz: np.ndarray, pp: np.ndarray, vv: np.ndarray) -> float:
-            return float(energy_planar(p, zz, pp[0], pp[1], vv[0], vv[1]))  # noqa: B023
-
-        rate = _fd_energy_rate(e_of, [(z, zdot), (pos, vel), (vel, acc)])
+        rate = _fd_energy_rate(_planar_energy_of(p), [(z, zdot), (pos, vel), (vel, acc)])
         power = _section10_power_planar(p, z, zdot, act)
         power_oracle = oracle.actuator_power_planar(p, z, *act)
         e = float(energy_planar(p, z, *act[:4]))
@@ -392,17 +402,11 @@ def test_energy_balance_rail(n: int) -> None:
 
     F_rail = mu (b omega_dot + s_ddot + omega u - omega^2 s), physics.md section 10.
     """
-    rng = np.random.default_rng([SEED, 10, n])
-    for i in range(N_SAMPLES):
-        p = _draw_params(rng, n, i)
-        z = _draw_state(rng, n)
+    for rng, i, p, z in _random_cases(10, n):
         s, s_dot, s_ddot = _draw_rail(rng)
         zdot = rhs(p, z, s, s_dot, s_ddot)
-
-        def e_of(zz: np.ndarray, ss: np.ndarray) -> float:
-            return float(energy(p, zz, ss[0], ss[1]))  # noqa: B023
-
-        rate = _fd_energy_rate(e_of, [(z, zdot), (np.array([s, s_dot]), np.array([s_dot, s_ddot]))])
+        rail = (np.array([s, s_dot]), np.array([s_dot, s_ddot]))
+        rate = _fd_energy_rate(_rail_energy_of(p), [(z, zdot), rail])
         u, w = z[0], z[1]
         f_rail = p.mu * (p.b * zdot[1] + s_ddot + w * u - w**2 * s)
         power = float(f_rail * s_dot)
@@ -417,29 +421,19 @@ def test_energy_balance_rail(n: int) -> None:
 @pytest.mark.parametrize("n", NS)
 def test_energy_conserved_when_mass_fixed_in_cart(n: int) -> None:
     """No relative velocity of the mass (any relative acceleration): dE/dt = 0."""
-    rng = np.random.default_rng([SEED, 11, n])
-    for i in range(N_SAMPLES):
-        p = _draw_params(rng, n, i)
-        z = _draw_state(rng, n)
+    for rng, i, p, z in _random_cases(11, n):
         s, _, s_ddot = _draw_rail(rng)
         zdot = rhs(p, z, s, 0.0, s_ddot)
-
-        def e_rail(zz: np.ndarray, ss: np.ndarray) -> float:
-            return float(energy(p, zz, ss[0], ss[1]))  # noqa: B023
-
-        rate = _fd_energy_rate(e_rail, [(z, zdot), (np.array([s, 0.0]), np.array([0.0, s_ddot]))])
+        rail = (np.array([s, 0.0]), np.array([0.0, s_ddot]))
+        rate = _fd_energy_rate(_rail_energy_of(p), [(z, zdot), rail])
         e = float(energy(p, z, s, 0.0))
         assert abs(rate) < 1e-8 * e, (n, i, p, z, s, s_ddot, rate)
 
         xi, eta, _, _, xi_dd, eta_dd = _draw_planar(rng)
         act = (xi, eta, 0.0, 0.0, xi_dd, eta_dd)
         zdot = rhs_planar(p, z, *act)
-
-        def e_pl(zz: np.ndarray, pp: np.ndarray, vv: np.ndarray) -> float:
-            return float(energy_planar(p, zz, pp[0], pp[1], vv[0], vv[1]))  # noqa: B023
-
         rate = _fd_energy_rate(
-            e_pl,
+            _planar_energy_of(p),
             [
                 (z, zdot),
                 (np.array([xi, eta]), np.zeros(2)),
