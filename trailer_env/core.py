@@ -107,9 +107,7 @@ class ConvoyCore:
         self.act = np.zeros((size, 6))
         self.act[:, 0] = self.params.b
         fidelity = settings.fidelity
-        self.substeps = np.full(
-            size, 1 if fidelity.auto else int(fidelity.substeps), dtype=np.int64
-        )
+        self.substeps = np.full(size, fidelity.fixed_substeps, dtype=np.int64)
         self.obs = np.zeros((size, self.obs_dim), dtype=np.float32)
         self.singular_margin = np.ones(size)
         self.cost = np.zeros(size)
@@ -131,8 +129,9 @@ class ConvoyCore:
         self._s_max = self.params.s_max
         self._prepare_args = (
             self._mode, self._b, self._s_max, settings.rail_accel_max, settings.dt,
-            settings.servo_frequency, self.params.l, fidelity.auto, fidelity.tolerance,
-            fidelity.max_substeps, self.substeps, self._z_backup, self._act_backup,
+            settings.servo_frequency, fidelity.auto,
+            fidelity.auto_settings(self.params, settings.dt, self.planar), self.substeps,
+            self._z_backup, self._act_backup,
         )  # fmt: skip
         observe_settings = np.array(
             [
@@ -143,6 +142,7 @@ class ConvoyCore:
                 settings.fold_angle,
             ]
         )
+        self._observe_all = observe_parallel if size >= PARALLEL_MIN_ROWS else observe
         self._observe_args = (
             n, self.planar, observe_settings, self._packed, self.obs, self.singular_margin,
             self.cost, self.jackknifed, self.energy,
@@ -205,7 +205,8 @@ class ConvoyCore:
 
         The energy's rate of change is the actuator's power (physics.md section 10),
         so the energy change is the integral of that power; the difference is the
-        integrator's error, about 1e-7 relative per step at the default fidelity.
+        integrator's error, bounded per step by the fidelity's tolerance (default 1e-4,
+        typically ~100 times smaller; see :mod:`trailer_env.fidelity`).
         """
         return self.energy - self.energy0
 
@@ -243,12 +244,16 @@ class ConvoyCore:
 
         Call it after changing ``z`` or ``act`` by hand.
         """
-        every = rows is None or rows.size == self.batch_size
-        indices = self._all_rows if every else np.asarray(rows, dtype=np.int64)
+        if rows is None or rows.size == self.batch_size:
+            if self._observe_all(self.z, self.act, self._all_rows, *self._observe_args):
+                raise NonFiniteStateError("the state contains non-finite values (NaN or inf)")
+            self._update_task(slice(None))
+            return
+        indices = np.asarray(rows, dtype=np.int64)
         kernel = observe_parallel if indices.size >= PARALLEL_MIN_ROWS else observe
         if kernel(self.z, self.act, indices, *self._observe_args):
             raise NonFiniteStateError("the state contains non-finite values (NaN or inf)")
-        self._update_task(slice(None) if every else indices)
+        self._update_task(indices)
 
     def step(self, action: np.ndarray) -> None:
         """Advance every environment by ``dt`` under ``action`` (B, action_dim), float64.

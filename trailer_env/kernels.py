@@ -38,16 +38,17 @@ def prepare_step(
     accel_max: float,
     dt: float,
     frequency: float,
-    l: float,
     auto: bool,
-    tolerance: float,
-    max_substeps: int,
+    auto_settings: np.ndarray,
     substeps: np.ndarray,
     z_backup: np.ndarray,
     act_backup: np.ndarray,
 ) -> int:
     """Actions -> guarded accelerations, substep counts, and a backup of the state.
 
+    With ``auto``, the substeps of every row follow the fidelity's auto rule
+    (:func:`trailer_env.fidelity.auto_substeps`, settings from
+    :meth:`~trailer_env.fidelity.Fidelity.auto_settings`) given the new accelerations.
     Returns -1, or the first row with a non-finite action (then nothing is changed
     beyond the accelerations of the rows before it).
     """
@@ -55,7 +56,7 @@ def prepare_step(
     if bad >= 0:
         return bad
     if auto:
-        auto_substeps(z, dt, l, tolerance, max_substeps, substeps)
+        auto_substeps(z, act, auto_settings, substeps)
     z_backup[:, :] = z
     act_backup[:, :] = act
     return -1

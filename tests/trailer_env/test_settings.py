@@ -17,7 +17,7 @@ def test_defaults_override_the_actuator_only() -> None:
     settings = settings_from_kwargs()
     assert settings.params == ConvoyParams(n_trailers=2)
     assert settings.dt == 0.05
-    assert settings.fidelity == Fidelity(integrator="rk4", substeps="auto", tolerance=0.1)
+    assert settings.fidelity == Fidelity(integrator="rk4", substeps="auto", tolerance=1e-4)
     assert settings.action_mode == "servo"
     assert settings.fold_angle == pytest.approx(math.pi / 2)
     assert settings.rail_speed_max == pytest.approx(2.0 * math.sqrt(4.0 * 0.5))
