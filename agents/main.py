@@ -1,75 +1,111 @@
-"""The main job: simulate the default convoy and chart its path and energy.
+"""The main job: the committed agent against the baselines on Reverse-v0 with two trailers.
 
-Run with ``python -m agents.main [--out DIR] [--n-trailers N] [--seconds T]``.
+Run with ``python -m agents.main [--out DIR] [--episodes K] [--train-steps N] [--retrain]``.
+
+1. Load the committed agents for ``trailer_env/Reverse-v0``, n = 2
+   (``agents/models/*.zip`` whose card names that scene), or, when there are none
+   (or with ``--retrain``), train PPO on a short budget into ``<out>/run``.
+2. Evaluate them and the baselines (zero, random, LQR) on K seeded episodes
+   (seeds 1000 .. 1000 + K - 1) in one native batch per policy.
+3. Print the comparison table and write ``results.json``, ``results.md``,
+   ``margins.png``, ``frames.png`` and ``curves.png`` to ``--out`` (default ``out``).
+
+It takes well under a minute with the committed models, a few minutes when it trains.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import time
 from pathlib import Path
 
-import numpy as np
+from agents.envs import env_settings
+from agents.evaluate import (
+    TEST_SEED,
+    committed_models,
+    default_baselines,
+    evaluate_policies,
+    markdown_table,
+    results_document,
+    write_pictures,
+)
+from agents.policies import limit_torch_threads
 
-from dynamics import ConvoyParams, body_poses, energy, simulate
+ENV_ID = "trailer_env/Reverse-v0"
+N_TRAILERS = 2
+#: Budget of the fallback training (steps): about a minute of PPO on two cores.
+SHORT_BUDGET = 1_000_000
 
 
-def simulate_and_plot(n_trailers: int, seconds: float, out: Path) -> Path:
-    """Let the default convoy coast with an oscillating mass; write a chart of path and energy."""
-    import matplotlib
+def train_short(out: Path, budget: int, seed: int = 0) -> Path:
+    """Train PPO on Reverse-v0 (n = 2) for ``budget`` steps; returns the exported model."""
+    from agents.train import export_model, train
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    params = ConvoyParams(n_trailers=n_trailers)
-    z0 = np.zeros(params.n_trailers + 5)
-    z0[0], z0[1] = 1.0, 0.3
-    z0[2 : 2 + n_trailers] = 0.4 * (-1.0) ** np.arange(n_trailers)
-    dt = 0.02
-    coast = simulate(params, z0, dt, int(seconds / dt), substeps=2)
-    n = params.n_trailers
-    xs, ys, _ = body_poses(
-        params.l, coast.z[:, n + 2], coast.z[:, n + 3], coast.z[:, n + 4], coast.z[:, 2 : 2 + n]
+    run_dir = out / "run"
+    for stale in ("evaluations.csv", "best_model.zip"):
+        (run_dir / stale).unlink(missing_ok=True)
+    print(f"no committed agent: training PPO for {budget} steps into {run_dir} ...", flush=True)
+    train(
+        ENV_ID,
+        "ppo",
+        N_TRAILERS,
+        budget,
+        seed,
+        run_dir,
+        eval_freq=max(budget // 10, 1),
+        progress_bar=False,
+        command=["python", "-m", "agents.main", "--train-steps", str(budget)],
     )
-    fig, (ax_path, ax_energy) = plt.subplots(1, 2, figsize=(11, 4.5))
-    for body in range(n + 1):
-        ax_path.plot(
-            xs[:, body], ys[:, body], lw=1.2, label="cart" if body == 0 else f"trailer {body}"
-        )
-    ax_path.set_aspect("equal")
-    ax_path.set_xlabel("x [m]")
-    ax_path.set_ylabel("y [m]")
-    ax_path.set_title(f"Coasting convoy, n = {n} (a = {params.a} > 0: it straightens)")
-    ax_path.legend(fontsize=8)
-    e = energy(params, coast.z[:, : n + 2], coast.s, coast.s_dot)
-    ax_energy.plot(coast.t, (e - e[0]) / e[0])
-    ax_energy.set_xlabel("t [s]")
-    ax_energy.set_ylabel("(E - E0) / E0")
-    ax_energy.set_title("Relative energy error (RK4, h = 0.01 s)")
-    fig.tight_layout()
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "convoy_path_energy.png"
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    print(
-        f"simulated {seconds:g} s of n = {n}: "
-        f"max |dE/E0| = {np.max(np.abs(e - e[0]) / e[0]):.2e}; wrote {path}"
-    )
-    return path
+    return export_model(run_dir, out / f"ppo_reverse_n{N_TRAILERS}.zip")
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m agents.main", description=__doc__)
-    parser.add_argument(
-        "--out", type=Path, default=Path("out"), help="output folder (default: out)"
+    """Entry point; returns the exit status."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.main", description=(__doc__ or "").split("\n")[0]
     )
-    parser.add_argument("--n-trailers", type=int, default=2, help="number of trailers (default: 2)")
-    parser.add_argument("--seconds", type=float, default=20.0, help="simulated time (default: 20)")
+    parser.add_argument("--out", type=Path, default=Path("out"), help="output folder (default out)")
+    parser.add_argument(
+        "--episodes", type=int, default=100, help="evaluation episodes (default 100)"
+    )
+    parser.add_argument(
+        "--train-steps",
+        type=int,
+        default=SHORT_BUDGET,
+        help=f"budget when training (default {SHORT_BUDGET})",
+    )
+    parser.add_argument(
+        "--retrain", action="store_true", help="train a fresh agent even if committed ones exist"
+    )
     args = parser.parse_args(argv)
-    if args.n_trailers < 0:
-        parser.error(f"--n-trailers must be >= 0, got {args.n_trailers}")
-    if not args.seconds > 0:
-        parser.error(f"--seconds must be > 0, got {args.seconds}")
-    simulate_and_plot(args.n_trailers, args.seconds, args.out)
+    if args.episodes < 1:
+        parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
+    if args.train_steps < 1:
+        parser.error(f"argument --train-steps: must be >= 1, got {args.train_steps}")
+    limit_torch_threads()
+    started = time.perf_counter()
+    models = [] if args.retrain else committed_models(ENV_ID, N_TRAILERS)
+    if not models:
+        models = [train_short(args.out, args.train_steps)]
+    env_kwargs = {"n_trailers": N_TRAILERS}
+    env_settings(env_kwargs)
+    specs = [*default_baselines(ENV_ID), *(str(path) for path in models)]
+    evaluations = evaluate_policies(specs, ENV_ID, env_kwargs, args.episodes, TEST_SEED)
+    args.out.mkdir(parents=True, exist_ok=True)
+    document = results_document(evaluations, ENV_ID, env_kwargs, args.episodes, TEST_SEED)
+    (args.out / "results.json").write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
+    table = markdown_table(evaluations)
+    (args.out / "results.md").write_text(table)
+    print(
+        f"\n{ENV_ID}, n = {N_TRAILERS}: {args.episodes} episodes, seeds "
+        f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "
+        "(margin < 0.3) and never folded\n"
+    )
+    print(table)
+    for path in write_pictures(evaluations, ENV_ID, env_kwargs, args.out, TEST_SEED):
+        print(f"wrote {path}")
+    print(f"done in {time.perf_counter() - started:.0f} s; results in {args.out}")
     return 0
 
 

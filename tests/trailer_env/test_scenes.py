@@ -180,10 +180,12 @@ def test_reverse_reward_and_termination_by_hand() -> None:
     _, reward, terminated, _, info = _step(env)
     assert terminated and info["jackknifed"] and not info["is_success"]
     assert reward < -9.0
-    # Moving forwards costs 0.5.
+    # Stopping or driving forwards escapes the task: a failure, like a fold.
+    env.reset(seed=0)
     env.unwrapped.set_state([1.0, 0.0, 0.0, 0.0])
-    _, reward, _, _, _ = _step(env)
-    assert reward == pytest.approx(0.5, abs=1e-4)
+    _, reward, terminated, _, info = _step(env)
+    assert terminated and not info["is_success"] and not info["jackknifed"]
+    assert reward == pytest.approx(1.0 - 10.0, abs=1e-4)
 
 
 def test_coast_success_and_shaping_by_hand() -> None:

@@ -15,7 +15,6 @@ SPEED_RANGE = (0.8, 1.2)
 ANGLE_NOISE = 0.05
 OMEGA_NOISE = 0.05
 TURN_WEIGHT = 0.1
-FORWARD_PENALTY = 0.5
 
 
 @njit(cache=True)
@@ -23,12 +22,12 @@ def reverse_reward(
     z: np.ndarray,
     n: int,
     cost: np.ndarray,
-    jackknifed: np.ndarray,
+    failed: np.ndarray,
     band_penalty: float,
     fold_penalty: float,
     out: np.ndarray,
 ) -> None:
-    """Straightness minus turning, band, forward-motion and fold penalties (see ReverseEnv)."""
+    """Straightness minus turning and band penalties, the fold penalty on failure (ReverseEnv)."""
     for i in range(z.shape[0]):
         straightness = 1.0
         if n > 0:
@@ -38,9 +37,7 @@ def reverse_reward(
             straightness = total / n
         omega = z[i, 1]
         reward = straightness - TURN_WEIGHT * min(omega * omega, 1.0) - band_penalty * cost[i]
-        if z[i, 0] > 0.0:
-            reward -= FORWARD_PENALTY
-        if jackknifed[i]:
+        if failed[i]:
             reward -= fold_penalty
         out[i] = reward
 
@@ -56,18 +53,23 @@ class ReverseCore(ConvoyCore):
         z[1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
         z[2 : 2 + self.n] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE, self.n)
 
+    def _stopped_reversing(self) -> np.ndarray:
+        # The mass can brake the convoy and push it forwards, where it is stable: that
+        # escapes the task instead of solving it, so it ends the episode as a failure.
+        return self.z[:, 0] >= 0.0
+
     def _is_success(self) -> np.ndarray:
-        return ~self.jackknifed
+        return ~self.jackknifed & ~self._stopped_reversing()
 
     def _is_terminated(self) -> np.ndarray:
-        return self.jackknifed
+        return self.jackknifed | self._stopped_reversing()
 
     def _reward(self) -> np.ndarray:
         reverse_reward(
             self.z,
             self.n,
             self.cost,
-            self.jackknifed,
+            self._is_terminated(),
             self.band_penalty,
             self.fold_penalty,
             self.reward,
@@ -129,9 +131,9 @@ class ReverseEnv(ConvoyEnv):
     ## Rewards
 
     Each step: `mean_k cos(alpha_k)` (1 when n = 0) `- 0.1 min(omega^2, 1)`
-    `- 0.5 cost` (cost = 1 inside the singular band) `- 0.5` if the cart moves forward
-    (u > 0: it stopped reversing) `- 10` on the step that jackknifes. A straight convoy
-    earns about 1 per step, 400 over a full episode.
+    `- 0.5 cost` (cost = 1 inside the singular band) `- 10` on the step that fails
+    (jackknife, or the convoy stops reversing). A straight convoy earns about 1 per
+    step, 400 over a full episode.
 
     ## Starting State
 
@@ -140,8 +142,10 @@ class ReverseEnv(ConvoyEnv):
 
     ## Episode End
 
-    Terminated when the convoy jackknifes: any `|alpha_k| >= fold_angle` (default pi/2,
-    physics.md section 9). Truncated after 400 steps (20 s at the default `dt = 0.05`),
+    Terminated, as a failure, when the convoy jackknifes (any `|alpha_k| >= fold_angle`,
+    default pi/2, physics.md section 9) or stops reversing (`u >= 0`: the mass can brake
+    the convoy and push it forwards, where it is stable, which escapes the task rather
+    than solving it). Truncated after 400 steps (20 s at the default `dt = 0.05`),
     by `gym.make`'s TimeLimit or by the vector env.
 
     ## Information
@@ -149,7 +153,7 @@ class ReverseEnv(ConvoyEnv):
     `cost` (1.0 inside the singular band `singular_margin < singular_band`, default
     0.3, else 0.0, the safety-gymnasium convention), `singular_margin`
     (`min_(k<n) |cos alpha_k|`), `energy` (J, the mass included), `actuator_work`
-    (J since the reset), `jackknifed`, `is_success` (not jackknifed).
+    (J since the reset), `jackknifed`, `is_success` (still reversing, not jackknifed).
 
     ## Arguments
 
@@ -160,8 +164,8 @@ class ReverseEnv(ConvoyEnv):
                    fidelity="rk4", action_mode="servo", render_mode="rgb_array")
     ```
 
-    `n_trailers` (default 2), any `dynamics.ConvoyParams` field (the environments use
-    `mu = 0.5, b = 1.0, s_max = 0.5` by default, see `trailer_env.settings`), `dt`,
+    `n_trailers` (default 2), any `dynamics.ConvoyParams` field (its defaults:
+    `mu = 0.5, b = 1.0, s_max = 0.5` for the actuator), `dt`,
     `fidelity` (`trailer_env.fidelity.Fidelity`, a dict, an integrator name or a substep
     count), `action_mode`, `rail_accel_max` (4 m/s^2), `servo_bandwidth` (5 rad/s),
     `singular_band` (0.3), `fold_angle` (pi/2), `render_mode`.

@@ -1,0 +1,68 @@
+"""Environment construction for training and evaluation: id checks, native batches, SB3 adapter."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+
+import trailer_env
+from trailer_env.settings import EnvSettings, settings_from_kwargs
+from trailer_env.vector import ConvoyVectorEnv
+
+#: The registered ids, e.g. "trailer_env/Reverse-v0".
+ENV_IDS: tuple[str, ...] = tuple(f"trailer_env/{scene}-v0" for scene in trailer_env.SCENES)
+
+
+def check_env_id(env_id: str) -> str:
+    """Return ``env_id`` if it names a trailer_env scene.
+
+    Raises:
+        ValueError: Naming the valid ids otherwise.
+    """
+    if env_id not in ENV_IDS:
+        raise ValueError(f"unknown environment {env_id!r}; choose from {list(ENV_IDS)}")
+    return env_id
+
+
+def scene_of(env_id: str) -> str:
+    """The scene's short name, e.g. "reverse" for "trailer_env/Reverse-v0"."""
+    return check_env_id(env_id).split("/")[1].split("-")[0].lower()
+
+
+def env_settings(env_kwargs: dict[str, Any] | None = None) -> EnvSettings:
+    """The settings that ``gym.make(id, **env_kwargs)`` would build (validated)."""
+    return settings_from_kwargs(**(env_kwargs or {}))
+
+
+def make_vector_env(
+    env_id: str, num_envs: int, env_kwargs: dict[str, Any] | None = None
+) -> ConvoyVectorEnv:
+    """The native batched env (one kernel call per step for all ``num_envs``)."""
+    envs = gym.make_vec(
+        check_env_id(env_id),
+        num_envs=num_envs,
+        vectorization_mode="vector_entry_point",
+        **(env_kwargs or {}),
+    )
+    native = envs.unwrapped
+    if not isinstance(native, ConvoyVectorEnv):  # pragma: no cover - registration guarantees it
+        raise TypeError(f"{env_id} did not build a ConvoyVectorEnv")
+    return native
+
+
+def make_sb3_env(
+    env_id: str, num_envs: int, env_kwargs: dict[str, Any] | None = None, seed: int | None = None
+) -> Any:
+    """The SB3 ``VecEnv`` over the native batch, wrapped in ``VecMonitor`` for episode stats.
+
+    Environment ``i`` is seeded with ``seed + i`` at the first reset.
+    """
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from trailer_env.sb3 import ConvoySB3VecEnv
+
+    venv = ConvoySB3VecEnv(check_env_id(env_id), num_envs=num_envs, **(env_kwargs or {}))
+    if seed is not None:
+        venv.seed(seed)
+    return VecMonitor(venv, info_keywords=("is_success",))

@@ -1,0 +1,295 @@
+"""Evaluate policies (baselines by name, saved models by path) over K seeded episodes.
+
+Usage::
+
+    python -m agents.evaluate --env trailer_env/Reverse-v0 --n-trailers 2 \\
+        --policy zero random lqr agents/models/ppo_reverse_n2.zip --episodes 100 --out out/eval
+
+Without ``--policy`` it evaluates the scene's baselines and every committed model
+(``agents/models/*.zip``) trained for that environment and number of trailers.
+All episodes of one policy run in one native batch; episode ``i`` is seeded
+``seed + i`` (default seed 1000), so the same command gives the same JSON.
+
+Writes to ``--out``: ``results.json`` (every metric, per policy), ``results.md``
+(a Markdown table, also printed), and unless ``--no-plots``: ``margins.png``
+(singular-margin histograms), ``frames.png`` (a rendered episode per policy) and
+``curves.png`` (learning curves of the models that have them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from agents.baselines import BASELINES
+from agents.envs import ENV_IDS, check_env_id, env_settings
+from agents.metrics import EpisodeResults, rollout, summarize
+from agents.policies import (
+    is_model_spec,
+    limit_torch_threads,
+    load_policy,
+    policy_label,
+    read_card,
+)
+
+MODELS_DIR = Path(__file__).resolve().parent / "models"
+#: First seed of the test episodes (training validation uses 50000 and up).
+TEST_SEED = 1000
+
+
+@dataclass
+class Evaluation:
+    """One policy's evaluation: its label, spec, model card (if any) and results."""
+
+    label: str
+    spec: str
+    card: dict[str, Any]
+    results: EpisodeResults
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """Aggregate metrics (:func:`agents.metrics.summarize`)."""
+        return summarize(self.results)
+
+
+def curve_metric(env_id: str) -> str:
+    """The headline rate of a scene: safety for Reverse-v0, task success elsewhere."""
+    return "safe_rate" if "Reverse" in env_id else "success_rate"
+
+
+def default_baselines(env_id: str) -> list[str]:
+    """The baselines that fit ``env_id`` (heading-p only for Heading-v0)."""
+    names = ["zero", "random", "lqr"]
+    return [*names, "heading-p"] if "Heading" in env_id else names
+
+
+def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[Path]:
+    """Models under ``directory`` whose card names ``env_id`` and ``n_trailers``."""
+    found = []
+    for path in sorted(directory.glob("*.zip")):
+        card = read_card(path)
+        if (
+            card.get("env_id") == env_id
+            and card.get("env_kwargs", {}).get("n_trailers") == n_trailers
+        ):
+            found.append(path)
+    return found
+
+
+def evaluate_policies(
+    specs: Sequence[str],
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    episodes: int,
+    seed: int = TEST_SEED,
+) -> list[Evaluation]:
+    """Evaluate each policy spec on the same ``episodes`` seeded episodes."""
+    evaluations = []
+    for spec in specs:
+        policy = load_policy(spec, env_id, env_kwargs, seed=seed)
+        results = rollout(policy, env_id, episodes, seed, env_kwargs)
+        card = read_card(Path(spec)) if is_model_spec(spec) else {}
+        evaluations.append(Evaluation(policy_label(spec), spec, card, results))
+    return evaluations
+
+
+def training_note(card: dict[str, Any]) -> str:
+    """ "PPO, seed 0, 2.0M steps, 95 s" from a model card ("-" for baselines)."""
+    if not card:
+        return "-"
+
+    def steps_text(steps: float) -> str:
+        return f"{steps / 1e6:.3g}M" if steps >= 100_000 else f"{steps / 1e3:.3g}k"
+
+    steps = card.get("timesteps", card.get("budget", 0))
+    selected = card.get("selected_at_timesteps")
+    chosen = f" (kept {steps_text(selected)})" if selected not in (None, steps) else ""
+    wall = card.get("wall_time_s")
+    wall_text = f", {wall:.0f} s" if isinstance(wall, (int, float)) else ""
+    algo = str(card.get("algo", "?")).upper()
+    return f"{algo}, seed {card.get('seed')}, {steps_text(steps)} steps{chosen}{wall_text}"
+
+
+def markdown_table(evaluations: Sequence[Evaluation]) -> str:
+    """The comparison table in Markdown (rates in %, margins in [0, 1])."""
+    header = (
+        "| policy | training | return (mean ± sd) | safe episodes [95% CI] | jackknife "
+        "| time in band | min margin (mean / worst) | success | time moving forward |\n"
+        "|---|---|---|---|---|---|---|---|---|\n"
+    )
+    lines = []
+    for evaluation in evaluations:
+        s = evaluation.summary
+        low, high = s["safe_rate_ci"]
+        lines.append(
+            f"| {evaluation.label} | {training_note(evaluation.card)} "
+            f"| {s['mean_return']:.1f} ± {s['std_return']:.1f} "
+            f"| {100 * s['safe_rate']:.0f}% [{100 * low:.0f}, {100 * high:.0f}] "
+            f"| {100 * s['jackknife_rate']:.0f}% | {100 * s['band_time_fraction']:.1f}% "
+            f"| {s['min_margin_mean']:.2f} / {s['min_margin_worst']:.2f} "
+            f"| {100 * s['success_rate']:.0f}% | {100 * s['forward_time_fraction']:.0f}% |"
+        )
+    return header + "\n".join(lines) + "\n"
+
+
+def results_document(
+    evaluations: Sequence[Evaluation],
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    episodes: int,
+    seed: int,
+) -> dict[str, Any]:
+    """Everything an evaluation found, as JSON-ready data (no timings: deterministic)."""
+    return {
+        "env_id": env_id,
+        "env_kwargs": env_kwargs,
+        "episodes": episodes,
+        "seeds": [seed, seed + episodes - 1],
+        "safe": "never in the singular band and never folded",
+        "policies": [
+            {
+                "name": evaluation.label,
+                "kind": "model" if is_model_spec(evaluation.spec) else "baseline",
+                "training": {
+                    key: evaluation.card[key]
+                    for key in ("algo", "seed", "budget", "timesteps", "wall_time_s", "n_envs")
+                    if key in evaluation.card
+                },
+                **evaluation.summary,
+            }
+            for evaluation in evaluations
+        ],
+    }
+
+
+def write_pictures(
+    evaluations: Sequence[Evaluation],
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    out: Path,
+    seed: int,
+    prefix: str = "",
+) -> list[Path]:
+    """Margin histograms, rendered frames and (if any) learning curves under ``out``."""
+    from agents import plots
+
+    settings = env_settings(env_kwargs)
+    n = settings.n_trailers
+    title = f"{env_id}, n = {n}, {evaluations[0].results.returns.size} episodes"
+    written = [
+        plots.plot_margin_histograms(
+            {e.label: e.results for e in evaluations},
+            settings.singular_band,
+            out / f"{prefix}margins.png",
+            title,
+        )
+    ]
+    rows = {}
+    for evaluation in evaluations:
+        if evaluation.label == "random":
+            continue
+        policy = load_policy(evaluation.spec, env_id, env_kwargs, seed=seed)
+        rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
+    if rows:
+        written.append(plots.plot_frames(rows, out / f"{prefix}frames.png"))
+    curves = {
+        e.label: Path(e.spec).with_suffix(".csv")
+        for e in evaluations
+        if is_model_spec(e.spec) and Path(e.spec).with_suffix(".csv").is_file()
+    }
+    if curves:
+        metric = curve_metric(env_id)
+        baselines = {
+            e.label: e.summary[metric]
+            for e in evaluations
+            if e.label in ("zero", "lqr", "heading-p")
+        }
+        title = f"{env_id}, n = {n}: validation episodes during training"
+        written.append(
+            plots.plot_learning_curves(
+                curves, out / f"{prefix}curves.png", baselines, title, metric
+            )
+        )
+    return written
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.evaluate",
+        description="Evaluate baselines and saved agents over seeded episodes.",
+    )
+    parser.add_argument(
+        "--env",
+        default="trailer_env/Reverse-v0",
+        choices=ENV_IDS,
+        metavar="ENV_ID",
+        help=f"one of {', '.join(ENV_IDS)}",
+    )
+    parser.add_argument("--n-trailers", type=int, default=2, help="number of trailers (default 2)")
+    parser.add_argument(
+        "--policy",
+        nargs="+",
+        default=None,
+        metavar="POLICY",
+        help=f"baselines ({', '.join(BASELINES)}) and/or model paths (.zip); "
+        "default: the scene's baselines and its committed models",
+    )
+    parser.add_argument("--episodes", type=int, default=100, help="episodes (default 100)")
+    parser.add_argument(
+        "--seed",
+        type=int,
+        default=TEST_SEED,
+        help=f"episode i is seeded seed + i (default {TEST_SEED})",
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("out/eval"), help="output folder (default out/eval)"
+    )
+    parser.add_argument("--no-plots", action="store_true", help="write JSON and Markdown only")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments exit with 2)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.n_trailers < 0:
+        parser.error(f"argument --n-trailers: must be >= 0, got {args.n_trailers}")
+    if args.episodes < 1:
+        parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
+    env_id = check_env_id(args.env)
+    env_kwargs = {"n_trailers": args.n_trailers}
+    specs = args.policy or [
+        *default_baselines(env_id),
+        *(str(path) for path in committed_models(env_id, args.n_trailers)),
+    ]
+    limit_torch_threads()
+    started = time.perf_counter()
+    try:
+        evaluations = evaluate_policies(specs, env_id, env_kwargs, args.episodes, args.seed)
+    except (ValueError, FileNotFoundError) as error:
+        parser.error(f"argument --policy: {error}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    document = results_document(evaluations, env_id, env_kwargs, args.episodes, args.seed)
+    (args.out / "results.json").write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
+    table = markdown_table(evaluations)
+    (args.out / "results.md").write_text(
+        f"{env_id}, n = {args.n_trailers}: {args.episodes} episodes, seeds "
+        f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}"
+    )
+    print(table, end="")
+    print(f"evaluated {len(specs)} policies in {time.perf_counter() - started:.1f} s")
+    if not args.no_plots:
+        for path in write_pictures(evaluations, env_id, env_kwargs, args.out, args.seed):
+            print(f"wrote {path}")
+    print(f"wrote {args.out / 'results.json'} and {args.out / 'results.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,150 @@
+"""The results of the README: every scene's baselines and committed agents, tables and pictures.
+
+Run with ``python -m agents.report [--img docs/img] [--out out/report] [--episodes 100]``.
+
+For Reverse-v0 with n = 1, 2, 3 and Heading-v0 with n = 2 it evaluates the
+baselines and every committed model (``agents/models/``) on the same seeded
+episodes (seeds 1000 ..), prints one Markdown table per scene (also written to
+``<out>/tables.md`` with the JSON results), and writes the pictures
+``agents_curves.png`` (learning curves of all committed agents),
+``agents_margins_reverse_n2.png`` and ``agents_frames_reverse_n2.png`` to ``--img``.
+A last table sweeps the actuator's authority (stroke, acceleration bound, mass) under
+the LQR baseline. It takes about a minute on two cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from agents import plots
+from agents.evaluate import (
+    TEST_SEED,
+    Evaluation,
+    committed_models,
+    curve_metric,
+    default_baselines,
+    evaluate_policies,
+    markdown_table,
+    results_document,
+    write_pictures,
+)
+from agents.policies import limit_torch_threads
+
+#: (environment id, number of trailers) of the README's results.
+SCENARIOS: tuple[tuple[str, int], ...] = (
+    ("trailer_env/Reverse-v0", 1),
+    ("trailer_env/Reverse-v0", 2),
+    ("trailer_env/Reverse-v0", 3),
+    ("trailer_env/Heading-v0", 2),
+)
+#: The scenario whose margins and frames are drawn.
+HEADLINE = ("trailer_env/Reverse-v0", 2)
+#: Actuator settings of the authority sweep (ConvoyParams / EnvSettings overrides).
+AUTHORITY_SWEEP: tuple[dict[str, float], ...] = (
+    {},
+    {"s_max": 1.0},
+    {"rail_accel_max": 8.0},
+    {"s_max": 1.0, "rail_accel_max": 8.0},
+    {"mu": 1.0},
+)
+
+
+def authority_table(episodes: int, seed: int = TEST_SEED) -> str:
+    """The LQR baseline's safe rate on Reverse-v0 as the actuator gets stronger (Markdown).
+
+    Defaults: mass mu = 0.5, stroke s_max = 0.5 m, acceleration bound 4 m/s^2.
+    """
+    env_id = "trailer_env/Reverse-v0"
+    lines = [
+        "| actuator (changes from the defaults) | n = 2 safe | n = 3 safe |",
+        "|---|---|---|",
+    ]
+    for changes in AUTHORITY_SWEEP:
+        rates = []
+        for n in (2, 3):
+            env_kwargs = {"n_trailers": n, **changes}
+            (evaluation,) = evaluate_policies(["lqr"], env_id, env_kwargs, episodes, seed)
+            rates.append(f"{100 * evaluation.summary['safe_rate']:.0f}%")
+        name = ", ".join(f"{key} = {value:g}" for key, value in changes.items()) or "defaults"
+        lines.append(f"| {name} | {rates[0]} | {rates[1]} |")
+    return "\n".join(lines) + "\n"
+
+
+def curve_panel(
+    env_id: str, n: int, evaluations: list[Evaluation]
+) -> tuple[str, dict[str, Path], dict[str, float], str]:
+    """One panel of the learning-curve grid: the models' curves and the baselines' levels."""
+    metric = curve_metric(env_id)
+    curves = {}
+    for evaluation in evaluations:
+        curve = Path(evaluation.spec).with_suffix(".csv")
+        if evaluation.card and curve.is_file():
+            name = str(evaluation.card.get("algo", evaluation.label)).upper()
+            if evaluation.card.get("forward_penalty"):
+                name += " + forward penalty"
+            curves[name] = curve
+    levels = {
+        evaluation.label: evaluation.summary[metric]
+        for evaluation in evaluations
+        if evaluation.label in ("zero", "lqr", "heading-p")
+    }
+    return f"{env_id.split('/')[1]}, n = {n}", curves, levels, metric
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.report", description=(__doc__ or "").split("\n")[0]
+    )
+    parser.add_argument("--img", type=Path, default=Path("docs/img"), help="picture folder")
+    parser.add_argument("--out", type=Path, default=Path("out/report"), help="tables and JSON")
+    parser.add_argument("--episodes", type=int, default=100, help="episodes per policy")
+    args = parser.parse_args(argv)
+    if args.episodes < 1:
+        parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
+    limit_torch_threads()
+    started = time.perf_counter()
+    args.out.mkdir(parents=True, exist_ok=True)
+    sections, documents, panels = [], [], []
+    for env_id, n in SCENARIOS:
+        env_kwargs = {"n_trailers": n}
+        specs = [*default_baselines(env_id), *(str(p) for p in committed_models(env_id, n))]
+        evaluations = evaluate_policies(specs, env_id, env_kwargs, args.episodes, TEST_SEED)
+        heading = (
+            f"{env_id}, n = {n}: {args.episodes} episodes, seeds "
+            f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}"
+        )
+        sections.append(f"#### {heading}\n\n{markdown_table(evaluations)}")
+        documents.append(
+            results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
+        )
+        panels.append(curve_panel(env_id, n, evaluations))
+        print(sections[-1], flush=True)
+        if (env_id, n) == HEADLINE:
+            for path in write_pictures(
+                evaluations, env_id, env_kwargs, args.img, TEST_SEED, prefix="agents_"
+            ):
+                if path.name == "agents_curves.png":
+                    path.unlink()  # replaced by the grid of every scenario below
+                    continue
+                final = path.with_name(path.stem + "_reverse_n2.png")
+                path.replace(final)
+                print(f"wrote {final}")
+    sweep = authority_table(args.episodes)
+    sections.append(f"#### LQR on Reverse-v0 as the actuator gets stronger\n\n{sweep}")
+    print(sections[-1], flush=True)
+    grid = plots.plot_curve_grid(
+        [panel for panel in panels if panel[1]], args.img / "agents_curves.png"
+    )
+    print(f"wrote {grid}")
+    (args.out / "tables.md").write_text("\n".join(sections))
+    (args.out / "results.json").write_text(json.dumps(documents, indent=2, sort_keys=True) + "\n")
+    print(f"wrote {args.out / 'tables.md'} in {time.perf_counter() - started:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

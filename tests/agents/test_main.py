@@ -1,0 +1,50 @@
+"""The README's main command and the report command, end to end (small episode counts)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from agents import main, report
+from agents.evaluate import committed_models
+
+
+def test_committed_models_are_small_and_carry_their_cards() -> None:
+    models = committed_models("trailer_env/Reverse-v0", 2)
+    assert models, "no committed agent for Reverse-v0 with two trailers"
+    for model in models:
+        assert model.stat().st_size < 1_000_000
+        card = json.loads(model.with_suffix(".json").read_text())
+        assert card["algo"] in ("ppo", "sac", "td3") and card["timesteps"] >= card["budget"]
+        assert card["wall_time_s"] > 0 and isinstance(card["seed"], int)
+
+
+@pytest.mark.slow
+def test_main_evaluates_the_committed_agent_against_the_baselines(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main.main(["--out", str(tmp_path), "--episodes", "8"]) == 0
+    printed = capsys.readouterr().out
+    assert "| lqr |" in printed and "| ppo_reverse_n2 |" in printed
+    for name in ("results.json", "results.md", "margins.png", "frames.png", "curves.png"):
+        assert (tmp_path / name).is_file(), name
+    document = json.loads((tmp_path / "results.json").read_text())
+    assert [policy["name"] for policy in document["policies"]][:3] == ["zero", "random", "lqr"]
+
+
+@pytest.mark.slow
+def test_report_writes_tables_and_pictures(tmp_path: Path) -> None:
+    assert (
+        report.main(["--img", str(tmp_path / "img"), "--out", str(tmp_path), "--episodes", "4"])
+        == 0
+    )
+    tables = (tmp_path / "tables.md").read_text()
+    assert tables.count("#### ") == len(report.SCENARIOS) + 1
+    for name in (
+        "agents_curves.png",
+        "agents_margins_reverse_n2.png",
+        "agents_frames_reverse_n2.png",
+    ):
+        assert (tmp_path / "img" / name).is_file(), name
