@@ -116,15 +116,20 @@ def training_note(card: dict[str, Any]) -> str:
 
 
 def markdown_table(evaluations: Sequence[Evaluation]) -> str:
-    """The comparison table in Markdown (rates in %, margins in [0, 1])."""
+    """The comparison table in Markdown (rates in %, margins in [0, 1]).
+
+    "stopped reversing" counts the failures that are not folds: on Reverse-v0 the
+    episodes ended because the cart's speed reached u >= 0 (other scenes have none).
+    """
     header = (
         "| policy | training | return (mean ± sd) | safe episodes [95% CI] | jackknife "
-        "| time in band | min margin (mean / worst) | success | time moving forward |\n"
+        "| time in band | min margin (mean / worst) | success | stopped reversing |\n"
         "|---|---|---|---|---|---|---|---|---|\n"
     )
     lines = []
     for evaluation in evaluations:
         s = evaluation.summary
+        stopped = s["failure_rate"] - s["jackknife_rate"]
         low, high = s["safe_rate_ci"]
         lines.append(
             f"| {evaluation.label} | {training_note(evaluation.card)} "
@@ -132,7 +137,7 @@ def markdown_table(evaluations: Sequence[Evaluation]) -> str:
             f"| {100 * s['safe_rate']:.0f}% [{100 * low:.0f}, {100 * high:.0f}] "
             f"| {100 * s['jackknife_rate']:.0f}% | {100 * s['band_time_fraction']:.1f}% "
             f"| {s['min_margin_mean']:.2f} / {s['min_margin_worst']:.2f} "
-            f"| {100 * s['success_rate']:.0f}% | {100 * s['forward_time_fraction']:.0f}% |"
+            f"| {100 * s['success_rate']:.0f}% | {100 * stopped:.0f}% |"
         )
     return header + "\n".join(lines) + "\n"
 
@@ -150,7 +155,7 @@ def results_document(
         "env_kwargs": env_kwargs,
         "episodes": episodes,
         "seeds": [seed, seed + episodes - 1],
-        "safe": "never in the singular band and never folded",
+        "safe": "never in the singular band, never folded, never stopped reversing",
         "policies": [
             {
                 "name": evaluation.label,

@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"\n{ENV_ID}, n = {N_TRAILERS}: {args.episodes} episodes, seeds "
         f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "
-        "(margin < 0.3) and never folded\n"
+        "(margin < 0.3), never folded, never stopped reversing\n"
     )
     print(table)
     for path in write_pictures(evaluations, ENV_ID, env_kwargs, args.out, TEST_SEED):

@@ -7,19 +7,23 @@ per-episode results from ``info`` and termination:
 * ``returns``: sum of the rewards;
 * ``jackknifed``: the episode ended by folding (the env's ``jackknifed`` flag on the
   terminating step);
-* ``success``: the env's ``is_success`` on the last step (Reverse-v0: not folded);
+* ``success``: the env's ``is_success`` on the last step (Reverse-v0: neither folded
+  nor stopped reversing);
+* ``failed``: the episode was terminated without success: a fold, or a scene's other
+  failure (Reverse-v0 ends an episode as a failure when the cart's speed u >= 0);
 * ``band_steps``: steps spent in the singular band (``cost`` > 0, i.e.
   ``singular_margin < singular_band``);
 * ``min_margin``: the smallest ``singular_margin`` seen, the starting state included;
 * ``actuator_work``: the actuator's work over the episode (J);
 * ``forward_steps``: steps on which the cart moved forwards (observation 0, the speed
-  u, > 0). Reverse-v0 starts every episode reversing; a policy that brakes the convoy
-  and pushes it forwards escapes the unstable reversing motion instead of mastering
-  it, and this count shows it.
+  u, > 0). Reverse-v0 starts every episode reversing and ends it on the step the
+  convoy stops reversing, so there this is at most one step per episode.
 
-An episode is *safe* when it never enters the singular band and never folds. With
-one trailer the margin is identically 1 (no consecutive trailer pair to align), so
-safety reduces to not folding.
+An episode is *safe* when it never enters the singular band and is not terminated
+as a failure (it never folds, and on Reverse-v0 it never stops reversing: braking
+the convoy would otherwise count as safe while escaping the task). With one trailer
+the margin is identically 1 (no consecutive trailer pair to align), so safety
+reduces to not failing.
 """
 
 from __future__ import annotations
@@ -42,6 +46,7 @@ class EpisodeResults:
     lengths: np.ndarray
     jackknifed: np.ndarray
     success: np.ndarray
+    failed: np.ndarray
     band_steps: np.ndarray
     min_margin: np.ndarray
     actuator_work: np.ndarray
@@ -51,8 +56,8 @@ class EpisodeResults:
 
     @property
     def safe(self) -> np.ndarray:
-        """Episodes that never entered the singular band and never folded."""
-        return (self.band_steps == 0) & ~self.jackknifed
+        """Episodes that never entered the singular band and were not failures."""
+        return (self.band_steps == 0) & ~self.jackknifed & ~self.failed
 
     @property
     def forward_fraction(self) -> np.ndarray:
@@ -93,6 +98,7 @@ def rollout(
     lengths = np.zeros(episodes, dtype=np.int64)
     jackknifed = np.zeros(episodes, dtype=bool)
     success = np.asarray(info["is_success"], dtype=bool).copy()
+    failed = np.zeros(episodes, dtype=bool)
     band_steps = np.zeros(episodes, dtype=np.int64)
     min_margin = np.asarray(info["singular_margin"], dtype=np.float64).copy()
     work = np.zeros(episodes)
@@ -109,6 +115,7 @@ def rollout(
         success[rows] = info["is_success"][rows]
         work[rows] = info["actuator_work"][rows]
         jackknifed[rows] = terminated[rows] & info["jackknifed"][rows]
+        failed[rows] = terminated[rows] & ~info["is_success"][rows]
         forward_steps[rows] += obs[rows, 0] > 0.0  # u after the step (before any autoreset)
         margins.append(margin[rows])
         running &= ~(terminated | truncated)
@@ -121,6 +128,7 @@ def rollout(
         lengths=lengths,
         jackknifed=jackknifed,
         success=success,
+        failed=failed,
         band_steps=band_steps,
         min_margin=min_margin,
         actuator_work=work,
@@ -144,7 +152,8 @@ def summarize(results: EpisodeResults) -> dict[str, Any]:
     """Aggregate metrics (plain Python numbers, rounded so JSON files diff cleanly).
 
     Keys: ``episodes``, ``mean_return``, ``std_return``, ``mean_length``,
-    ``jackknife_rate``, ``safe_rate`` (never in the band, never folded) with its 95 %
+    ``jackknife_rate``, ``failure_rate`` (terminated without success: folded, or on
+    Reverse-v0 stopped reversing), ``safe_rate`` (never in the band, no failure) with its 95 %
     Wilson interval ``safe_rate_ci``, ``band_time_fraction`` (mean over episodes),
     ``min_margin_mean``, ``min_margin_worst``, ``success_rate``,
     ``mean_abs_actuator_work``, ``forward_time_fraction``.
@@ -162,6 +171,7 @@ def summarize(results: EpisodeResults) -> dict[str, Any]:
         "std_return": rounded(results.returns.std()),
         "mean_length": rounded(results.lengths.mean()),
         "jackknife_rate": rounded(results.jackknifed.mean()),
+        "failure_rate": rounded(results.failed.mean()),
         "safe_rate": rounded(safe / count),
         "safe_rate_ci": [rounded(low), rounded(high)],
         "band_time_fraction": rounded(results.band_fraction.mean()),

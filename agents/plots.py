@@ -17,7 +17,7 @@ from agents.metrics import EpisodeResults
 
 #: Axis labels of the curve metrics.
 METRIC_LABELS = {
-    "safe_rate": "safe episodes (never in band, never folded)",
+    "safe_rate": "safe episodes (never in band, no fold, no stop)",
     "success_rate": "successful episodes",
     "jackknife_rate": "folded episodes",
 }

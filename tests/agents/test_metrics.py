@@ -8,6 +8,7 @@ import pytest
 from agents.baselines import make_baseline
 from agents.envs import env_settings
 from agents.metrics import rollout, summarize, wilson_interval
+from trailer_env.scenes import reverse as reverse_scene
 
 REVERSE = "trailer_env/Reverse-v0"
 
@@ -29,13 +30,15 @@ def test_episode_bookkeeping_is_consistent() -> None:
     results = rollout(_baseline("zero", 2), REVERSE, 30, 1000, {"n_trailers": 2})
     assert np.array_equal(results.seeds, 1000 + np.arange(30))
     assert np.all((results.lengths >= 1) & (results.lengths <= 400))
-    # Folding ends the episode early; surviving means running to the time limit.
-    assert np.all(results.lengths[results.jackknifed] < 400)
-    assert np.all(results.lengths[~results.jackknifed] == 400)
-    assert np.array_equal(results.success, ~results.jackknifed)  # Reverse-v0's success
+    # Failing (folding, or stopping the reversal) ends the episode early; surviving
+    # means running to the time limit.
+    assert np.all(results.lengths[results.failed] < 400)
+    assert np.all(results.lengths[~results.failed] == 400)
+    assert np.all(results.failed >= results.jackknifed)  # a fold is a failure
+    assert np.array_equal(results.success, ~results.failed)  # Reverse-v0's success
     assert results.margins.size == results.lengths.sum()
     assert np.all(results.band_steps <= results.lengths)
-    assert np.all(results.safe <= ~results.jackknifed)
+    assert np.all(results.safe <= ~results.failed)
     # A fold at |alpha_1| = pi/2 passes through the band: margin = |cos alpha_1| -> 0.
     assert np.all(results.min_margin >= 0.0) and np.all(results.min_margin <= 1.0)
 
@@ -52,7 +55,25 @@ def test_zero_folds_and_lqr_holds_most_two_trailer_convoys() -> None:
 def test_one_trailer_has_no_singular_band() -> None:
     results = rollout(_baseline("zero", 1), REVERSE, 10, 0, {"n_trailers": 1})
     assert np.all(results.margins == 1.0) and np.all(results.band_steps == 0)
-    assert np.array_equal(results.safe, ~results.jackknifed)
+    assert np.array_equal(results.safe, ~results.failed)
+
+
+def test_stopping_the_reversal_is_a_failure_not_safe(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Start almost at rest and slam the mass against its motion: the convoy stops
+    # reversing without folding. Before the env ended such episodes, braking counted
+    # as safe; now it must count as a failure, neither safe nor successful.
+    monkeypatch.setattr(reverse_scene, "SPEED_RANGE", (0.02, 0.05))
+
+    def against_the_mass(obs: np.ndarray) -> np.ndarray:
+        return -np.sign(obs[:, -2:-1] + 1e-3).astype(np.float32)
+
+    results = rollout(against_the_mass, REVERSE, 20, 1000, {"n_trailers": 2})
+    stopped = results.failed & ~results.jackknifed
+    assert stopped.sum() >= 10
+    assert not np.any(results.safe | results.success)
+    assert summarize(results)["failure_rate"] == pytest.approx(results.failed.mean())
+    # The step that ends an episode moving forwards is its only forward step.
+    assert np.all(results.forward_steps[stopped] == 1)
 
 
 def test_wilson_interval() -> None:
