@@ -108,6 +108,31 @@ def _observe_row(
 
 
 @cached_njit(depends_on=(actuator, fidelity))
+def _observe_rows(
+    z: np.ndarray,
+    act: np.ndarray,
+    rows: np.ndarray,
+    n: int,
+    planar: bool,
+    settings: np.ndarray,
+    pv: np.ndarray,
+    outputs: tuple,
+    start: int,
+    stop: int,
+) -> int:
+    """:func:`_observe_row` on ``rows[start:stop]``; returns how many were not finite."""
+    obs, margin, cost, jackknifed, energy = outputs
+    scratch = np.empty(max(n, 1))
+    bad = 0
+    for j in range(start, stop):
+        if not _observe_row(
+            rows[j], z, act, n, planar, settings, pv, obs, margin, cost, jackknifed, energy, scratch
+        ):
+            bad += 1
+    return bad
+
+
+@cached_njit(depends_on=(actuator, fidelity))
 def observe(
     z: np.ndarray,
     act: np.ndarray,
@@ -124,19 +149,13 @@ def observe(
 ) -> int:
     """Common observation, singular margin, cost, jackknife flag and energy of ``rows``.
 
-    The margin is ``min_(k<n) |cos alpha_k|`` (1 when n <= 1) and the jackknife test
-    ``|wrap(alpha_k)| >= fold`` for any k, as :func:`dynamics.singular_margin` and
-    :func:`dynamics.is_jackknifed` define them; the energy is the dynamics kernel's.
-    Returns the number of rows holding a non-finite value (they are left untouched).
+    The margin and the jackknife test are :mod:`dynamics.jit`'s (as
+    :func:`dynamics.singular_margin` and :func:`dynamics.is_jackknifed` define them);
+    so is the energy. Returns the number of rows holding a non-finite value (they are
+    left untouched).
     """
-    scratch = np.empty(max(n, 1))
-    bad = 0
-    for j in range(rows.shape[0]):
-        if not _observe_row(
-            rows[j], z, act, n, planar, settings, pv, obs, margin, cost, jackknifed, energy, scratch
-        ):
-            bad += 1
-    return bad
+    outputs = (obs, margin, cost, jackknifed, energy)
+    return _observe_rows(z, act, rows, n, planar, settings, pv, outputs, 0, rows.shape[0])
 
 
 @cached_njit(depends_on=(actuator, fidelity), parallel=True)
@@ -156,27 +175,9 @@ def observe_parallel(
 ) -> int:
     """:func:`observe` over chunks of rows on all cores."""
     count = rows.shape[0]
-    chunks = (count + _CHUNK - 1) // _CHUNK
+    outputs = (obs, margin, cost, jackknifed, energy)
     bad = 0
-    for chunk in prange(chunks):
-        scratch = np.empty(max(n, 1))
-        local = 0
-        for j in range(chunk * _CHUNK, min(count, (chunk + 1) * _CHUNK)):
-            if not _observe_row(
-                rows[j],
-                z,
-                act,
-                n,
-                planar,
-                settings,
-                pv,
-                obs,
-                margin,
-                cost,
-                jackknifed,
-                energy,
-                scratch,
-            ):
-                local += 1
-        bad += local
+    for chunk in prange((count + _CHUNK - 1) // _CHUNK):
+        stop = min(count, (chunk + 1) * _CHUNK)
+        bad += _observe_rows(z, act, rows, n, planar, settings, pv, outputs, chunk * _CHUNK, stop)
     return bad
