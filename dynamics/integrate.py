@@ -10,39 +10,113 @@ not move relative to the cart.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike
 
 from dynamics import _kernel
-from dynamics.model import FloatArray, actuator_array, check_state, rail_actuator
-from dynamics.params import ConvoyParams
+from dynamics.model import (
+    FloatArray,
+    actuator_array,
+    check_state,
+    finite_result,
+    rail_actuator,
+)
+from dynamics.params import ConvoyParams, bounded_integer, real_number
+
+#: Largest substep count of one call, per row: 1e8 RK4 substeps of a short convoy take
+#: about a minute; anything above is a mistake, not a request.
+MAX_SUBSTEPS = 10**8
 
 
 def _check_substeps(substeps: ArrayLike, batch_size: int) -> np.ndarray:
+    if isinstance(substeps, (int, np.integer)) and not isinstance(substeps, (bool, np.bool_)):
+        counts = np.full(batch_size, bounded_integer("substeps", substeps, 1, MAX_SUBSTEPS))
+        return counts.astype(np.int64)
+    if isinstance(substeps, (bool, np.bool_, str, bytes)) or substeps is None:
+        raise TypeError(f"substeps must be integers, got {type(substeps).__name__} {substeps!r}")
     array = np.asarray(substeps)
-    if array.dtype.kind not in "iu" and not (
-        array.dtype.kind == "f" and np.all(array == np.round(array))
-    ):
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"substeps must be integers, got dtype {array.dtype}")
+    if array.dtype.kind == "f" and not np.all(array == np.round(array)):
         raise ValueError(f"substeps must be integers, got {substeps!r}")
+    if array.size and (np.any(array < 1) or np.any(array > MAX_SUBSTEPS)):
+        raise ValueError(
+            f"substeps must be >= 1 and <= {MAX_SUBSTEPS}, got min {array.min()!r}, "
+            f"max {array.max()!r}"
+        )
     try:
         counts = np.broadcast_to(array.astype(np.int64), (batch_size,)).copy()
     except ValueError:
         raise ValueError(
             f"substeps of shape {array.shape} does not match the batch size {batch_size}"
         ) from None
-    if np.any(counts < 1):
-        raise ValueError(f"substeps must be >= 1, got min {counts.min()}")
     return counts
 
 
 def _check_dt(dt: float) -> float:
-    value = float(dt)
-    if not np.isfinite(value) or value <= 0.0:
+    value = real_number("dt", dt)
+    if value <= 0.0:
         raise ValueError(f"dt must be finite and > 0, got {dt!r}")
     return value
+
+
+@njit(cache=True)
+def _first_bad_count(substeps: np.ndarray, high: int) -> int:
+    """Index of the first substep count outside [1, high], or -1."""
+    for i in range(substeps.shape[0]):
+        if substeps[i] < 1 or substeps[i] > high:
+            return i
+    return -1
+
+
+def _check_stepper_arguments(
+    width: int,
+    z: object,
+    act: object,
+    dt: object,
+    substeps: object,
+    target_energy: object,
+) -> None:
+    """Stepper.step's contract, checked in about a microsecond (it runs in hot loops)."""
+    for name, array in (("z", z), ("act", act)):
+        if type(array) is not np.ndarray or array.dtype != np.float64:
+            raise TypeError(
+                f"{name} must be a float64 numpy array (it is updated in place), got "
+                f"{getattr(array, 'dtype', type(array).__name__)}"
+            )
+    assert isinstance(z, np.ndarray) and isinstance(act, np.ndarray)
+    rows = z.shape[0] if z.ndim == 2 else -1
+    if z.ndim != 2 or z.shape[1] != width or act.shape != (rows, 6):
+        raise ValueError(
+            f"expected z of shape (B, {width}) and act of shape (B, 6); "
+            f"got {z.shape} and {act.shape}"
+        )
+    if type(substeps) is not np.ndarray or substeps.dtype != np.int64:
+        raise TypeError(
+            "substeps must be an int64 numpy array of shape (B,), got "
+            f"{getattr(substeps, 'dtype', type(substeps).__name__)}"
+        )
+    if substeps.shape != (rows,):
+        raise ValueError(f"substeps must have shape ({rows},), got {substeps.shape}")
+    bad = _first_bad_count(substeps, MAX_SUBSTEPS)
+    if bad >= 0:
+        raise ValueError(
+            f"substeps must be in [1, {MAX_SUBSTEPS}], got {substeps[bad]} at row {bad}"
+        )
+    if type(dt) is not float or not 0.0 < dt < math.inf:
+        _check_dt(dt)  # type: ignore[arg-type]
+    if target_energy is not None and (
+        type(target_energy) is not np.ndarray or target_energy.shape != (rows,)
+    ):
+        raise ValueError(
+            f"target_energy must be a numpy array of shape ({rows},), got "
+            f"{getattr(target_energy, 'shape', type(target_energy).__name__)}"
+        )
 
 
 class Stepper:
@@ -79,17 +153,17 @@ class Stepper:
 
         ``act`` holds (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot); the
         accelerations are held over ``dt`` and the rest is updated exactly.
-        ``substeps`` is an int64 array (B,). Inputs are trusted to be finite:
-        callers validate at their boundary (see :func:`step_rk4`). With
+        ``substeps`` is an int64 array (B,) of counts in [1, 1e8] (:data:`MAX_SUBSTEPS`);
+        ``z`` and ``act`` must be float64 arrays (they are updated in place, so nothing
+        is converted). Types, shapes, ``dt`` and the counts are checked (TypeError,
+        ValueError); values are trusted to be finite, and a non-finite result is left
+        for the caller to detect (the environments retry such a step): callers validate
+        at their boundary (see :func:`step_rk4`). With
         ``preserve_energy``, ``target_energy`` (B,) is the energy each row is held
         to; by default, its energy at the start of the call. Holding one target
         over a long run keeps rounding errors from accumulating call after call.
         """
-        if z.ndim != 2 or z.shape[1] != self.width or act.shape != (z.shape[0], 6):
-            raise ValueError(
-                f"expected z of shape (B, {self.width}) and act of shape (B, 6); "
-                f"got {z.shape} and {act.shape}"
-            )
+        _check_stepper_arguments(self.width, z, act, dt, substeps, target_energy)
         if self.preserve_energy and self.params.mu > 0.0 and np.any(act[:, 2:] != 0.0):
             raise ValueError(
                 "preserve_energy needs a conserved energy: mu = 0 or a mass at rest on the cart "
@@ -131,6 +205,7 @@ def _step(
     Stepper(params, with_pose=with_pose, preserve_energy=preserve_energy).step(
         rows, act, _check_dt(dt), counts
     )
+    finite_result("the RK4 step", rows, params.n_trailers)
     return rows.reshape(array.shape), act.reshape(*batch_shape, 6)
 
 
@@ -158,6 +233,12 @@ def step_rk4(
 
     Returns:
         The new state, and the mass's position and velocity at the end.
+
+    Raises:
+        TypeError: If ``substeps`` or ``dt`` is not a number (bools and strings refused).
+        ValueError: If ``dt`` is not finite and > 0, ``substeps`` is outside [1, 1e8] or
+            does not fit the batch, or the state is invalid.
+        FloatingPointError: If the step overflows from finite input, naming the component.
 
     Example:
         >>> p = ConvoyParams(n_trailers=2, mu=0.0)
@@ -223,6 +304,25 @@ class Trajectory:
     s_dot: FloatArray
 
 
+#: Largest trajectory simulate returns, in float64 values (16 GiB).
+MAX_TRAJECTORY_VALUES = 2**31
+
+
+def _check_simulate_arguments(
+    params: ConvoyParams, z0: ArrayLike, n_steps: object
+) -> tuple[FloatArray, bool]:
+    steps = bounded_integer("n_steps", n_steps, 0, MAX_TRAJECTORY_VALUES)
+    array, with_pose = check_state(params, z0, "z0")
+    if array.size == 0:
+        raise ValueError(f"z0 holds no state (batch shape {array.shape[:-1]})")
+    if (steps + 1) * array.size > MAX_TRAJECTORY_VALUES:
+        raise ValueError(
+            f"n_steps = {steps} for {array.size // array.shape[-1]} state(s) would return "
+            f"{(steps + 1) * array.size:.3g} values, more than {MAX_TRAJECTORY_VALUES} (16 GiB)"
+        )
+    return array, with_pose
+
+
 def simulate(
     params: ConvoyParams,
     z0: ArrayLike,
@@ -248,10 +348,15 @@ def simulate(
 
     Returns:
         The trajectory sampled at ``t = 0, dt, ..., n_steps * dt``.
+
+    Raises:
+        TypeError: If an argument has the wrong type (e.g. ``n_steps`` a str or bool).
+        ValueError: If ``n_steps`` is not an integer >= 0 (``inf`` included), ``z0`` is
+            empty or invalid, or the trajectory would exceed 2**31 values.
+        FloatingPointError: If the trajectory overflows from finite input, naming the
+            component.
     """
-    if int(n_steps) != n_steps or n_steps < 0:
-        raise ValueError(f"n_steps must be a non-negative integer, got {n_steps!r}")
-    array, with_pose = check_state(params, z0, "z0")
+    array, with_pose = _check_simulate_arguments(params, z0, n_steps)
     batch_shape = array.shape[:-1]
     act = rail_actuator(params, batch_shape, s0, s_dot0, s_ddot)
     rows = array.reshape(-1, array.shape[-1]).copy()
@@ -271,6 +376,7 @@ def simulate(
         stepper.step(rows, act, step, counts, target)
         states[k] = rows.reshape(array.shape)
         rail[k] = act[:, [1, 3]]
+    finite_result("simulate", states, params.n_trailers)
     times = step * np.arange(int(n_steps) + 1, dtype=np.float64)
     return Trajectory(
         t=times,

@@ -23,6 +23,52 @@ from dynamics.params import ConvoyParams
 FloatArray = NDArray[np.float64]
 
 
+def state_component_name(column: int, n: int) -> str:
+    """Name of column ``column`` of a (possibly extended) state with ``n`` trailers."""
+    if column < 2:
+        return ("u", "omega")[column]
+    if column < n + 2:
+        return f"alpha_{column - 1}"
+    return ("x", "y", "theta")[column - n - 2]
+
+
+def finite_result(what: str, out: FloatArray, n: int, names: str = "state") -> FloatArray:
+    """Return ``out``, or raise FloatingPointError naming its first non-finite component.
+
+    Finite input must not give inf or NaN silently; ``names`` says whether the last
+    axis holds state components ("state": u, omega, alpha_k, x, y, theta) or is a
+    scalar quantity (anything else, e.g. "energy").
+    """
+    finite = np.isfinite(out)
+    if finite.all():
+        return out
+    if names == "state" and out.ndim >= 1:
+        column = int(np.argmin(finite.reshape(-1, out.shape[-1]).all(axis=0)))
+        component = f"its {state_component_name(column, n)} component"
+    else:
+        component = names
+    raise FloatingPointError(
+        f"{what} overflowed: {component} is not finite although the input was "
+        "(the state or the actuator values are too large)"
+    )
+
+
+def _real_array(name: str, value: ArrayLike) -> FloatArray:
+    """``value`` as a float64 array; bools, strings, complex and objects are a TypeError."""
+    if isinstance(value, np.ndarray):
+        array = value
+    elif value is None or isinstance(value, (str, bytes, bool, np.bool_)):
+        raise TypeError(f"{name} must be real numbers, got {type(value).__name__} {value!r}")
+    else:
+        try:
+            array = np.asarray(value)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"{name} must be a regular array of real numbers") from error
+    if array.dtype.kind not in "iuf":
+        raise TypeError(f"{name} must be real numbers, got dtype {array.dtype}")
+    return array.astype(np.float64, copy=False)
+
+
 def check_state(params: ConvoyParams, z: ArrayLike, name: str = "z") -> tuple[FloatArray, bool]:
     """Validate a (possibly extended) state and say whether it carries a pose.
 
@@ -34,7 +80,7 @@ def check_state(params: ConvoyParams, z: ArrayLike, name: str = "z") -> tuple[Fl
     """
     if not isinstance(params, ConvoyParams):
         raise TypeError(f"params must be a ConvoyParams, got {type(params).__name__}")
-    array = np.asarray(z, dtype=np.float64)
+    array = _real_array(name, z)
     n = params.n_trailers
     if array.ndim == 0 or array.shape[-1] not in (n + 2, n + 5):
         raise ValueError(
@@ -63,7 +109,7 @@ def _actuator_columns(
     size = int(np.prod(batch_shape, dtype=np.int64))
     act = np.empty((size, 6), dtype=np.float64)
     for column, (name, value) in enumerate(columns):
-        array = np.asarray(value, dtype=np.float64)
+        array = _real_array(name, value)
         try:
             act[:, column] = np.broadcast_to(array, batch_shape).reshape(size)
         except ValueError:
@@ -99,7 +145,7 @@ def rail_actuator(
 def _rhs(params: ConvoyParams, z: FloatArray, with_pose: bool, act: FloatArray) -> FloatArray:
     rows = z.reshape(-1, z.shape[-1])
     out = _kernel.rhs_batch(_kernel.pack_params(params), rows, act, params.n_trailers, with_pose)
-    return out.reshape(z.shape)
+    return finite_result("rhs", out.reshape(z.shape), params.n_trailers)
 
 
 def rhs(
@@ -120,6 +166,11 @@ def rhs(
 
     Returns:
         dz/dt, same shape as ``z``.
+
+    Raises:
+        ValueError: If ``z`` has the wrong shape or a value is not finite.
+        FloatingPointError: If dz/dt overflows (inf or NaN) although the input is finite,
+            naming the component.
 
     Example:
         >>> p = ConvoyParams(n_trailers=1, mu=0.0)
@@ -162,7 +213,7 @@ def rhs_planar(
 def _energy(params: ConvoyParams, z: FloatArray, act: FloatArray) -> FloatArray:
     rows = z.reshape(-1, z.shape[-1])
     out = _kernel.energy_batch(_kernel.pack_params(params), rows, act, params.n_trailers)
-    return out.reshape(z.shape[:-1])
+    return finite_result("energy", out.reshape(z.shape[:-1]), params.n_trailers, "the energy")
 
 
 def energy(

@@ -1,35 +1,124 @@
-"""Physical parameters of the convoy (physics.md section 1)."""
+"""Physical parameters of the convoy (physics.md section 1), and the input policy.
+
+Input policy, shared by every public entry point of ``dynamics`` and ``trailer_env``
+(:func:`real_number`, :func:`bounded_real`, :func:`bounded_integer`): a number must be
+a real number (``int``, ``float``, numpy integers and floats); bools, strings,
+complex numbers, None and containers are refused with a TypeError naming the
+argument. A value of the right type that is out of range (NaN, inf, an int too
+large for a float, a magnitude outside the documented physical range) is refused
+with a ValueError naming the argument and the accepted range. OverflowError never
+escapes.
+"""
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import warnings
 from dataclasses import dataclass
+
+#: Largest number of trailers. The kernels are O(n) per row, but RK4's stability limit
+#: was measured up to n = 128 (trailer_env.fidelity.RK4_STABILITY_LIMITS) and the
+#: substep rule's chain factor grows with n; 256 leaves room without extrapolating far.
+MAX_TRAILERS = 256
+#: Accepted range of the lengths l and s_max (m), and bound on |a| and |b|. Every
+#: length and mass lies within [1e-6, 1e6] of SI: a micro-robot to a road train and
+#: beyond, while products such as M a^2 or the energy stay far from float64's limits
+#: (1e308) and quotients such as J / l^2 far from its resolution.
+LENGTH_RANGE = (1e-6, 1e6)
+#: Accepted range of the masses M and m (kg); mu lies in [0, MASS_RANGE[1]].
+MASS_RANGE = (1e-6, 1e6)
+#: Accepted range of J0 (kg m^2), a mass times a length squared; J lies in [0, 1e18].
+INERTIA_RANGE = (1e-18, 1e18)
+
+
+def real_number(name: str, value: object) -> float:
+    """``value`` as a finite float.
+
+    Raises:
+        TypeError: If ``value`` is not a real number (bools, strings, complex, None ...).
+        ValueError: If it is NaN, infinite or too large for a float.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be a real number, got {type(value).__name__} {value!r}")
+    try:
+        number = float(value)
+    except OverflowError:
+        raise ValueError(f"{name} must be finite, got an integer too large for a float") from None
+    if not math.isfinite(number):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return number
+
+
+def bounded_real(
+    name: str, value: object, low: float, high: float, *, low_open: bool = False
+) -> float:
+    """``value`` as a float in ``[low, high]`` (``(low, high]`` with ``low_open``).
+
+    Raises:
+        TypeError: If ``value`` is not a real number.
+        ValueError: If it is not finite or out of range; the message gives the range.
+    """
+    interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
+    too_large = isinstance(value, numbers.Integral) and abs(int(value)) > 10**300
+    if too_large and not isinstance(value, bool):  # float() would overflow
+        raise ValueError(f"{name} must be in {interval}, got an integer too large for a float")
+    number = real_number(name, value)
+    below = number <= low if low_open else number < low
+    if below or number > high:
+        raise ValueError(f"{name} must be in {interval}, got {value!r}")
+    return number
+
+
+def bounded_integer(name: str, value: object, low: int, high: int) -> int:
+    """``value`` as an int in ``[low, high]``; an integral float (3.0) is accepted.
+
+    Raises:
+        TypeError: If ``value`` is not a real number (bools and strings included).
+        ValueError: If it is not integral or out of range; the message gives the range.
+    """
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
+    if not isinstance(value, numbers.Integral):
+        number = float(value)
+        if not number.is_integer():
+            raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
+    integer = int(value)
+    if not low <= integer <= high:
+        digits = len(str(abs(integer)))
+        shown = repr(value) if digits < 30 else f"an integer of {digits} digits"
+        raise ValueError(f"{name} must be an integer in [{low}, {high}], got {shown}")
+    return integer
 
 
 @dataclass(frozen=True)
 class ConvoyParams:
     """Parameters of a cart pulling ``n_trailers`` identical trailers.
 
-    Lengths in metres, masses in kilograms, inertias in kg m^2 (any consistent
-    units work: the equations are dimensionally homogeneous).
+    Lengths in metres, masses in kilograms, inertias in kg m^2 (the equations are
+    dimensionally homogeneous, but the accepted ranges below are stated in SI).
+    Every field follows the input policy of the module docstring: a bool, string or
+    other non-number is a TypeError, an out-of-range value a ValueError naming the
+    field and its range. The ranges (:data:`LENGTH_RANGE`, :data:`MASS_RANGE`,
+    :data:`INERTIA_RANGE`, :data:`MAX_TRAILERS`) keep every derived quantity finite.
 
     Attributes:
-        n_trailers: Number of trailers n >= 0 (n = 0 is the Chaplygin sleigh).
-        M: Mass of the cart, > 0.
-        J0: Moment of inertia of the cart about its centre of mass, > 0.
+        n_trailers: Number of trailers, an integer in [0, 256] (n = 0 is the Chaplygin
+            sleigh); an integral float such as 3.0 is accepted.
+        M: Mass of the cart, in [1e-6, 1e6].
+        J0: Moment of inertia of the cart about its centre of mass, in [1e-18, 1e18].
         a: Distance from the cart's axle midpoint to its centre of mass along the
-            heading (forward positive); any real.
-        m: Mass of each trailer (centre of mass at its axle midpoint), > 0.
-        J: Moment of inertia of each trailer about its axle midpoint, >= 0. A
+            heading (forward positive), in [-1e6, 1e6].
+        m: Mass of each trailer (centre of mass at its axle midpoint), in [1e-6, 1e6].
+        J: Moment of inertia of each trailer about its axle midpoint, in [0, 1e18]. A
             physical trailer has J < m l^2; larger values are accepted with a
             warning.
-        l: Hitch rod length, > 0.
-        mu: Moving point mass carried by the cart, >= 0 (0 = no actuator).
+        l: Hitch rod length, in [1e-6, 1e6].
+        mu: Moving point mass carried by the cart, in [0, 1e6] (0 = no actuator).
         b: Longitudinal position of the mass's lateral rail, measured from the
-            cart's axle midpoint; any real.
-        s_max: Half-length of the rail: the mass stays in abs(s) <= s_max, > 0.
+            cart's axle midpoint, in [-1e6, 1e6].
+        s_max: Half-length of the rail: the mass stays in abs(s) <= s_max; in [1e-6, 1e6].
     """
 
     n_trailers: int = 2
@@ -44,29 +133,25 @@ class ConvoyParams:
     s_max: float = 0.5
 
     def __post_init__(self) -> None:
-        n = self.n_trailers
-        if isinstance(n, bool) or not isinstance(n, int):
-            if isinstance(n, float) and not isinstance(n, bool) and n.is_integer():
-                object.__setattr__(self, "n_trailers", int(n))
-            else:
-                raise ValueError(f"n_trailers must be an integer >= 0, got {n!r}")
-        if self.n_trailers < 0:
-            raise ValueError(f"n_trailers must be >= 0, got {self.n_trailers}")
-        for field in ("M", "J0", "a", "m", "J", "l", "mu", "b", "s_max"):
-            value = getattr(self, field)
-            try:
-                as_float = float(value)
-            except (TypeError, ValueError):
-                raise ValueError(f"{field} must be a real number, got {value!r}") from None
-            if not math.isfinite(as_float):
-                raise ValueError(f"{field} must be finite, got {value!r}")
-            object.__setattr__(self, field, as_float)
-        for field in ("M", "m", "J0", "l", "s_max"):
-            if getattr(self, field) <= 0.0:
-                raise ValueError(f"{field} must be > 0, got {getattr(self, field)!r}")
-        for field in ("J", "mu"):
-            if getattr(self, field) < 0.0:
-                raise ValueError(f"{field} must be >= 0, got {getattr(self, field)!r}")
+        object.__setattr__(
+            self, "n_trailers", bounded_integer("n_trailers", self.n_trailers, 0, MAX_TRAILERS)
+        )
+        length_low, length_high = LENGTH_RANGE
+        mass_low, mass_high = MASS_RANGE
+        inertia_low, inertia_high = INERTIA_RANGE
+        ranges = {
+            "M": (mass_low, mass_high),
+            "J0": (inertia_low, inertia_high),
+            "a": (-length_high, length_high),
+            "m": (mass_low, mass_high),
+            "J": (0.0, inertia_high),
+            "l": (length_low, length_high),
+            "mu": (0.0, mass_high),
+            "b": (-length_high, length_high),
+            "s_max": (length_low, length_high),
+        }
+        for field, (low, high) in ranges.items():
+            object.__setattr__(self, field, bounded_real(field, getattr(self, field), low, high))
         if self.m * self.l**2 <= self.J:
             warnings.warn(
                 f"J = {self.J} >= m*l**2 = {self.m * self.l**2}: allowed, but no physical "
@@ -89,10 +174,11 @@ class ConvoyParams:
         """Return a copy with some fields changed (validated again).
 
         Raises:
-            ValueError: If a name is not a field of ConvoyParams, or a value is invalid.
+            TypeError: If a name is not a field of ConvoyParams, or a value is not a number.
+            ValueError: If a value is out of range.
         """
         names = {f.name for f in dataclasses.fields(self)}
         unknown = sorted(set(changes) - names)
         if unknown:
-            raise ValueError(f"unknown ConvoyParams field(s) {unknown}; valid: {sorted(names)}")
+            raise TypeError(f"unknown ConvoyParams field(s) {unknown}; valid: {sorted(names)}")
         return dataclasses.replace(self, **changes)  # type: ignore[arg-type]

@@ -7,6 +7,7 @@ to name its core class and carry its documentation.
 
 from __future__ import annotations
 
+import numbers
 from collections import deque
 from typing import Any, ClassVar
 
@@ -15,7 +16,8 @@ import numpy as np
 from gymnasium import spaces
 
 from dynamics import body_poses
-from trailer_env.core import ConvoyCore
+from dynamics.params import real_number
+from trailer_env.core import ConvoyCore, NonFiniteStateError
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 
 RENDER_MODES = ("human", "rgb_array")
@@ -23,10 +25,73 @@ RENDER_MODES = ("human", "rgb_array")
 PATH_LENGTH = 2000
 
 
-def check_render_mode(render_mode: str | None) -> None:
-    """Raise ValueError for a render mode other than None, "human" or "rgb_array"."""
-    if render_mode is not None and render_mode not in RENDER_MODES:
+def check_render_mode(render_mode: object) -> None:
+    """Refuse a render mode other than None, "human" or "rgb_array".
+
+    Raises:
+        TypeError: If it is neither None nor a str.
+        ValueError: If it is a str naming another mode.
+    """
+    if render_mode is None:
+        return
+    if not isinstance(render_mode, str):
+        raise TypeError(
+            f"render_mode must be None or one of {RENDER_MODES}, "
+            f"got {type(render_mode).__name__} {render_mode!r}"
+        )
+    if render_mode not in RENDER_MODES:
         raise ValueError(f"render_mode must be None or one of {RENDER_MODES}, got {render_mode!r}")
+
+
+class RenderModes(list[str]):
+    """The ``render_modes`` metadata list, checking the type of what it is asked about.
+
+    ``gymnasium.make`` tests ``render_mode in metadata["render_modes"]`` before it
+    calls the environment's constructor, and on a miss calls ``render_mode.endswith``,
+    which for ``render_mode=1`` fails with AttributeError inside gymnasium. Answering
+    the membership test with our own TypeError names the argument instead.
+    """
+
+    def __contains__(self, item: object) -> bool:
+        if item is not None and not isinstance(item, str):
+            check_render_mode(item)
+        return super().__contains__(item)
+
+
+def as_action_array(
+    action: Any, shape: tuple[int, ...], name: str = "action", *, alternative: tuple[int, ...] = ()
+) -> np.ndarray:
+    """``action`` as a numeric array of exactly ``shape`` (or ``alternative``), or a clear error.
+
+    Accepted: arrays and (nested) sequences of real numbers (ints or floats) of exactly
+    that shape. Nothing is broadcast. Finiteness is checked by the core.
+
+    Raises:
+        TypeError: For None, bools, strings, complex numbers or other non-numbers.
+        ValueError: For a wrong shape (a ragged sequence included).
+    """
+    if isinstance(action, np.ndarray):
+        array = action
+    elif action is None or isinstance(action, (str, bytes, bool, np.bool_)):
+        raise TypeError(
+            f"{name} must be an array of real numbers of shape {shape}, "
+            f"got {type(action).__name__} {action!r}"
+        )
+    else:
+        try:
+            array = np.asarray(action)
+        except (ValueError, TypeError) as error:
+            raise ValueError(
+                f"{name} must be an array of real numbers of shape {shape}, got {action!r}"
+            ) from error
+    if array.dtype.kind not in "iuf":
+        raise TypeError(
+            f"{name} must be an array of real numbers of shape {shape}, got dtype {array.dtype}"
+        )
+    if array.shape != shape and not (alternative and array.shape == alternative):
+        shown = f"{shape} or {alternative}" if alternative else f"{shape}"
+        raise ValueError(f"{name} must have shape {shown}, got {array.shape}")
+    return array
 
 
 class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
@@ -40,7 +105,7 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
             (see :func:`trailer_env.settings.settings_from_kwargs`).
     """
 
-    metadata = {"render_modes": list(RENDER_MODES), "render_fps": 20}  # noqa: RUF012
+    metadata = {"render_modes": RenderModes(RENDER_MODES), "render_fps": 20}  # noqa: RUF012
     core_class: ClassVar[type[ConvoyCore]]
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
@@ -75,17 +140,30 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Advance by ``dt``. Out-of-range actions are clipped to [-1, 1].
 
+        ``action`` must have exactly the action space's shape, (1,) or (2,) in planar
+        mode (an array or a sequence of ints or floats); with a 1-D action space a
+        plain real number is accepted too. Nothing else is broadcast.
+
         Raises:
+            TypeError: If the action is None, a bool, a string, complex or not numeric.
             ValueError: If the action is NaN, infinite or of the wrong shape.
         """
         if not self._has_reset:
             raise gym.error.ResetNeeded("call reset() before step()")
-        try:
-            self._action[0] = action
-        except (ValueError, TypeError) as error:
-            raise ValueError(
-                f"action must be a finite array of shape {self.action_space.shape}, got {action!r}"
-            ) from error
+        if (
+            type(action) is np.ndarray
+            and action.shape == self.action_space.shape
+            and action.dtype.kind == "f"
+        ):
+            self._action[0] = action  # the common case, checked at no cost
+        elif (
+            self._action.shape[1] == 1
+            and isinstance(action, numbers.Real)
+            and not isinstance(action, (bool, np.bool_))
+        ):
+            self._action[0, 0] = real_number("action", action)
+        else:
+            self._action[0] = as_action_array(action, self.action_space.shape)
         core = self.core
         core.step(self._action)
         if self.render_mode is not None:
@@ -117,18 +195,33 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
             **task: Scene-specific task values (e.g. ``target_heading``), see the scene.
 
         Raises:
-            ValueError: If the shape is wrong, a value is not finite, or the mass is off the rail.
+            TypeError: If ``z``, ``s`` or ``s_dot`` is not made of real numbers.
+            ValueError: If the shape is wrong, a value is not finite or overflows, or the
+                mass is off the rail.
         """
         if not self._has_reset:
             self.reset()
         core = self.core
-        state = np.asarray(z, dtype=np.float64)
+        if isinstance(z, np.ndarray):
+            given = z
+        elif z is None or isinstance(z, (str, bytes, bool, np.bool_)):
+            raise TypeError(f"z must be a sequence of real numbers, got {type(z).__name__}")
+        else:
+            try:
+                given = np.asarray(z)
+            except (ValueError, TypeError) as error:
+                raise ValueError(f"z must be a flat sequence of real numbers, got {z!r}") from error
+        if given.dtype.kind not in "iuf":
+            raise TypeError(f"z must hold real numbers, got dtype {given.dtype}")
+        state = given.astype(np.float64)
         if state.ndim != 1 or state.shape[0] not in (core.n + 2, core.z.shape[1]):
             raise ValueError(
                 f"z must have length {core.n + 2} or {core.z.shape[1]}, got shape {state.shape}"
             )
-        if not np.all(np.isfinite(state)) or not (np.isfinite(s) and np.isfinite(s_dot)):
-            raise ValueError("z, s and s_dot must be finite")
+        if not np.all(np.isfinite(state)):
+            raise ValueError("z must be finite")
+        s = real_number("s", s)
+        s_dot = real_number("s_dot", s_dot)
         s_max = self.settings.params.s_max
         accel = self.settings.rail_accel_max
         if (
@@ -137,12 +230,21 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
             or (s - max(-s_dot, 0.0) ** 2 / (2 * accel) < -s_max)
         ):
             raise ValueError("the mass must be on the rail and able to stop before its ends")
+        previous_z, previous_act = core.z[0].copy(), core.act[0].copy()
         core.z[0] = 0.0  # a pose not given starts at the origin, heading along x
         core.z[0, : state.shape[0]] = state
         core.act[0] = 0.0
         core.act[0, 0] = self.settings.params.b
         core.act[0, 1] = s
         core.act[0, 3] = s_dot
+        try:
+            core.refresh()
+        except NonFiniteStateError:
+            core.z[0], core.act[0] = previous_z, previous_act
+            core.refresh()
+            raise ValueError(
+                "z is too large: its energy or observation overflows float64 (state unchanged)"
+            ) from None
         core.set_task(0, **task)
         core.refresh()
         core.energy0[0] = core.energy[0]
@@ -188,6 +290,13 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
             **core.render_extras(0),
         )
         return self._renderer.draw(frame)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickle everything but the renderer (it holds pygame objects); it is recreated by
+        the next :meth:`render`."""
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
 
     def close(self) -> None:
         """Close the window, if any."""

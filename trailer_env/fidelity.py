@@ -95,6 +95,7 @@ from numba import njit
 
 from dynamics import AdaptiveStepper, ConvoyParams, Stepper
 from dynamics.adaptive import STATUS_OK
+from dynamics.params import bounded_integer, bounded_real
 
 #: RK4's usable stability limit of ``dt r`` by number of trailers (linear interpolation
 #: between entries, the last value beyond): the smaller of the default convoy's and a
@@ -120,6 +121,9 @@ MAX_TOLERANCE = 1e-3
 MIN_TOLERANCE = 1e-13
 #: Substeps the stability bound may ask for, at most (dt |u| / l ~ 1e6).
 HARD_MAX_SUBSTEPS = 1_000_000
+#: Upper bound on fixed ``substeps``: 10,000 RK4 substeps of an
+#: 8-trailer convoy take ~5 ms; 1e8 of them took 25 s per control step.
+MAX_FIXED_SUBSTEPS = 10_000
 
 # Indices into the packed settings of auto_substeps.
 (
@@ -279,13 +283,16 @@ class Fidelity:
     Attributes:
         integrator: A registered name: "rk4" (default), "rk4-energy" (``mu = 0`` only)
             or "dopri5" (adaptive).
-        substeps: An int >= 1, or "auto" (default) for the per-environment rule of
-            the module docstring.
+        substeps: An int in [1, 10_000] (:data:`MAX_FIXED_SUBSTEPS`), or "auto" (default)
+            for the per-environment rule of the module docstring.
         tolerance: Bound on the estimated error of one control step in "auto" mode
             (module docstring), and ``rtol = atol`` of "dopri5"; in [1e-13, 1e-3],
             default 1e-4.
-        max_substeps: Cap on the substeps the accuracy rule of "auto" may choose, >= 1;
-            the stability bound overrides it.
+        max_substeps: Cap on the substeps the accuracy rule of "auto" may choose, in
+            [1, 1_000_000] (:data:`HARD_MAX_SUBSTEPS`); the stability bound overrides it.
+
+    A wrong type (a bool, a float for a count, a non-number tolerance) is a TypeError, an
+    out-of-range value a ValueError; both name the field.
     """
 
     integrator: str = "rk4"
@@ -294,6 +301,11 @@ class Fidelity:
     max_substeps: int = 64
 
     def __post_init__(self) -> None:
+        if not isinstance(self.integrator, str):
+            raise TypeError(
+                f"fidelity.integrator must be a str, one of {sorted(_INTEGRATORS)}, "
+                f"got {type(self.integrator).__name__}"
+            )
         if self.integrator not in _INTEGRATORS:
             raise ValueError(
                 f"fidelity.integrator must be one of {sorted(_INTEGRATORS)}, "
@@ -302,37 +314,36 @@ class Fidelity:
         if isinstance(self.substeps, str):
             if self.substeps != "auto":
                 raise ValueError(
-                    f"fidelity.substeps must be an int >= 1 or 'auto', got {self.substeps!r}"
+                    f"fidelity.substeps must be an int in [1, {MAX_FIXED_SUBSTEPS}] or 'auto', "
+                    f"got {self.substeps!r}"
                 )
-        elif isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer)):
-            raise ValueError(
-                f"fidelity.substeps must be an int >= 1 or 'auto', got {self.substeps!r}"
-            )
-        elif self.substeps < 1:
-            raise ValueError(f"fidelity.substeps must be >= 1, got {self.substeps}")
         else:
-            object.__setattr__(self, "substeps", int(self.substeps))
-        try:
-            tolerance = float(self.tolerance)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"fidelity.tolerance must be a number, got {self.tolerance!r}"
-            ) from None
-        if not (math.isfinite(tolerance) and MIN_TOLERANCE <= tolerance <= MAX_TOLERANCE):
-            raise ValueError(
-                f"fidelity.tolerance must be in [{MIN_TOLERANCE:g}, {MAX_TOLERANCE:g}] "
-                f"(the estimated error of one control step), got {self.tolerance!r}"
-            )
+            if isinstance(self.substeps, bool) or not isinstance(self.substeps, (int, np.integer)):
+                raise TypeError(
+                    f"fidelity.substeps must be an int in [1, {MAX_FIXED_SUBSTEPS}] or 'auto', "
+                    f"got {type(self.substeps).__name__} {self.substeps!r}"
+                )
+            count = bounded_integer("fidelity.substeps", self.substeps, 1, MAX_FIXED_SUBSTEPS)
+            object.__setattr__(self, "substeps", count)
+        tolerance = bounded_real("fidelity.tolerance", self.tolerance, MIN_TOLERANCE, MAX_TOLERANCE)
         object.__setattr__(self, "tolerance", tolerance)
-        if (
-            isinstance(self.max_substeps, bool)
-            or not isinstance(self.max_substeps, (int, np.integer))
-            or self.max_substeps < 1
+        if isinstance(self.max_substeps, bool) or not isinstance(
+            self.max_substeps, (int, np.integer)
         ):
-            raise ValueError(
-                f"fidelity.max_substeps must be an int >= 1, got {self.max_substeps!r}"
+            raise TypeError(
+                f"fidelity.max_substeps must be an int in [1, {HARD_MAX_SUBSTEPS}], "
+                f"got {type(self.max_substeps).__name__} {self.max_substeps!r}"
             )
-        object.__setattr__(self, "max_substeps", int(self.max_substeps))
+        object.__setattr__(
+            self,
+            "max_substeps",
+            bounded_integer("fidelity.max_substeps", self.max_substeps, 1, HARD_MAX_SUBSTEPS),
+        )
+
+    @property
+    def uses_substeps(self) -> bool:
+        """Whether the integrator takes the substep counts (False for an adaptive one)."""
+        return _INTEGRATORS[self.integrator].uses_substeps
 
     @property
     def auto(self) -> bool:
@@ -346,21 +357,32 @@ class Fidelity:
 
     @classmethod
     def coerce(cls, value: Fidelity | dict[str, Any] | str | int | None) -> Fidelity:
-        """Accept a Fidelity, a dict of its fields, an integrator name, "auto" or substeps."""
+        """Accept a Fidelity, a dict of its fields, an integrator name, "auto" or substeps.
+
+        Raises:
+            TypeError: For another type (bools, floats and lists included), or a dict with
+                unknown field names or non-str keys.
+            ValueError: For an invalid value (e.g. substeps outside [1, 10_000]).
+        """
         if value is None:
             return cls()
         if isinstance(value, Fidelity):
             return value
         if isinstance(value, dict):
-            unknown = sorted(set(value) - {"integrator", "substeps", "tolerance", "max_substeps"})
+            fields = {"integrator", "substeps", "tolerance", "max_substeps"}
+            unknown = sorted(repr(key) for key in value if key not in fields)
             if unknown:
-                raise ValueError(f"fidelity has unknown field(s) {unknown}")
+                raise TypeError(
+                    f"fidelity has unknown field(s) [{', '.join(unknown)}]; valid: {sorted(fields)}"
+                )
             return cls(**value)
         if isinstance(value, str):
             return cls(substeps="auto") if value == "auto" else cls(integrator=value)
         if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
-            return cls(substeps=int(value))
-        raise ValueError(f"fidelity must be a Fidelity, dict, str or int, got {value!r}")
+            return cls(substeps=value)
+        raise TypeError(
+            f"fidelity must be a Fidelity, dict, str or int, got {type(value).__name__} {value!r}"
+        )
 
     def make_integrator(self, params: ConvoyParams, with_pose: bool) -> BatchIntegrator:
         """Build the registered integrator for these parameters.

@@ -22,40 +22,56 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from dynamics import ConvoyParams
-from trailer_env.fidelity import Fidelity
+from dynamics.params import MAX_TRAILERS, bounded_integer, bounded_real
+from trailer_env.fidelity import (
+    MAX_FIXED_SUBSTEPS,
+    STABILITY_FRACTION,
+    Fidelity,
+    cart_rate_coefficient,
+    stability_limit,
+)
 
 ACTION_MODES = ("servo", "accel", "planar")
 
 _PARAM_FIELDS = frozenset(f.name for f in dataclasses.fields(ConvoyParams))
 
-
-def _positive(name: str, value: Any) -> float:
-    try:
-        number = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name} must be a number, got {value!r}") from None
-    if not (math.isfinite(number) and number > 0.0):
-        raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    return number
+#: Accepted control period dt (s): 10 us to 10 s. Below, float32 observations of
+#: rates and the servo's gains (~1 / dt^2) lose meaning; above, one held action spans
+#: many of the convoy's time constants.
+DT_RANGE = (1e-5, 10.0)
+#: Accepted range of rail_accel_max (m/s^2) and servo_bandwidth (rad/s).
+RATE_RANGE = (1e-6, 1e6)
+#: Speed (m/s) the settings must resolve: every scene starts its convoy at |u| <= 1.5 m/s.
+REFERENCE_SPEED = 2.0
 
 
 @dataclass(frozen=True)
 class EnvSettings:
     """Everything but the task: physics, control period, actuator and safety thresholds.
 
+    Every field follows the input policy of :mod:`dynamics.params`: a wrong type is a
+    TypeError, an out-of-range value a ValueError naming the field and its range.
+    Besides each field's range, the combination must be integrable: at the
+    reference speed ``|u| = 2 m/s`` (:data:`REFERENCE_SPEED`, above every scene's
+    starting speed) the convoy's fastest rate ``r = |u| max(1 / l, c_cart)`` (see
+    :mod:`trailer_env.fidelity`) must be resolved by the fidelity, i.e. ``dt r / k``
+    within RK4's stability limit for fixed ``k`` substeps, and within
+    :data:`~trailer_env.fidelity.MAX_FIXED_SUBSTEPS` (10,000) substeps of the auto
+    rule's safe step otherwise. Settings that would diverge at the first step, or
+    take minutes per step, are refused up front.
+
     Attributes:
         params: Physical parameters (``params.n_trailers`` trailers).
-        dt: Control period in seconds (the action is held over it), > 0.
+        dt: Control period in seconds (the action is held over it), in [1e-5, 10].
         fidelity: Integrator and substep control (:class:`Fidelity`).
         action_mode: "servo" (default: the action is a target position on the rail),
             "accel" (the action is the rail acceleration) or "planar" (2-D target).
-        rail_accel_max: Bound on the mass's acceleration along each axis, m/s^2;
-            ``rail_accel_max * dt**2 <= s_max`` so the end-of-rail guard can always act.
-        servo_bandwidth: Natural frequency of the position servo, rad/s, capped at
-            ``0.25 / dt`` for the sampled loop to stay well damped.
+        rail_accel_max: Bound on the mass's acceleration along each axis, m/s^2, in
+            [1e-6, 1e6]; ``rail_accel_max * dt**2 <= s_max`` so the end-of-rail guard
+            can always act.
+        servo_bandwidth: Natural frequency of the position servo, rad/s, in [1e-6, 1e6],
+            capped at ``0.25 / dt`` for the sampled loop to stay well damped.
         singular_band: The convoy is in the singular band when
             ``singular_margin < singular_band``, in [0, 1).
         fold_angle: Jackknife when any ``|alpha_k| >= fold_angle`` (radians, in (0, pi]).
@@ -72,10 +88,15 @@ class EnvSettings:
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, ConvoyParams):
-            raise ValueError(f"params must be a ConvoyParams, got {type(self.params).__name__}")
+            raise TypeError(f"params must be a ConvoyParams, got {type(self.params).__name__}")
         object.__setattr__(self, "fidelity", Fidelity.coerce(self.fidelity))
-        for name in ("dt", "rail_accel_max", "servo_bandwidth"):
-            object.__setattr__(self, name, _positive(name, getattr(self, name)))
+        object.__setattr__(self, "dt", bounded_real("dt", self.dt, *DT_RANGE))
+        for name in ("rail_accel_max", "servo_bandwidth"):
+            object.__setattr__(self, name, bounded_real(name, getattr(self, name), *RATE_RANGE))
+        if not isinstance(self.action_mode, str):
+            raise TypeError(
+                f"action_mode must be one of {ACTION_MODES}, got {type(self.action_mode).__name__}"
+            )
         if self.action_mode not in ACTION_MODES:
             raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {self.action_mode!r}")
         if self.rail_accel_max * self.dt**2 > self.params.s_max:
@@ -84,19 +105,41 @@ class EnvSettings:
                 f"{self.params.s_max}: the end-of-rail guard could not always stop the mass; "
                 "lower rail_accel_max or dt"
             )
-        try:
-            band = float(self.singular_band)
-            fold = float(self.fold_angle)
-        except (TypeError, ValueError):
-            raise ValueError("singular_band and fold_angle must be numbers") from None
-        if not (0.0 <= band < 1.0):
+        band = bounded_real("singular_band", self.singular_band, 0.0, 1.0)
+        if band >= 1.0:
             raise ValueError(f"singular_band must be in [0, 1), got {self.singular_band!r}")
-        if not (0.0 < fold <= math.pi):
-            raise ValueError(f"fold_angle must be in (0, pi], got {self.fold_angle!r}")
+        fold = bounded_real("fold_angle", self.fold_angle, 0.0, math.pi, low_open=True)
         object.__setattr__(self, "singular_band", band)
         object.__setattr__(self, "fold_angle", fold)
+        self._check_resolution()
         # Fail now rather than at the first step (e.g. "rk4-energy" with mu > 0).
         self.fidelity.make_integrator(self.params, False)
+
+    def _check_resolution(self) -> None:
+        """Refuse settings whose integrator cannot resolve the reference speed (class docstring)."""
+        params, fidelity = self.params, self.fidelity
+        rate = REFERENCE_SPEED * max(
+            1.0 / params.l, cart_rate_coefficient(params, self.action_mode == "planar")
+        )
+        step = self.dt * rate
+        limit = stability_limit(params.n_trailers)
+        fixed = fidelity.substeps if isinstance(fidelity.substeps, int) else None
+        if fixed is not None and fidelity.uses_substeps:
+            if step / fixed > limit:
+                raise ValueError(
+                    f"fidelity.substeps = {fixed} is unstable with dt = {self.dt:g} and l = "
+                    f"{params.l:g}: at |u| = {REFERENCE_SPEED:g} m/s, dt r / substeps = "
+                    f"{step / fixed:.3g} exceeds RK4's stability limit {limit:.3g}; use at "
+                    f"least {math.ceil(step / limit)} substeps, 'auto', or a smaller dt"
+                )
+            return
+        needed = step / (STABILITY_FRACTION * limit)
+        if needed > MAX_FIXED_SUBSTEPS:
+            raise ValueError(
+                f"dt = {self.dt:g} is too long for l = {params.l:g} (and these parameters): at "
+                f"|u| = {REFERENCE_SPEED:g} m/s a control step needs ~{needed:.3g} substeps, more "
+                f"than {MAX_FIXED_SUBSTEPS}; use a smaller dt or a longer l"
+            )
 
     @property
     def n_trailers(self) -> int:
@@ -138,36 +181,38 @@ def settings_from_kwargs(
     """Build settings from ``gym.make``-style keyword arguments.
 
     Args:
-        n_trailers: Number of trailers, default 2 (must agree with ``params`` when both are given).
+        n_trailers: Number of trailers, an integer in [0, 256], default 2 (must agree
+            with ``params`` when both are given).
         params: Full parameters; by default ConvoyParams' own.
         dt, fidelity, action_mode, rail_accel_max, servo_bandwidth, singular_band, fold_angle:
             See :class:`EnvSettings`.
         **param_overrides: Any ConvoyParams field, e.g. ``mu=0.4``.
 
     Raises:
-        ValueError: On an unknown keyword or an invalid value, naming it.
+        TypeError: On an unknown keyword (the Python convention, which wrappers such as
+            TorchRL's rely on to probe optional keywords) or a value of the wrong type,
+            naming it.
+        ValueError: On an invalid value, naming it.
     """
     unknown = sorted(set(param_overrides) - _PARAM_FIELDS)
     if unknown:
-        raise ValueError(
-            f"unknown argument(s) {unknown}; valid ConvoyParams fields: {sorted(_PARAM_FIELDS)}"
+        raise TypeError(
+            f"unknown argument(s) {unknown}; valid: n_trailers, params, dt, fidelity, "
+            "action_mode, rail_accel_max, servo_bandwidth, singular_band, fold_angle and the "
+            f"ConvoyParams fields {sorted(_PARAM_FIELDS - {'n_trailers'})}"
         )
-    if n_trailers is not None and (
-        isinstance(n_trailers, bool)
-        or not isinstance(n_trailers, (int, np.integer))
-        or n_trailers < 0
-    ):
-        raise ValueError(f"n_trailers must be an integer >= 0, got {n_trailers!r}")
+    count = (
+        None if n_trailers is None else bounded_integer("n_trailers", n_trailers, 0, MAX_TRAILERS)
+    )
     if params is None:
-        count = 2 if n_trailers is None else int(n_trailers)
-        base = {"n_trailers": count, **param_overrides}
+        base = {"n_trailers": 2 if count is None else count, **param_overrides}
         params = ConvoyParams(**base)  # type: ignore[arg-type]
     elif not isinstance(params, ConvoyParams):
-        raise ValueError(f"params must be a ConvoyParams, got {type(params).__name__}")
+        raise TypeError(f"params must be a ConvoyParams, got {type(params).__name__}")
     else:
-        if n_trailers is not None and n_trailers != params.n_trailers:
+        if count is not None and count != params.n_trailers:
             raise ValueError(
-                f"n_trailers = {n_trailers} disagrees with params.n_trailers = {params.n_trailers}"
+                f"n_trailers = {count} disagrees with params.n_trailers = {params.n_trailers}"
             )
         if param_overrides:
             params = params.replace(**param_overrides)

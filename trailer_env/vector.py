@@ -28,7 +28,9 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from dynamics.params import bounded_integer
 from trailer_env.core import ConvoyCore
+from trailer_env.env import as_action_array
 from trailer_env.scenes import CoastCore, DockCore, HeadingCore, ReverseCore
 from trailer_env.settings import settings_from_kwargs
 
@@ -68,27 +70,38 @@ def seed_generators(
 def as_action_batch(actions: Any, count: int, action_dim: int) -> np.ndarray:
     """Actions as a float64 (count, action_dim) array; (count,) is accepted when action_dim == 1.
 
+    Nothing else is broadcast.
+
     Raises:
-        ValueError: On a wrong shape or a non-numeric value (non-finite values are
-            rejected by the core).
+        TypeError: For None, bools, strings, complex numbers or other non-numbers.
+        ValueError: On a wrong shape (non-finite values are rejected by the core).
     """
-    try:
-        batch = np.asarray(actions, dtype=np.float64)
-    except (TypeError, ValueError) as error:
-        raise ValueError(f"actions must be numeric, got {actions!r}") from error
-    if batch.shape == (count,) and action_dim == 1:
-        batch = batch.reshape(count, 1)
-    if batch.shape != (count, action_dim):
-        raise ValueError(f"actions must have shape ({count}, {action_dim}), got {batch.shape}")
-    return batch
+    if (
+        type(actions) is np.ndarray
+        and actions.dtype == np.float64
+        and actions.shape == (count, action_dim)
+    ):
+        return actions  # the common case, checked at no cost
+    batch = as_action_array(
+        actions, (count, action_dim), "actions", alternative=(count,) if action_dim == 1 else ()
+    )
+    return batch.astype(np.float64, copy=False).reshape(count, action_dim)
+
+
+#: Largest num_envs: 2**24 environments of a 256-trailer convoy would already need
+#: ~40 GiB for their states and observations.
+MAX_NUM_ENVS = 2**24
+#: Largest max_episode_steps (an int64 step counter never comes close).
+MAX_EPISODE_STEPS = 2**62
 
 
 class ConvoyVectorEnv(VectorEnv):
     """N environments of one scene stepped together (see the module docstring).
 
     Args:
-        num_envs: Number of environments N >= 1.
-        max_episode_steps: Truncation length; default the scene's registered value.
+        num_envs: Number of environments N, an integer in [1, 2**24].
+        max_episode_steps: Truncation length, an integer >= 1; default the scene's
+            registered value.
         render_mode: Must be None (render single environments instead).
         **kwargs: The single environments' settings (``n_trailers``, ``dt``, ``mu`` ...).
     """
@@ -107,16 +120,12 @@ class ConvoyVectorEnv(VectorEnv):
             raise ValueError(
                 "the vector environments do not render; render a single env (gym.make)"
             )
+        num_envs = bounded_integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
         if max_episode_steps is None:
             max_episode_steps = self.core_class.max_episode_steps
-        if isinstance(max_episode_steps, bool) or not isinstance(
-            max_episode_steps, (int, np.integer)
-        ):
-            raise ValueError(
-                f"max_episode_steps must be an integer >= 1, got {max_episode_steps!r}"
-            )
-        if max_episode_steps < 1:
-            raise ValueError(f"max_episode_steps must be >= 1, got {max_episode_steps}")
+        max_episode_steps = bounded_integer(
+            "max_episode_steps", max_episode_steps, 1, MAX_EPISODE_STEPS
+        )
         self.settings = settings_from_kwargs(**kwargs)
         self.core = self.core_class(self.settings, num_envs)
         self.num_envs = self.core.batch_size

@@ -7,7 +7,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from dynamics import ConvoyParams, energy, inertia_R, rhs, rhs_planar, step_rk4
+from dynamics import (
+    ConvoyParams,
+    Stepper,
+    energy,
+    inertia_R,
+    rhs,
+    rhs_planar,
+    simulate,
+    step_rk4,
+    step_rk4_planar,
+)
+from dynamics.integrate import MAX_SUBSTEPS
 
 
 def test_wrong_state_length_names_the_expected_shape() -> None:
@@ -41,7 +52,12 @@ def test_params_must_be_convoy_params() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"substeps": 0}, "substeps must be >= 1"),
+        ({"substeps": 0}, r"substeps must be an integer in \[1, 100000000\], got 0"),
+        ({"substeps": -5}, "got -5"),
+        ({"substeps": 2**63}, "got 9223372036854775808"),
+        ({"substeps": MAX_SUBSTEPS + 1}, "substeps must be"),
+        ({"substeps": np.array([1, 0, 2])}, "substeps must be >= 1"),
+        ({"substeps": np.array([1, 2**63, 2], dtype=np.uint64)}, "substeps must be >= 1"),
         ({"substeps": 1.5}, "substeps must be integers"),
         ({"substeps": [1, 2]}, "batch size"),
     ],
@@ -51,10 +67,123 @@ def test_bad_substeps(kwargs: dict, match: str) -> None:
         step_rk4(ConvoyParams(n_trailers=0), np.zeros((3, 2)), 0.1, **kwargs)
 
 
-@pytest.mark.parametrize("dt", [0.0, -0.1, np.nan])
+@pytest.mark.parametrize("substeps", [True, "2", None, np.array([True, False, True])])
+def test_substeps_of_the_wrong_type(substeps: object) -> None:
+    with pytest.raises(TypeError, match="substeps must be integers"):
+        step_rk4(ConvoyParams(n_trailers=0), np.zeros((3, 2)), 0.1, substeps=substeps)
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.1, np.nan, np.inf, 10**400])
 def test_bad_dt(dt: float) -> None:
     with pytest.raises(ValueError, match="dt must be"):
         step_rk4(ConvoyParams(n_trailers=0), np.zeros(2), dt)
+
+
+@pytest.mark.parametrize("dt", ["0.1", True, None, 0.1j])
+def test_dt_of_the_wrong_type(dt: object) -> None:
+    with pytest.raises(TypeError, match="dt must be a real number"):
+        step_rk4(ConvoyParams(n_trailers=0), np.zeros(2), dt)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("z", [["1", "0"], [True, False], [1j, 0.0], [None, 0.0]])
+def test_states_that_are_not_real_numbers_are_a_type_error(z: object) -> None:
+    with pytest.raises(TypeError, match="z must be real numbers"):
+        rhs(ConvoyParams(n_trailers=0), z)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="s must be real numbers"):
+        rhs(ConvoyParams(n_trailers=0), [1.0, 0.0], s="0.1")
+
+
+def test_integer_states_are_converted_to_float() -> None:
+    """Documented: a state of ints is read as floats (step_rk4 returns a new array)."""
+    params = ConvoyParams(n_trailers=2, mu=0.0)
+    from_ints, _, _ = step_rk4(params, np.array([1, 0, 0, 0]), 0.1)
+    from_floats, _, _ = step_rk4(params, np.array([1.0, 0.0, 0.0, 0.0]), 0.1)
+    np.testing.assert_array_equal(from_ints, from_floats)
+    assert from_ints.dtype == np.float64
+
+
+class TestStepper:
+    """Stepper.step works in place on trusted arrays, but checks their types and shapes."""
+
+    params = ConvoyParams(n_trailers=2)
+
+    def arrays(self, rows: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        z = np.tile([1.0, 0.1, 0.2, -0.1], (rows, 1))
+        act = np.zeros((rows, 6))
+        act[:, 0] = self.params.b
+        return z, act, np.ones(rows, dtype=np.int64)
+
+    def test_substeps_of_the_wrong_length_is_refused(self) -> None:
+        z, act, _ = self.arrays(1000)
+        with pytest.raises(ValueError, match=r"substeps must have shape \(1000,\), got \(1,\)"):
+            Stepper(self.params).step(z, act, 0.1, np.ones(1, dtype=np.int64))
+
+    @pytest.mark.parametrize("bad", [0, -5, MAX_SUBSTEPS + 1])
+    def test_substep_counts_out_of_range(self, bad: int) -> None:
+        z, act, counts = self.arrays(4)
+        counts[2] = bad
+        before = z.copy()
+        with pytest.raises(ValueError, match=f"got {bad} at row 2"):
+            Stepper(self.params).step(z, act, 0.1, counts)
+        np.testing.assert_array_equal(z, before)
+
+    def test_integer_state_is_refused_not_truncated(self) -> None:
+        z, act, counts = self.arrays(3)
+        with pytest.raises(TypeError, match="z must be a float64 numpy array"):
+            Stepper(self.params).step(z.astype(np.int64), act, 0.1, counts)
+        with pytest.raises(TypeError, match="act must be a float64"):
+            Stepper(self.params).step(z, act.tolist(), 0.1, counts)  # type: ignore[arg-type]
+        with pytest.raises(TypeError, match="substeps must be an int64"):
+            Stepper(self.params).step(z, act, 0.1, counts.astype(np.int32))
+
+    @pytest.mark.parametrize("dt", [0.0, -1.0, np.nan, np.inf])
+    def test_bad_dt(self, dt: float) -> None:
+        z, act, counts = self.arrays(3)
+        with pytest.raises(ValueError, match="dt must be"):
+            Stepper(self.params).step(z, act, dt, counts)
+
+    def test_target_energy_shape(self) -> None:
+        z, act, counts = self.arrays(3)
+        with pytest.raises(
+            ValueError, match=r"target_energy must be a numpy array of shape \(3,\)"
+        ):
+            Stepper(self.params).step(z, act, 0.1, counts, np.zeros(1))
+
+    def test_valid_call_matches_step_rk4(self) -> None:
+        z, act, counts = self.arrays(3)
+        Stepper(self.params).step(z, act, 0.1, counts)
+        expected, _, _ = step_rk4(self.params, [1.0, 0.1, 0.2, -0.1], 0.1)
+        np.testing.assert_allclose(z, np.tile(expected, (3, 1)), rtol=0, atol=1e-15)
+
+
+def test_overflow_from_finite_input_raises_and_names_the_component() -> None:
+    params = ConvoyParams()
+    with pytest.raises(FloatingPointError, match="rhs overflowed: its u component"):
+        rhs(params, [1e200, 1e200, 0.2, -0.1])
+    with pytest.raises(FloatingPointError, match="energy overflowed"):
+        energy(params, [1e200, 1e200, 0.2, -0.1])
+    with pytest.raises(FloatingPointError, match="RK4 step overflowed"):
+        step_rk4(params, [1e200, 1e200, 0.2, -0.1], 0.1)
+    with pytest.raises(FloatingPointError, match="RK4 step overflowed"):
+        step_rk4_planar(params, [1e200, 1e200, 0.2, -0.1], 0.1, xi=1.0, eta=0.0)
+    with pytest.raises(FloatingPointError, match="simulate overflowed"):
+        simulate(params, [1e100, 1e100, 0.2, -0.1], 0.1, 3)
+
+
+def test_simulate_arguments() -> None:
+    params = ConvoyParams(n_trailers=2)
+    with pytest.raises(ValueError, match="z0 holds no state"):
+        simulate(params, np.zeros((0, 4)), 0.1, 3)
+    for steps in (np.inf, -1, 2.5, 2**40):
+        with pytest.raises(ValueError, match="n_steps must be an integer"):
+            simulate(params, np.zeros(4), 0.1, steps)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="n_steps must be an integer"):
+        simulate(params, np.zeros(4), 0.1, "3")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="more than 2147483648"):
+        simulate(params, np.zeros((1000, 4)), 0.1, 10**6)
+    trajectory = simulate(params, np.zeros(4), 0.1, 3.0)  # type: ignore[arg-type]
+    assert trajectory.z.shape == (4, 4)
+    np.testing.assert_array_equal(trajectory.t, [0.0, 0.1, 0.2, 0.30000000000000004])
 
 
 def test_inertia_R_checks_its_input() -> None:

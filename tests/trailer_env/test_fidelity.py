@@ -308,9 +308,11 @@ def test_poses_are_integrated_only_where_needed(scene: str, needs_pose: bool) ->
 
 
 def test_tolerance_is_validated() -> None:
-    for bad in (0.0, 0.1, -1e-6, float("nan"), "tight"):
+    for bad in (0.0, 0.1, -1e-6, float("nan")):
         with pytest.raises(ValueError, match=r"fidelity\.tolerance"):
             Fidelity(tolerance=bad)  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match=r"fidelity\.tolerance"):
+        Fidelity(tolerance="tight")  # type: ignore[arg-type]
     assert Fidelity().tolerance == 1e-4
 
 

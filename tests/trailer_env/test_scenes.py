@@ -113,7 +113,7 @@ def test_malformed_actions_raise() -> None:
     env.reset(seed=0)
     with pytest.raises(ValueError):
         env.step(np.zeros(3, dtype=np.float32))
-    with pytest.raises(ValueError):
+    with pytest.raises(TypeError):
         env.step("left")
 
 

@@ -1,16 +1,23 @@
-"""Settings: defaults, ConvoyParams overrides, and ValueErrors that name the bad argument."""
+"""Settings: defaults, ConvoyParams overrides, and errors that name the bad argument.
+
+A bad type (bools, strings, complex, None, lists) or an unknown keyword is a TypeError,
+a bad value a ValueError; OverflowError never escapes.
+"""
 
 from __future__ import annotations
 
 import math
+import re
 
 import gymnasium as gym
+import numpy as np
 import pytest
 
 from dynamics import ConvoyParams
+from dynamics.params import MAX_TRAILERS
 from tests.trailer_env.helpers import make
 from trailer_env.fidelity import Fidelity
-from trailer_env.settings import EnvSettings, settings_from_kwargs
+from trailer_env.settings import DT_RANGE, EnvSettings, settings_from_kwargs
 
 
 def test_defaults_override_the_actuator_only() -> None:
@@ -42,7 +49,19 @@ def test_gym_make_passes_params_through() -> None:
         ({"mu": -0.1}, "mu"),
         ({"l": 0.0}, "l"),
         ({"M": float("nan")}, "M"),
-        ({"wheelbase": 2.0}, "wheelbase"),
+        ({"M": 10**400}, "M"),
+        ({"M": 1e300}, "M"),
+        ({"mu": 1e300}, "mu"),
+        ({"b": 1e300}, "b"),
+        ({"a": 1e300}, "a"),
+        ({"l": 1e300}, "l"),
+        ({"l": 1e-8}, "l"),
+        ({"l": 1e-300}, "l"),
+        ({"n_trailers": 10**9}, "n_trailers"),
+        ({"n_trailers": 10**400}, "n_trailers"),
+        ({"dt": 1e-300}, "dt"),
+        ({"dt": 1e300}, "dt"),
+        ({"dt": 10**400}, "dt"),
         ({"dt": 0.0}, "dt"),
         ({"dt": float("inf")}, "dt"),
         ({"action_mode": "steer"}, "action_mode"),
@@ -53,9 +72,15 @@ def test_gym_make_passes_params_through() -> None:
         ({"fold_angle": 4.0}, "fold_angle"),
         ({"fidelity": "euler"}, "fidelity.integrator"),
         ({"fidelity": {"substeps": 0}}, "fidelity.substeps"),
+        ({"fidelity": {"substeps": 10**8}}, "fidelity.substeps"),
+        ({"fidelity": 2**63}, "fidelity.substeps"),
         ({"fidelity": {"tolerance": 3.0}}, "fidelity.tolerance"),
-        ({"fidelity": {"speed": 1}}, "fidelity"),
+        ({"fidelity": {"tolerance": 10**400}}, "fidelity.tolerance"),
+        ({"fidelity": {"max_substeps": 10**7}}, "fidelity.max_substeps"),
         ({"fidelity": "rk4-energy"}, "mu = 0"),
+        # Combinations that cannot be integrated at the scenes' speeds.
+        ({"l": 1e-6}, "dt = 0.05 is too long for l"),
+        ({"l": 1e-3, "fidelity": 1}, "fidelity.substeps = 1 is unstable"),
     ],
 )
 def test_invalid_arguments_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
@@ -65,6 +90,88 @@ def test_invalid_arguments_raise_value_error_naming_them(kwargs: dict, name: str
         gym.make_vec(
             "trailer_env/Reverse-v0", num_envs=2, vectorization_mode="vector_entry_point", **kwargs
         )
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"wheelbase": 2.0}, "wheelbase"),
+        ({"frameskip": 4}, "frameskip"),
+        ({"fidelity": {"speed": 1}}, "speed"),
+        ({"n_trailers": True}, "n_trailers"),
+        ({"n_trailers": "2"}, "n_trailers"),
+        ({"M": True}, "M"),
+        ({"mu": "0.1"}, "mu"),
+        ({"l": 1j}, "l"),
+        ({"b": None}, "b"),
+        ({"a": [0.5]}, "a"),
+        ({"dt": "0.05"}, "dt"),
+        ({"dt": True}, "dt"),
+        ({"rail_accel_max": "4"}, "rail_accel_max"),
+        ({"servo_bandwidth": 5j}, "servo_bandwidth"),
+        ({"singular_band": None}, "singular_band"),
+        ({"fold_angle": False}, "fold_angle"),
+        ({"action_mode": 1}, "action_mode"),
+        ({"params": {"mu": 0.1}}, "params"),
+        ({"fidelity": True}, "fidelity"),
+        ({"fidelity": 2.0}, "fidelity"),
+        ({"fidelity": [4]}, "fidelity"),
+        ({"fidelity": {"substeps": 2.0}}, "fidelity.substeps"),
+        ({"fidelity": {"substeps": True}}, "fidelity.substeps"),
+        ({"fidelity": {"integrator": 4}}, "fidelity.integrator"),
+        ({"fidelity": {"tolerance": "1e-4"}}, "fidelity.tolerance"),
+        ({"fidelity": {"max_substeps": 8.0}}, "fidelity.max_substeps"),
+    ],
+)
+def test_wrong_types_and_unknown_keywords_raise_type_error_naming_them(
+    kwargs: dict, name: str
+) -> None:
+    with pytest.raises(TypeError, match=re.escape(name)):
+        make("Reverse", **kwargs)
+    with pytest.raises(TypeError, match=re.escape(name)):
+        gym.make_vec(
+            "trailer_env/Reverse-v0", num_envs=2, vectorization_mode="vector_entry_point", **kwargs
+        )
+
+
+def test_range_edges_are_accepted() -> None:
+    settings = settings_from_kwargs(
+        n_trailers=MAX_TRAILERS, dt=DT_RANGE[0], singular_band=0.0, fold_angle=math.pi
+    )
+    assert settings.params.n_trailers == MAX_TRAILERS and settings.dt == DT_RANGE[0]
+    settings = settings_from_kwargs(dt=DT_RANGE[1], rail_accel_max=1e-6, fidelity=10_000)
+    assert settings.dt == 10.0 and settings.fidelity.substeps == 10_000
+    assert settings_from_kwargs(n_trailers=np.int64(3), dt=np.float32(0.25)).dt == 0.25
+
+
+def test_fixed_substeps_must_resolve_the_reference_speed() -> None:
+    # dt r / k at |u| = 2 m/s with l = 0.01: 0.05 * 2 / 0.01 / k = 10 / k; the limit is 2.73.
+    with pytest.raises(ValueError, match="use at least 4 substeps"):
+        settings_from_kwargs(l=0.01, fidelity=3)
+    assert settings_from_kwargs(l=0.01, fidelity=4).fidelity.substeps == 4
+    assert settings_from_kwargs(l=0.01).fidelity.auto
+
+
+@pytest.mark.parametrize("render_mode", [1, 1.5, True, b"human", ["human"]])
+def test_render_mode_of_the_wrong_type_names_it(render_mode: object) -> None:
+    with pytest.raises(TypeError, match="render_mode must be None or one of"):
+        make("Reverse", render_mode=render_mode)
+
+
+@pytest.mark.parametrize("num_envs", [0, -1, 2**40, 1.5])
+def test_num_envs_out_of_range_names_it(num_envs: object) -> None:
+    with pytest.raises(ValueError, match="num_envs must be an integer in"):
+        gym.make_vec(
+            "trailer_env/Reverse-v0", num_envs=num_envs, vectorization_mode="vector_entry_point"
+        )
+
+
+@pytest.mark.parametrize("num_envs", [True, "4", None])
+def test_num_envs_of_the_wrong_type_names_it(num_envs: object) -> None:
+    from trailer_env.vector import ReverseVectorEnv
+
+    with pytest.raises(TypeError, match="num_envs must be an integer"):
+        ReverseVectorEnv(num_envs=num_envs)  # type: ignore[arg-type]
 
 
 def test_render_mode_is_validated() -> None:
