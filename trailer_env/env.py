@@ -239,12 +239,16 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         core.act[0, 3] = s_dot
         try:
             core.refresh()
+            overflow = not (np.isfinite(core.energy[0]) and np.all(np.isfinite(core.obs[0])))
         except NonFiniteStateError:
+            overflow = True
+        if overflow:
             core.z[0], core.act[0] = previous_z, previous_act
             core.refresh()
             raise ValueError(
-                "z is too large: its energy or observation overflows float64 (state unchanged)"
-            ) from None
+                "z is too large: its energy or its float32 observation overflows "
+                "(the state was left unchanged)"
+            )
         core.set_task(0, **task)
         core.refresh()
         core.energy0[0] = core.energy[0]
