@@ -31,6 +31,19 @@ LENGTH_RANGE = (1e-6, 1e6)
 MASS_RANGE = (1e-6, 1e6)
 #: Accepted range of J0 (kg m^2), a mass times a length squared; J lies in [0, 1e18].
 INERTIA_RANGE = (1e-18, 1e18)
+#: Largest J / (m l^2). A physical trailer (its mass at the axle) has J < m l^2; up to
+#: 100 times that is accepted with a warning. Beyond, the hitch dynamics turn so stiff
+#: that RK4's substep rule no longer keeps a step stable (measured: J = 1e4 m l^2 with
+#: l = 1e-4 m diverged in Coast-v0; 1e3 m l^2 still integrated).
+MAX_TRAILER_INERTIA_RATIO = 100.0
+#: Largest ratio between two masses (M / m, m / M, mu / M) and between another length
+#: and l (|a| / l, |b| / l, s_max / l). Within each field's own range, extreme ratios
+#: still make one part of the convoy a reservoir the rest cannot absorb: a cart with
+#: I0 = 1e18 m l^2 turning at 0.02 rad/s threw its two trailers to 1e63 m/s in one step.
+MAX_RATIO = 1e3
+#: Accepted range of J0 / (M l^2), the cart's own inertia relative to its mass and the
+#: rod length.
+CART_INERTIA_RATIO_RANGE = (1e-6, 1e6)
 
 
 def real_number(name: str, value: object) -> float:
@@ -101,7 +114,10 @@ class ConvoyParams:
     Every field follows the input policy of the module docstring: a bool, string or
     other non-number is a TypeError, an out-of-range value a ValueError naming the
     field and its range. The ranges (:data:`LENGTH_RANGE`, :data:`MASS_RANGE`,
-    :data:`INERTIA_RANGE`, :data:`MAX_TRAILERS`) keep every derived quantity finite.
+    :data:`INERTIA_RANGE`, :data:`MAX_TRAILERS`) keep every derived quantity finite;
+    the ratios are bounded too, so that no part of the convoy dwarfs another: M / m,
+    m / M, mu / M, |a| / l, |b| / l and s_max / l at most 1e3 (:data:`MAX_RATIO`),
+    J0 / (M l^2) in [1e-6, 1e6] and J <= 100 m l^2.
 
     Attributes:
         n_trailers: Number of trailers, an integer in [0, 256] (n = 0 is the Chaplygin
@@ -111,9 +127,9 @@ class ConvoyParams:
         a: Distance from the cart's axle midpoint to its centre of mass along the
             heading (forward positive), in [-1e6, 1e6].
         m: Mass of each trailer (centre of mass at its axle midpoint), in [1e-6, 1e6].
-        J: Moment of inertia of each trailer about its axle midpoint, in [0, 1e18]. A
-            physical trailer has J < m l^2; larger values are accepted with a
-            warning.
+        J: Moment of inertia of each trailer about its axle midpoint, in [0, 1e18]
+            and at most 100 m l^2 (:data:`MAX_TRAILER_INERTIA_RATIO`). A physical
+            trailer has J < m l^2; larger values are accepted with a warning.
         l: Hitch rod length, in [1e-6, 1e6].
         mu: Moving point mass carried by the cart, in [0, 1e6] (0 = no actuator).
         b: Longitudinal position of the mass's lateral rail, measured from the
@@ -152,12 +168,43 @@ class ConvoyParams:
         }
         for field, (low, high) in ranges.items():
             object.__setattr__(self, field, bounded_real(field, getattr(self, field), low, high))
+        self._check_ratios()
+        if MAX_TRAILER_INERTIA_RATIO * self.m * self.l**2 < self.J:
+            raise ValueError(
+                f"J = {self.J:g} exceeds {MAX_TRAILER_INERTIA_RATIO:g} m l**2 = "
+                f"{MAX_TRAILER_INERTIA_RATIO * self.m * self.l**2:g} (m = {self.m:g}, "
+                f"l = {self.l:g}): a trailer's inertia about its axle is below m l**2"
+            )
         if self.m * self.l**2 <= self.J:
             warnings.warn(
                 f"J = {self.J} >= m*l**2 = {self.m * self.l**2}: allowed, but no physical "
                 "trailer with its mass at the axle has it (thesis eq. 3.35)",
                 UserWarning,
                 stacklevel=3,
+            )
+
+    def _check_ratios(self) -> None:
+        """Refuse ratios beyond :data:`MAX_RATIO` and :data:`CART_INERTIA_RATIO_RANGE`."""
+        ratios = (
+            ("M / m", self.M / self.m, f"M = {self.M:g}, m = {self.m:g}"),
+            ("m / M", self.m / self.M, f"m = {self.m:g}, M = {self.M:g}"),
+            ("mu / M", self.mu / self.M, f"mu = {self.mu:g}, M = {self.M:g}"),
+            ("|a| / l", abs(self.a) / self.l, f"a = {self.a:g}, l = {self.l:g}"),
+            ("|b| / l", abs(self.b) / self.l, f"b = {self.b:g}, l = {self.l:g}"),
+            ("s_max / l", self.s_max / self.l, f"s_max = {self.s_max:g}, l = {self.l:g}"),
+        )
+        for label, ratio, values in ratios:
+            if ratio > MAX_RATIO:
+                raise ValueError(
+                    f"{label} = {ratio:.3g} exceeds {MAX_RATIO:g} ({values}): the convoy's "
+                    "parts must be of comparable size"
+                )
+        low, high = CART_INERTIA_RATIO_RANGE
+        ratio = self.J0 / (self.M * self.l**2)
+        if not low <= ratio <= high:
+            raise ValueError(
+                f"J0 / (M l**2) = {ratio:.3g} is outside [{low:g}, {high:g}] (J0 = {self.J0:g}, "
+                f"M = {self.M:g}, l = {self.l:g})"
             )
 
     @property

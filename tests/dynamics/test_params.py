@@ -74,13 +74,37 @@ def test_values_that_are_not_real_numbers_are_a_type_error(field: str, value: ob
 
 
 def test_range_edges_are_accepted_and_numpy_scalars_become_floats() -> None:
+    small = ConvoyParams(
+        M=1e-6, m=5e-4, mu=5e-4, l=1e-6, a=-5e-4, b=5e-4, s_max=5e-4, J=0.0, J0=1e-18
+    )
+    assert (small.M, small.l, small.a, small.J0) == (1e-6, 1e-6, -5e-4, 1e-18)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # J >= m l^2 at these edges
-        params = ConvoyParams(M=1e-6, m=1e6, l=1e-6, s_max=1e6, a=-1e6, b=1e6, mu=1e6, J=0.0)
-    assert (params.M, params.l, params.a, params.mu) == (1e-6, 1e-6, -1e6, 1e6)
+        warnings.simplefilter("ignore")  # J = m l^2 warns
+        large = ConvoyParams(M=1e6, m=1e6, mu=1e6, l=1e6, a=1e6, b=-1e6, s_max=1e6, J=1e18, J0=1e18)
+    assert (large.M, large.l, large.b, large.J) == (1e6, 1e6, -1e6, 1e18)
     params = ConvoyParams(M=np.float32(2.0), l=np.int64(3))
     assert type(params.M) is float and type(params.l) is float
     assert (params.M, params.l) == (2.0, 3.0)
+
+
+@pytest.mark.parametrize(
+    ("changes", "match"),
+    [
+        ({"M": 1e-3, "m": 2.0}, r"m / M = 2e\+03 exceeds 1000 \(m = 2, M = 0.001\)"),
+        ({"M": 2e3, "m": 1.0}, "M / m"),
+        ({"mu": 2e3}, "mu / M"),
+        ({"a": -2e3}, r"\|a\| / l"),
+        ({"b": 2e3}, r"\|b\| / l"),
+        ({"l": 1e-4, "a": 0.0, "b": 0.0, "J": 0.0}, r"s_max / l = 5e\+03"),
+        ({"J0": 1e-7}, r"J0 / \(M l\*\*2\) = 1e-07 is outside \[1e-06, 1e\+06\]"),
+        ({"J0": 2e6}, "J0 / "),
+        ({"J": 101.0}, r"J = 101 exceeds 100 m l\*\*2 = 100 \(m = 1, l = 1\)"),
+    ],
+)
+def test_ratios_are_bounded(changes: dict, match: str) -> None:
+    """Each field in range, but one part of the convoy dwarfing another: refused."""
+    with pytest.raises(ValueError, match=match):
+        ConvoyParams(**changes)
 
 
 @pytest.mark.parametrize("n", [-1, 1.5, math.inf, math.nan, MAX_TRAILERS + 1, 10**9, 10**400])
