@@ -79,8 +79,21 @@ def test_gym_make_passes_params_through() -> None:
         ({"fidelity": {"max_substeps": 10**7}}, "fidelity.max_substeps"),
         ({"fidelity": "rk4-energy"}, "mu = 0"),
         # Combinations that cannot be integrated at the scenes' speeds.
-        ({"l": 1e-6}, "dt = 0.05 is too long for l"),
-        ({"l": 1e-3, "fidelity": 1}, "fidelity.substeps = 1 is unstable"),
+        (
+            {
+                "l": 5e-6,
+                "a": 0.0,
+                "b": 0.0,
+                "J": 0.0,
+                "J0": 1e-5,
+                "s_max": 4e-3,
+                "rail_accel_max": 1,
+            },
+            "dt = 0.05 is too long for l = 5e-06",
+        ),
+        ({"l": 1e-3, "J": 0.0, "fidelity": 1}, "fidelity.substeps = 1 is unstable"),
+        ({"l": 1e-6}, r"\|a\| / l"),
+        ({"l": 1e-3}, r"J = 0.1 exceeds 100 m l\*\*2"),
     ],
 )
 def test_invalid_arguments_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
@@ -147,9 +160,9 @@ def test_range_edges_are_accepted() -> None:
 def test_fixed_substeps_must_resolve_the_reference_speed() -> None:
     # dt r / k at |u| = 2 m/s with l = 0.01: 0.05 * 2 / 0.01 / k = 10 / k; the limit is 2.73.
     with pytest.raises(ValueError, match="use at least 4 substeps"):
-        settings_from_kwargs(l=0.01, fidelity=3)
-    assert settings_from_kwargs(l=0.01, fidelity=4).fidelity.substeps == 4
-    assert settings_from_kwargs(l=0.01).fidelity.auto
+        settings_from_kwargs(l=0.01, J=0.0, fidelity=3)
+    assert settings_from_kwargs(l=0.01, J=0.0, fidelity=4).fidelity.substeps == 4
+    assert settings_from_kwargs(l=0.01, J=0.0).fidelity.auto
 
 
 @pytest.mark.parametrize("render_mode", [1, 1.5, True, b"human", ["human"]])
