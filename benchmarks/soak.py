@@ -52,7 +52,7 @@ def soak_case(
     counts: Counter[str] = Counter()
     errors: Counter[str] = Counter()
     max_substeps = 0
-    shape = envs.action_space.shape
+    shape = (num_envs, envs.unwrapped.settings.action_dim)
     start = time.perf_counter()
     vector_steps = -(-steps // num_envs)
     for _ in range(vector_steps):

@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import operator
 import warnings
 from dataclasses import dataclass
 
@@ -93,11 +94,13 @@ def bounded_integer(name: str, value: object, low: int, high: int) -> int:
     """
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
-    if not isinstance(value, numbers.Integral):
+    if isinstance(value, numbers.Integral):
+        integer = operator.index(value)
+    else:
         number = float(value)
         if not number.is_integer():
             raise ValueError(f"{name} must be an integer in [{low}, {high}], got {value!r}")
-    integer = int(value)
+        integer = int(number)
     if not low <= integer <= high:
         digits = len(str(abs(integer)))
         shown = repr(value) if digits < 30 else f"an integer of {digits} digits"

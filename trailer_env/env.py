@@ -120,6 +120,7 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         self.action_space = spaces.Box(-1.0, 1.0, (self.settings.action_dim,), dtype=np.float32)
         self._rows = np.zeros(1, dtype=np.int64)
         self._action = np.zeros((1, self.settings.action_dim))
+        self._action_shape: tuple[int, ...] = (self.settings.action_dim,)
         self._path: deque[tuple[float, float]] = deque(maxlen=PATH_LENGTH)
         self._renderer: Any = None
         self._has_reset = False
@@ -152,7 +153,7 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
             raise gym.error.ResetNeeded("call reset() before step()")
         if (
             type(action) is np.ndarray
-            and action.shape == self.action_space.shape
+            and action.shape == self._action_shape
             and action.dtype.kind == "f"
         ):
             self._action[0] = action  # the common case, checked at no cost
@@ -163,7 +164,7 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         ):
             self._action[0, 0] = real_number("action", action)
         else:
-            self._action[0] = as_action_array(action, self.action_space.shape)
+            self._action[0] = as_action_array(action, self._action_shape)
         core = self.core
         core.step(self._action)
         if self.render_mode is not None:
