@@ -53,8 +53,9 @@ def finite_result(what: str, out: FloatArray, n: int, names: str = "state") -> F
     )
 
 
-def _real_array(name: str, value: ArrayLike) -> FloatArray:
-    """``value`` as a float64 array; bools, strings, complex and objects are a TypeError."""
+def real_array(name: str, value: ArrayLike) -> FloatArray:
+    """``value`` as a float64 array (ints are converted); bools, strings, complex numbers
+    and objects are a TypeError naming ``name``, a ragged sequence a ValueError."""
     if isinstance(value, np.ndarray):
         array = value
     elif value is None or isinstance(value, (str, bytes, bool, np.bool_)):
@@ -72,15 +73,19 @@ def _real_array(name: str, value: ArrayLike) -> FloatArray:
 def check_state(params: ConvoyParams, z: ArrayLike, name: str = "z") -> tuple[FloatArray, bool]:
     """Validate a (possibly extended) state and say whether it carries a pose.
 
+    Integer states are converted to float64 (a new array; nothing is truncated).
+
     Returns:
         The state as a float64 array and True when its last axis has length n+5.
 
     Raises:
+        TypeError: If ``params`` is not a ConvoyParams or the state is not made of real
+            numbers (bools, strings, complex numbers).
         ValueError: If the last axis has the wrong length or a value is not finite.
     """
     if not isinstance(params, ConvoyParams):
         raise TypeError(f"params must be a ConvoyParams, got {type(params).__name__}")
-    array = _real_array(name, z)
+    array = real_array(name, z)
     n = params.n_trailers
     if array.ndim == 0 or array.shape[-1] not in (n + 2, n + 5):
         raise ValueError(
@@ -109,7 +114,7 @@ def _actuator_columns(
     size = int(np.prod(batch_shape, dtype=np.int64))
     act = np.empty((size, 6), dtype=np.float64)
     for column, (name, value) in enumerate(columns):
-        array = _real_array(name, value)
+        array = real_array(name, value)
         try:
             act[:, column] = np.broadcast_to(array, batch_shape).reshape(size)
         except ValueError:

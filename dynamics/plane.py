@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from dynamics.model import FloatArray
+from dynamics.model import FloatArray, real_array
+from dynamics.params import real_number
 
 
 def body_poses(
@@ -31,16 +32,21 @@ def body_poses(
         >>> xs, ys, ths = body_poses(1.0, 0.0, 0.0, 0.0, [0.0, 0.0])
         >>> xs.tolist()
         [0.0, -1.0, -2.0]
+
+    Raises:
+        TypeError: If an argument is not made of real numbers (bools, strings, complex).
+        ValueError: If ``l <= 0``, a value is not finite, or the shapes do not broadcast.
     """
-    if not (np.isfinite(l) and l > 0):
+    if real_number("l", l) <= 0.0:
         raise ValueError(f"l must be finite and > 0, got {l!r}")
-    alpha_array = np.asarray(alpha, dtype=np.float64)
+    alpha_array = real_array("alpha", alpha)
     if alpha_array.ndim == 0:
         raise ValueError("alpha must have a last axis (the n hitch angles)")
     batch = alpha_array.shape[:-1]
     try:
         x0, y0, th0 = (
-            np.broadcast_to(np.asarray(v, dtype=np.float64), batch) for v in (x, y, theta)
+            np.broadcast_to(real_array(name, v), batch)
+            for name, v in (("x", x), ("y", y), ("theta", theta))
         )
     except ValueError:
         raise ValueError(f"x, y, theta must broadcast to alpha's batch shape {batch}") from None

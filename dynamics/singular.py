@@ -6,11 +6,12 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dynamics import _kernel
-from dynamics.model import FloatArray
+from dynamics.model import FloatArray, real_array
+from dynamics.params import real_number
 
 
 def _classify(alpha: ArrayLike, fold_angle: float) -> tuple[FloatArray, NDArray[np.bool_]]:
-    array = np.asarray(alpha, dtype=np.float64)
+    array = real_array("alpha", alpha)
     if array.ndim == 0:
         raise ValueError("alpha must have a last axis (the n hitch angles)")
     if not np.all(np.isfinite(array)):
@@ -19,7 +20,7 @@ def _classify(alpha: ArrayLike, fold_angle: float) -> tuple[FloatArray, NDArray[
     rows = np.ascontiguousarray(array.reshape(batch, array.shape[-1]))
     margin = np.empty(rows.shape[0])
     folded = np.empty(rows.shape[0], dtype=np.bool_)
-    _kernel.singular_batch(rows, float(fold_angle), margin, folded)
+    _kernel.singular_batch(rows, real_number("fold_angle", fold_angle), margin, folded)
     return margin.reshape(array.shape[:-1]), folded.reshape(array.shape[:-1])
 
 
@@ -47,5 +48,9 @@ def is_jackknifed(alpha: ArrayLike, fold_angle: float = np.pi / 2) -> NDArray[np
     """Whether any hitch angle, the last included, has |alpha_k| >= ``fold_angle``.
 
     Angles are wrapped to (-pi, pi] first. Returns a boolean array ``alpha.shape[:-1]``.
+
+    Raises:
+        TypeError: If ``alpha`` or ``fold_angle`` is not made of real numbers.
+        ValueError: If ``alpha`` has no last axis or a value is not finite.
     """
     return _classify(alpha, fold_angle)[1]

@@ -10,11 +10,14 @@ from hypothesis import strategies as st
 from dynamics import (
     ConvoyParams,
     Stepper,
+    body_poses,
     energy,
     inertia_R,
+    is_jackknifed,
     rhs,
     rhs_planar,
     simulate,
+    singular_margin,
     step_rk4,
     step_rk4_planar,
 )
@@ -220,3 +223,25 @@ def test_inertia_R_matches_its_closed_form_and_is_positive(rng: np.random.Genera
     )
     np.testing.assert_allclose(inertia_R(params, alpha), expected, rtol=1e-14)
     assert np.all(inertia_R(params, alpha) > 0)
+
+
+def test_poses_and_singular_tests_refuse_non_numbers() -> None:
+    with pytest.raises(TypeError, match="l must be a real number"):
+        body_poses("1", 0.0, 0.0, 0.0, [0.1])  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="y must be real numbers"):
+        body_poses(1.0, 0.0, "0", 0.0, [0.1])
+    with pytest.raises(TypeError, match="alpha must be real numbers"):
+        is_jackknifed(["0.1"])
+    with pytest.raises(TypeError, match="fold_angle must be a real number"):
+        is_jackknifed([0.1], fold_angle=True)
+    with pytest.raises(TypeError, match="alpha must be real numbers"):
+        singular_margin([[True, False]])
+    assert singular_margin(np.array([[0, 0]])).tolist() == [1.0]  # ints are read as floats
+
+
+def test_empty_batches_give_empty_results() -> None:
+    params = ConvoyParams(n_trailers=2)
+    z, s, s_dot = step_rk4(params, np.zeros((0, 4)), 0.1)
+    assert z.shape == (0, 4) and s.shape == (0,) and s_dot.shape == (0,)
+    assert rhs(params, np.zeros((0, 4))).shape == (0, 4)
+    assert energy(params, np.zeros((0, 4))).shape == (0,)
