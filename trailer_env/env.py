@@ -103,6 +103,15 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
             ``action_mode``, ``rail_accel_max``, ``servo_bandwidth``, ``singular_band``,
             ``fold_angle`` and any :class:`dynamics.ConvoyParams` field
             (see :func:`trailer_env.settings.settings_from_kwargs`).
+
+    Raises:
+        TypeError: On an unknown keyword or a value of the wrong type (bools, strings
+            for numbers, ...), naming it; ``render_mode=1`` included, which is caught
+            before ``gymnasium.make`` looks at it (:class:`RenderModes`).
+        ValueError: On a value out of its documented range, naming it.
+
+    Instances pickle (``pickle.dumps(env)``), after rendering too: the renderer is left
+    out and recreated by the next :meth:`render`.
     """
 
     metadata = {"render_modes": RenderModes(RENDER_MODES), "render_fps": 20}  # noqa: RUF012

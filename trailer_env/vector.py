@@ -104,6 +104,10 @@ class ConvoyVectorEnv(VectorEnv):
             registered value.
         render_mode: Must be None (render single environments instead).
         **kwargs: The single environments' settings (``n_trailers``, ``dt``, ``mu`` ...).
+
+    Raises:
+        TypeError: On an unknown keyword or a value of the wrong type, naming it.
+        ValueError: On a value out of range (``num_envs=0`` included), naming it.
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}  # noqa: RUF012
