@@ -66,21 +66,28 @@ def real_number(name: str, value: object) -> float:
 
 
 def bounded_real(
-    name: str, value: object, low: float, high: float, *, low_open: bool = False
+    name: str,
+    value: object,
+    low: float,
+    high: float,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
 ) -> float:
-    """``value`` as a float in ``[low, high]`` (``(low, high]`` with ``low_open``).
+    """``value`` as a float in ``[low, high]`` (an end excluded with ``low_open``, ``high_open``).
 
     Raises:
         TypeError: If ``value`` is not a real number.
         ValueError: If it is not finite or out of range; the message gives the range.
     """
-    interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
+    interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if high_open else ']'}"
     too_large = isinstance(value, numbers.Integral) and abs(int(value)) > 10**300
     if too_large and not isinstance(value, bool):  # float() would overflow
         raise ValueError(f"{name} must be in {interval}, got an integer too large for a float")
     number = real_number(name, value)
     below = number <= low if low_open else number < low
-    if below or number > high:
+    above = number >= high if high_open else number > high
+    if below or above:
         raise ValueError(f"{name} must be in {interval}, got {value!r}")
     return number
 

@@ -105,9 +105,7 @@ class EnvSettings:
                 f"{self.params.s_max}: the end-of-rail guard could not always stop the mass; "
                 "lower rail_accel_max or dt"
             )
-        band = bounded_real("singular_band", self.singular_band, 0.0, 1.0)
-        if band >= 1.0:
-            raise ValueError(f"singular_band must be in [0, 1), got {self.singular_band!r}")
+        band = bounded_real("singular_band", self.singular_band, 0.0, 1.0, high_open=True)
         fold = bounded_real("fold_angle", self.fold_angle, 0.0, math.pi, low_open=True)
         object.__setattr__(self, "singular_band", band)
         object.__setattr__(self, "fold_angle", fold)
