@@ -375,7 +375,7 @@ def main(argv: list[str] | None = None) -> int:
             else load_hyperparams(args.algo, args.env)
         )
         env_settings({**hp.env_kwargs, "n_trailers": args.n_trailers})
-    except (FileNotFoundError, KeyError, ValueError) as error:
+    except (FileNotFoundError, KeyError, TypeError, ValueError) as error:
         parser.error(str(error).strip("'\""))
     run_dir = args.run_dir
     if run_dir is None:
