@@ -26,9 +26,13 @@ Keyword arguments: ``n_trailers``, any :class:`dynamics.ConvoyParams` field, ``d
 ``fidelity``, ``action_mode``, ``rail_accel_max``, ``servo_bandwidth``,
 ``singular_band``, ``fold_angle`` (see :mod:`trailer_env.settings`). The
 stable-baselines3 adapter lives in :mod:`trailer_env.sb3` (imported on demand).
+``python -m trailer_env`` lists the ids; ``python -m trailer_env --play ID`` drives one
+from the keyboard (needs a display and pygame).
 """
 
 from __future__ import annotations
+
+__version__ = "0.2.0"
 
 import gymnasium as gym
 
@@ -55,4 +59,13 @@ def _register() -> None:
 
 _register()
 
-__all__ = ["SCENES", "CoastEnv", "DockEnv", "EnvSettings", "Fidelity", "HeadingEnv", "ReverseEnv"]
+__all__ = [
+    "SCENES",
+    "CoastEnv",
+    "DockEnv",
+    "EnvSettings",
+    "Fidelity",
+    "HeadingEnv",
+    "ReverseEnv",
+    "__version__",
+]

@@ -7,20 +7,41 @@ to name its core class and carry its documentation.
 
 from __future__ import annotations
 
-from collections import deque
 from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from dynamics import body_poses
 from trailer_env.core import ConvoyCore
+from trailer_env.rendering import PathTrace, core_frame, make_renderer
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 
 RENDER_MODES = ("human", "rgb_array")
 #: Past cart positions kept for the rendered path.
 PATH_LENGTH = 2000
+#: ``reset(options=...)`` keys of every scene; each scene adds its ``task_keys``.
+STATE_OPTIONS = ("state", "s", "s_dot")
+
+
+def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, Any]:
+    """``options`` as a dict (None -> {}), its keys checked against the scene's.
+
+    Raises:
+        TypeError: If ``options`` is not a dict or None.
+        ValueError: Naming unknown keys, or ``s``/``s_dot`` given without ``state``.
+    """
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+    valid = (*STATE_OPTIONS, *task_keys)
+    unknown = sorted(set(options) - set(valid), key=str)
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {unknown}; valid: {list(valid)}")
+    if "state" not in options and ("s" in options or "s_dot" in options):
+        raise ValueError("reset options 's' and 's_dot' need 'state' (the convoy's state)")
+    return options
 
 
 def check_render_mode(render_mode: str | None) -> None:
@@ -55,17 +76,38 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         self.action_space = spaces.Box(-1.0, 1.0, (self.settings.action_dim,), dtype=np.float32)
         self._rows = np.zeros(1, dtype=np.int64)
         self._action = np.zeros((1, self.settings.action_dim))
-        self._path: deque[tuple[float, float]] = deque(maxlen=PATH_LENGTH)
+        self._path = PathTrace(1, PATH_LENGTH)
         self._renderer: Any = None
         self._has_reset = False
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start an episode; ``seed`` seeds the generator that draws the starting state."""
+        """Start an episode; ``seed`` seeds the generator that draws the starting state.
+
+        Args:
+            seed: Seeds the generator (None keeps drawing from the current one).
+            options: None, or a dict with any of ``state`` (the start, as for
+                :meth:`set_state`: (u, omega, alpha_1..alpha_n) optionally followed by the
+                pose), ``s`` and ``s_dot`` (the mass; need ``state``) and the scene's task
+                values (``target_heading`` in Heading, ``target`` in Dock). The random start
+                is drawn first either way, so the generator's stream does not depend on the
+                options; given values then replace it.
+
+        Raises:
+            TypeError: If ``options`` is not a dict.
+            ValueError: On an unknown option or an invalid value (naming it).
+        """
+        options = check_reset_options(options, self.core.task_keys)
         super().reset(seed=seed)
         self.core.reset_rows(self._rows, [self.np_random])
         self._has_reset = True
+        if options:
+            task = {key: value for key, value in options.items() if key not in STATE_OPTIONS}
+            state = options.get("state", self.core.z[0].copy())
+            self.core.set_row_state(
+                0, state, s=options.get("s", 0.0), s_dot=options.get("s_dot", 0.0), **task
+            )
         self._path.clear()
         self._record_path()
         if self.render_mode == "human":
@@ -121,73 +163,43 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         """
         if not self._has_reset:
             self.reset()
-        core = self.core
-        state = np.asarray(z, dtype=np.float64)
-        if state.ndim != 1 or state.shape[0] not in (core.n + 2, core.z.shape[1]):
-            raise ValueError(
-                f"z must have length {core.n + 2} or {core.z.shape[1]}, got shape {state.shape}"
-            )
-        if not np.all(np.isfinite(state)) or not (np.isfinite(s) and np.isfinite(s_dot)):
-            raise ValueError("z, s and s_dot must be finite")
-        s_max = self.settings.params.s_max
-        accel = self.settings.rail_accel_max
-        if (
-            abs(s) > s_max
-            or s + max(s_dot, 0.0) ** 2 / (2 * accel) > s_max
-            or (s - max(-s_dot, 0.0) ** 2 / (2 * accel) < -s_max)
-        ):
-            raise ValueError("the mass must be on the rail and able to stop before its ends")
-        core.z[0] = 0.0  # a pose not given starts at the origin, heading along x
-        core.z[0, : state.shape[0]] = state
-        core.act[0] = 0.0
-        core.act[0, 0] = self.settings.params.b
-        core.act[0, 1] = s
-        core.act[0, 3] = s_dot
-        core.set_task(0, **task)
-        core.refresh()
-        core.energy0[0] = core.energy[0]
-        core._after_reset(self._rows)
+        self.core.set_row_state(0, z, s=s, s_dot=s_dot, **task)
         self._path.clear()
         self._record_path()
-        return core.obs[0].copy()
+        return self.core.obs[0].copy()
 
     def _record_path(self) -> None:
         if self.core.with_pose:
             n = self.core.n
-            self._path.append((float(self.core.z[0, n + 2]), float(self.core.z[0, n + 3])))
+            self._path.record(self.core.z[:1, n + 2 : n + 4])
 
-    def render(self) -> np.ndarray | None:
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
         """Draw the convoy (top-down) in a window ("human") or return an RGB array ("rgb_array")."""
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode to gym.make")
             return None
         if not self._has_reset:
             raise gym.error.ResetNeeded("call reset() before render()")
-        from trailer_env.rendering import ConvoyRenderer, RenderFrame  # pygame only when rendering
-
         if self._renderer is None:
-            self._renderer = ConvoyRenderer(
-                self.settings.params,
-                render_mode=self.render_mode,
-                singular_band=self.settings.singular_band,
-                fps=self.metadata["render_fps"],
-                view_size=self.core.render_view_size(),
-            )
-        core = self.core
-        n = core.n
-        x, y, theta = core.z[0, n + 2 : n + 5]
-        xs, ys, thetas = body_poses(self.settings.params.l, x, y, theta, core.z[0, 2 : 2 + n])
-        frame = RenderFrame(
-            xs=xs,
-            ys=ys,
-            thetas=thetas,
-            mass_xy_body=(float(core.act[0, 0]), float(core.act[0, 1])),
-            singular_margin=float(core.singular_margin[0]),
-            path=np.asarray(self._path, dtype=np.float64).reshape(-1, 2),
-            text=f"u = {core.z[0, 0]:+.2f} m/s   margin = {core.singular_margin[0]:.2f}",
-            **core.render_extras(0),
-        )
-        return self._renderer.draw(frame)
+            self._renderer = make_renderer(self.core, self.render_mode, self.metadata["render_fps"])
+        return self._renderer.draw(core_frame(self.core, 0, self._path.path(0)))
+
+    def get_keys_to_action(self) -> dict[tuple[str, ...], np.ndarray]:
+        """Keyboard map for :func:`gymnasium.utils.play.play` (no key: the action 0).
+
+        Servo and accel modes: ``a`` pushes the mass to the left end of its rail (+1), ``d``
+        to the right (-1). Planar mode adds ``w`` (forward, +1) and ``s`` (back, -1) on the
+        first axis, with ``a``/``d`` on the second; pairs combine.
+        """
+        if self.settings.action_dim == 1:
+            return {("a",): np.array([1.0], np.float32), ("d",): np.array([-1.0], np.float32)}
+        keys: dict[tuple[str, ...], np.ndarray] = {}
+        for forward, first in (("", 0.0), ("w", 1.0), ("s", -1.0)):
+            for side, second in (("", 0.0), ("a", 1.0), ("d", -1.0)):
+                combination = tuple(sorted(key for key in (forward, side) if key))
+                if combination:
+                    keys[combination] = np.array([first, second], np.float32)
+        return keys
 
     def close(self) -> None:
         """Close the window, if any."""

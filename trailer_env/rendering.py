@@ -8,7 +8,8 @@ Colour map of the singular margin (:func:`margin_colour`): bodies and hitch rods
 from amber to red (:data:`RED`) at margin 0, so red always means "inside the singular band".
 The moving mass is blue, a dock target purple, the cart's past path grey.
 
-Run ``python -m trailer_env.rendering --out docs/img/render_example.png`` for a sample picture.
+Run ``python -m trailer_env.rendering --out docs/img/render_example.png`` for a real frame
+(Reverse-v0, three trailers, the LQR baseline steering).
 """
 
 from __future__ import annotations
@@ -62,6 +63,70 @@ class RenderFrame:
     target: tuple[float, float, float] | None = None
     target_heading: float | None = None
     text: str = ""
+
+
+class PathTrace:
+    """The last ``length`` positions of each of ``batch`` carts, held as one ring buffer.
+
+    Recording and clearing work on the whole batch at once, so a vector env that renders
+    keeps its paths without a Python loop over environments.
+    """
+
+    def __init__(self, batch: int, length: int = 2000) -> None:
+        self.length = length
+        self._points = np.zeros((batch, length, 2))
+        self._count = np.zeros(batch, dtype=np.int64)
+        self._head = np.zeros(batch, dtype=np.int64)  # index the next point goes to
+
+    def clear(self, rows: np.ndarray | slice = slice(None)) -> None:
+        """Forget the paths of ``rows`` (all by default)."""
+        self._count[rows] = 0
+        self._head[rows] = 0
+
+    def record(self, xy: np.ndarray, rows: np.ndarray | slice = slice(None)) -> None:
+        """Append one position ``xy`` (len(rows), 2) to the paths of ``rows``."""
+        indices = np.arange(self._count.size)[rows]
+        self._points[indices, self._head[indices]] = xy
+        self._head[indices] = (self._head[indices] + 1) % self.length
+        self._count[indices] = np.minimum(self._count[indices] + 1, self.length)
+
+    def path(self, i: int) -> np.ndarray:
+        """Row ``i``'s path, oldest point first, ``(k, 2)``."""
+        count, head = int(self._count[i]), int(self._head[i])
+        order = (head - count + np.arange(count)) % self.length
+        return self._points[i, order].copy()
+
+    def __len__(self) -> int:
+        """Points held for row 0 (the single env's path)."""
+        return int(self._count[0])
+
+
+def core_frame(core: Any, i: int, path: np.ndarray) -> RenderFrame:
+    """The picture of row ``i`` of a :class:`~trailer_env.core.ConvoyCore` tracking its pose."""
+    n = core.n
+    z = core.z[i]
+    xs, ys, thetas = body_poses(core.params.l, z[n + 2], z[n + 3], z[n + 4], z[2 : 2 + n])
+    return RenderFrame(
+        xs=xs,
+        ys=ys,
+        thetas=thetas,
+        mass_xy_body=(float(core.act[i, 0]), float(core.act[i, 1])),
+        singular_margin=float(core.singular_margin[i]),
+        path=path,
+        text=f"u = {z[0]:+.2f} m/s   margin = {core.singular_margin[i]:.2f}",
+        **core.render_extras(i),
+    )
+
+
+def make_renderer(core: Any, render_mode: str, fps: int) -> ConvoyRenderer:
+    """A renderer for the scene of ``core`` (its geometry, singular band and view size)."""
+    return ConvoyRenderer(
+        core.params,
+        render_mode=render_mode,
+        singular_band=core.settings.singular_band,
+        fps=fps,
+        view_size=core.render_view_size(),
+    )
 
 
 def margin_colour(margin: float, singular_band: float = 0.3) -> RGB:
@@ -285,26 +350,33 @@ class ConvoyRenderer:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Write a sample picture: three trailers on a gentle left curve, mass left of centre."""
+    """Write a real frame: Reverse-v0 with three trailers under the LQR baseline, after 5 s."""
     parser = argparse.ArgumentParser(description=main.__doc__)
     parser.add_argument("--out", default="docs/img/render_example.png")
+    parser.add_argument("--env", default="trailer_env/Reverse-v0")
+    parser.add_argument("--n-trailers", type=int, default=3)
+    parser.add_argument("--seed", type=int, default=1003)
+    parser.add_argument("--steps", type=int, default=100)
     args = parser.parse_args(argv)
-    params = ConvoyParams(n_trailers=3)
-    xs, ys, thetas = body_poses(params.l, 0.0, 0.0, 0.5, np.array([0.25, 0.2, 0.15]))
-    arc = np.linspace(-1.2, 0.5, 60)  # the cart came along a circle of radius 4 m
-    path = np.stack([4.0 * np.sin(arc), 4.0 * (1.0 - np.cos(arc))], -1)
-    path -= path[-1]
-    frame = RenderFrame(
-        xs=xs, ys=ys, thetas=thetas, mass_xy_body=(params.b, 0.18), singular_margin=0.9,
-        path=path, target=(-0.2, 1.2, 0.9), text="step 120   reward 0.84\nmargin 0.90",
-    )
-    renderer = ConvoyRenderer(params, render_mode="rgb_array")
-    pixels = renderer.draw(frame)
+    import gymnasium as gym
+
+    import trailer_env  # noqa: F401  (registers the ids)
+    from trailer_env.controllers import HeuristicController
+
+    env = gym.make(args.env, n_trailers=args.n_trailers, render_mode="rgb_array")
+    controller = HeuristicController.from_env(env)
+    obs, _ = env.reset(seed=args.seed)
+    for _ in range(args.steps):
+        obs, _, terminated, truncated, _ = env.step(controller(obs))
+        if terminated or truncated:
+            break
+    pixels: Any = env.render()
     assert pixels is not None
+    renderer = env.unwrapped._renderer  # type: ignore[attr-defined]
     os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
     renderer._pg.image.save(renderer._surface, args.out)
-    renderer.close()
-    print(f"wrote {args.out} ({pixels.shape[1]}x{pixels.shape[0]})")
+    env.close()
+    print(f"wrote {args.out} ({pixels.shape[1]}x{pixels.shape[0]}): {args.env}, seed {args.seed}")
 
 
 if __name__ == "__main__":

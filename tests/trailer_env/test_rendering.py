@@ -198,6 +198,19 @@ def test_human_mode_with_dummy_video_driver() -> None:
 
 def test_example_script_writes_a_png(tmp_path: os.PathLike[str]) -> None:
     out = os.path.join(tmp_path, "example.png")
-    main(["--out", out])
+    main(["--out", out, "--steps", "20"])
     with open(out, "rb") as handle:
         assert handle.read(8) == b"\x89PNG\r\n\x1a\n"
+    # It is a real frame: the same pixels as rendering the same rollout of Reverse-v0.
+    import gymnasium as gym
+    import pygame
+
+    from trailer_env.controllers import HeuristicController
+
+    env = gym.make("trailer_env/Reverse-v0", n_trailers=3, render_mode="rgb_array")
+    controller = HeuristicController.from_env(env)
+    obs, _ = env.reset(seed=1003)
+    for _ in range(20):
+        obs, *_ = env.step(controller(obs))
+    saved = pygame.surfarray.array3d(pygame.image.load(out)).transpose(1, 0, 2)
+    np.testing.assert_array_equal(saved, env.render())

@@ -75,6 +75,8 @@ class DockCore(ShapedCore):
         self.target[i, 1] = rng.uniform(-LATERAL_RANGE, LATERAL_RANGE)
         self.target[i, 2] = rng.uniform(-HEADING_RANGE, HEADING_RANGE)
 
+    task_keys = ("target",)
+
     def set_task(self, i: int, **task: Any) -> None:
         """Accepts ``target`` = (x, y, heading) of the dock."""
         unknown = sorted(set(task) - {"target"})

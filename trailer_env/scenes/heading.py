@@ -51,6 +51,8 @@ class HeadingCore(ShapedCore):
         sign = 1.0 if rng.random() < 0.5 else -1.0
         self.target_heading[i] = sign * rng.uniform(*TARGET_RANGE)
 
+    task_keys = ("target_heading",)
+
     def set_task(self, i: int, **task: Any) -> None:
         """Accepts ``target_heading`` (rad)."""
         unknown = sorted(set(task) - {"target_heading"})
