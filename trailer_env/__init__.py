@@ -34,33 +34,15 @@ from __future__ import annotations
 
 __version__ = "0.2.0"
 
-import gymnasium as gym
-
 from trailer_env.fidelity import Fidelity
+from trailer_env.registry import ENVIRONMENTS, register_scenes
 from trailer_env.scenes import CoastEnv, DockEnv, HeadingEnv, ReverseEnv
 from trailer_env.settings import EnvSettings
 
-#: Scene name -> max_episode_steps.
-SCENES: dict[str, int] = {"Reverse": 400, "Coast": 300, "Heading": 300, "Dock": 400}
-
-
-def _register() -> None:
-    for name, max_steps in SCENES.items():
-        env_id = f"trailer_env/{name}-v0"
-        if env_id in gym.registry:
-            continue
-        gym.register(
-            id=env_id,
-            entry_point=f"trailer_env.scenes:{name}Env",
-            vector_entry_point=f"trailer_env.vector:{name}VectorEnv",
-            max_episode_steps=max_steps,
-        )
-
-
-_register()
+register_scenes()
 
 __all__ = [
-    "SCENES",
+    "ENVIRONMENTS",
     "CoastEnv",
     "DockEnv",
     "EnvSettings",

@@ -76,8 +76,15 @@ class ConvoyCore:
         substeps: Substeps used by the last step.
     """
 
+    #: The scene's name and version: it is registered as ``trailer_env/{scene}-v{version}``.
+    scene: ClassVar[str] = ""
+    version: ClassVar[int] = 0
     #: Truncation length registered for the scene (steps).
     max_episode_steps: ClassVar[int] = 400
+    #: The rate the agents report first for this scene (a key of ``agents.metrics``).
+    headline_metric: ClassVar[str] = "success_rate"
+    #: Names of the ``agents`` baselines that apply to this scene.
+    baselines: ClassVar[tuple[str, ...]] = ("zero", "random", "lqr")
     #: Whether the scene itself needs the cart's pose (x, y, theta).
     uses_pose: ClassVar[bool] = False
     #: Number of task features appended to the observation.
@@ -239,9 +246,9 @@ class ConvoyCore:
         self._after_reset(rows)
         self.success[i] = self._is_success()[i]
 
-    def render_extras(self, i: int) -> dict[str, Any]:
-        """Extra :class:`~trailer_env.rendering.RenderFrame` fields for row ``i`` (targets)."""
-        return {}
+    def render_markers(self, i: int) -> tuple[Any, ...]:
+        """Row ``i``'s targets to draw (:class:`~trailer_env.rendering.Marker`); default none."""
+        return ()
 
     def render_view_size(self) -> float | None:
         """Metres across the rendered picture; None lets the renderer fit the convoy."""

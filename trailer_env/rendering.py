@@ -38,6 +38,32 @@ RENDER_MODES = ("human", "rgb_array")
 _MAX_PIXEL = 16000.0  # gfxdraw takes 16-bit coordinates: keep far-away points representable
 
 
+MARKER_KINDS = ("pose", "arrow")
+
+
+@dataclass(frozen=True)
+class Marker:
+    """A scene's extra drawn over the floor: a target pose or a direction.
+
+    Attributes:
+        kind: "pose" (the outline of a trailer and its rod at (x, y), facing ``heading``,
+            e.g. a dock) or "arrow" (an arrow from (x, y) along ``heading``, e.g. a target
+            heading drawn from the cart's axle).
+        x, y, heading: World position (m) and direction (rad).
+        colour: RGB of the outline or arrow.
+    """
+
+    kind: str
+    x: float
+    y: float
+    heading: float
+    colour: RGB = TARGET
+
+    def __post_init__(self) -> None:
+        if self.kind not in MARKER_KINDS:
+            raise ValueError(f"marker kind must be one of {MARKER_KINDS}, got {self.kind!r}")
+
+
 @dataclass(frozen=True)
 class RenderFrame:
     """Everything one picture shows; the environment builds it from its state.
@@ -49,8 +75,7 @@ class RenderFrame:
             (xi forward, eta to the left).
         singular_margin: Distance to the singular set in [0, 1]; 0 = singular.
         path: ``(k, 2)`` past positions of the cart's axle midpoint.
-        target: Dock scene: target pose (x, y, heading) of the last trailer's axle midpoint.
-        target_heading: Heading scene: target heading of the cart (rad).
+        markers: The scene's targets (:class:`Marker`), drawn under the convoy.
         text: Overlay in the top-left corner; lines split on newlines.
     """
 
@@ -60,8 +85,7 @@ class RenderFrame:
     mass_xy_body: tuple[float, float]
     singular_margin: float
     path: np.ndarray
-    target: tuple[float, float, float] | None = None
-    target_heading: float | None = None
+    markers: tuple[Marker, ...] = ()
     text: str = ""
 
 
@@ -113,8 +137,8 @@ def core_frame(core: Any, i: int, path: np.ndarray) -> RenderFrame:
         mass_xy_body=(float(core.act[i, 0]), float(core.act[i, 1])),
         singular_margin=float(core.singular_margin[i]),
         path=path,
+        markers=core.render_markers(i),
         text=f"u = {z[0]:+.2f} m/s   margin = {core.singular_margin[i]:.2f}",
-        **core.render_extras(i),
     )
 
 
@@ -267,19 +291,8 @@ class ConvoyRenderer:
         path = np.asarray(frame.path, dtype=np.float64).reshape(-1, 2)
         if len(path) >= 2:
             pg.draw.aalines(surface, PATH, False, self._to_pixels(path).tolist())
-        if frame.target is not None:  # outline of the wanted last-trailer pose and its rod
-            tx, ty, th = frame.target
-            self._vehicle(tx, ty, th, -0.25 * l, 0.25 * l, 0.2 * l, None, TARGET)
-            rod_end = np.array([tx + l * math.cos(th), ty + l * math.sin(th)])
-            self._polygon(self._bar(np.array([tx, ty]), rod_end, 0.015 * l), None, TARGET)
-        if frame.target_heading is not None:  # arrow from the cart's axle along the target
-            start = np.array([xs[0], ys[0]])
-            direction = np.array([math.cos(frame.target_heading), math.sin(frame.target_heading)])
-            tip = start + 1.6 * l * direction
-            self._polygon(self._bar(start, tip - 0.2 * l * direction, 0.03 * l), TARGET, TARGET)
-            tip_x, tip_y, heading = tip[0], tip[1], frame.target_heading
-            head = self._box(tip_x, tip_y, heading, -0.25 * l, 0.0, 0.12 * l, -0.12 * l)
-            self._polygon([head[1], head[3], head[0]], TARGET, TARGET)  # tip, back-left, back-right
+        for marker in frame.markers:
+            self._marker(marker)
 
         colour = margin_colour(frame.singular_margin, self.singular_band)
         axles = np.stack([xs, ys], -1)
@@ -310,6 +323,20 @@ class ConvoyRenderer:
                 image = self._font.render(line, True, INK, BACKGROUND)
                 surface.blit(image, (8, 6 + row * self._font.get_linesize()))
         return self._present()
+
+    def _marker(self, marker: Marker) -> None:
+        l, colour = self.params.l, marker.colour
+        x, y, heading = marker.x, marker.y, marker.heading
+        start = np.array([x, y])
+        direction = np.array([math.cos(heading), math.sin(heading)])
+        if marker.kind == "pose":  # a trailer's outline and its rod
+            self._vehicle(x, y, heading, -0.25 * l, 0.25 * l, 0.2 * l, None, colour)
+            self._polygon(self._bar(start, start + l * direction, 0.015 * l), None, colour)
+            return
+        tip = start + 1.6 * l * direction
+        self._polygon(self._bar(start, tip - 0.2 * l * direction, 0.03 * l), colour, colour)
+        head = self._box(tip[0], tip[1], heading, -0.25 * l, 0.0, 0.12 * l, -0.12 * l)
+        self._polygon([head[1], head[3], head[0]], colour, colour)  # tip, back-left, back-right
 
     def _draw_scale_bar(self) -> None:
         length = round(self.scale_bar_metres * self.pixels_per_metre)

@@ -35,25 +35,9 @@ from gymnasium import spaces
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
-from trailer_env.core import ConvoyCore
+from trailer_env.registry import core_class_of
 from trailer_env.settings import settings_from_kwargs
-from trailer_env.vector import ConvoyVectorEnv, as_action_batch, seed_generators
-
-
-def core_class_of(env_id: str) -> type[ConvoyCore]:
-    """The scene core registered for ``env_id`` (e.g. "trailer_env/Reverse-v0")."""
-    import trailer_env  # noqa: F401  (registers the ids)
-
-    spec = gym.spec(env_id)
-    entry = spec.vector_entry_point
-    if entry is None:
-        raise ValueError(f"{env_id} has no vector_entry_point")
-    creator: Any = entry
-    if isinstance(entry, str):
-        creator = gym.envs.registration.load_env_creator(entry)
-    if not (isinstance(creator, type) and issubclass(creator, ConvoyVectorEnv)):
-        raise ValueError(f"{env_id} is not a trailer_env scene")
-    return creator.core_class
+from trailer_env.vector import as_action_batch, seed_generators
 
 
 class ConvoySB3VecEnv(VecEnv):

@@ -34,7 +34,7 @@ actions.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -45,7 +45,6 @@ from gymnasium.vector.utils import batch_space
 from trailer_env.core import ConvoyCore
 from trailer_env.env import PATH_LENGTH
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
-from trailer_env.scenes import CoastCore, DockCore, HeadingCore, ReverseCore
 from trailer_env.settings import settings_from_kwargs
 
 VECTOR_RENDER_MODES = ("rgb_array",)
@@ -119,7 +118,12 @@ def as_action_batch(actions: Any, count: int, action_dim: int) -> np.ndarray:
 class ConvoyVectorEnv(VectorEnv):
     """N environments of one scene stepped together (see the module docstring).
 
+    Each registered id's ``vector_entry_point`` is this class bound to the scene's core
+    (:mod:`trailer_env.registry`); ``ConvoyVectorEnv(ReverseCore, num_envs=8)`` builds one
+    directly.
+
     Args:
+        core_class: The scene's batch core.
         num_envs: Number of environments N >= 1.
         max_episode_steps: Truncation length; default the scene's registered value.
         render_mode: None or "rgb_array" (one frame per environment).
@@ -132,10 +136,9 @@ class ConvoyVectorEnv(VectorEnv):
         "render_modes": list(VECTOR_RENDER_MODES),
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
-    core_class: ClassVar[type[ConvoyCore]]
-
     def __init__(
         self,
+        core_class: type[ConvoyCore],
         num_envs: int = 1,
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
@@ -148,8 +151,11 @@ class ConvoyVectorEnv(VectorEnv):
                 f"(a window per environment is not offered), got {render_mode!r}"
             )
         self.autoreset_mode = parse_autoreset_mode(autoreset_mode)
+        if not (isinstance(core_class, type) and issubclass(core_class, ConvoyCore)):
+            raise TypeError(f"core_class must be a ConvoyCore subclass, got {core_class!r}")
+        self.core_class = core_class
         if max_episode_steps is None:
-            max_episode_steps = self.core_class.max_episode_steps
+            max_episode_steps = core_class.max_episode_steps
         if isinstance(max_episode_steps, bool) or not isinstance(
             max_episode_steps, (int, np.integer)
         ):
@@ -159,7 +165,7 @@ class ConvoyVectorEnv(VectorEnv):
         if max_episode_steps < 1:
             raise ValueError(f"max_episode_steps must be >= 1, got {max_episode_steps}")
         self.settings = settings_from_kwargs(**kwargs)
-        self.core = self.core_class(self.settings, num_envs, track_pose=render_mode is not None)
+        self.core = core_class(self.settings, num_envs, track_pose=render_mode is not None)
         self.num_envs = self.core.batch_size
         self.max_episode_steps = int(max_episode_steps)
         self.render_mode = render_mode
@@ -339,27 +345,3 @@ class ConvoyVectorEnv(VectorEnv):
         for key in list(infos):
             infos[f"_{key}"] = present
         return infos
-
-
-class ReverseVectorEnv(ConvoyVectorEnv):
-    """Batched Reverse-v0 (see :class:`trailer_env.scenes.ReverseEnv`)."""
-
-    core_class = ReverseCore
-
-
-class CoastVectorEnv(ConvoyVectorEnv):
-    """Batched Coast-v0 (see :class:`trailer_env.scenes.CoastEnv`)."""
-
-    core_class = CoastCore
-
-
-class HeadingVectorEnv(ConvoyVectorEnv):
-    """Batched Heading-v0 (see :class:`trailer_env.scenes.HeadingEnv`)."""
-
-    core_class = HeadingCore
-
-
-class DockVectorEnv(ConvoyVectorEnv):
-    """Batched Dock-v0 (see :class:`trailer_env.scenes.DockEnv`)."""
-
-    core_class = DockCore

@@ -64,7 +64,7 @@ def test_ppo_trains_on_the_adapter() -> None:
 def test_adapter_rejects_bad_input() -> None:
     with pytest.raises(ValueError, match="mu"):
         ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=2, mu=-1.0)
-    with pytest.raises(ValueError, match="trailer_env scene"):
+    with pytest.raises(ValueError, match="unknown environment"):
         ConvoySB3VecEnv("CartPole-v1", num_envs=2)
     venv = ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=2)
     venv.reset()
