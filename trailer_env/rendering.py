@@ -388,10 +388,10 @@ def main(argv: list[str] | None = None) -> None:
     import gymnasium as gym
 
     import trailer_env  # noqa: F401  (registers the ids)
-    from trailer_env.controllers import HeuristicController
+    from trailer_env.controllers import LQRController
 
     env = gym.make(args.env, n_trailers=args.n_trailers, render_mode="rgb_array")
-    controller = HeuristicController.from_env(env)
+    controller = LQRController.from_env(env)
     obs, _ = env.reset(seed=args.seed)
     for _ in range(args.steps):
         obs, _, terminated, truncated, _ = env.step(controller(obs))

@@ -207,10 +207,10 @@ def test_example_script_writes_a_png(tmp_path: os.PathLike[str]) -> None:
     import gymnasium as gym
     import pygame
 
-    from trailer_env.controllers import HeuristicController
+    from trailer_env.controllers import LQRController
 
     env = gym.make("trailer_env/Reverse-v0", n_trailers=3, render_mode="rgb_array")
-    controller = HeuristicController.from_env(env)
+    controller = LQRController.from_env(env)
     obs, _ = env.reset(seed=1003)
     for _ in range(20):
         obs, *_ = env.step(controller(obs))
