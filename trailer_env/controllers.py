@@ -177,7 +177,7 @@ def heading_policy(obs: np.ndarray, n_trailers: int = 2, gain: float = 8.0) -> n
 __all__ = [
     "LQRController",
     "heading_policy",
-    "lqr_policy",
     "linearise",
+    "lqr_policy",
     "regulator_gain",
 ]
