@@ -347,7 +347,9 @@ def test_committed_pictures_are_modest() -> None:
         assert picture.stat().st_size < 250_000, picture.name
 
 
-@pytest.mark.parametrize("script_name", [False, True])
+@pytest.mark.parametrize(
+    "script_name", [False, True], ids=["python -m docs.figures", "python docs/make_figures.py"]
+)
 def test_the_package_and_the_old_script_name_run_the_same_command(
     script_name: bool, tmp_path: Path
 ) -> None:
