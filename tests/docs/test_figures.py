@@ -347,20 +347,10 @@ def test_committed_pictures_are_modest() -> None:
         assert picture.stat().st_size < 250_000, picture.name
 
 
-@pytest.mark.parametrize(
-    "script_name", [False, True], ids=["python -m docs.figures", "python docs/make_figures.py"]
-)
-def test_the_package_and_the_old_script_name_run_the_same_command(
-    script_name: bool, tmp_path: Path
-) -> None:
-    """``python -m docs.figures`` from the root, ``python docs/make_figures.py`` from anywhere."""
-    if script_name:
-        arguments, folder = [str(DOCS / "make_figures.py")], tmp_path
-    else:
-        arguments, folder = ["-m", "docs.figures"], DOCS.parent
+def test_the_command_runs_from_the_root() -> None:
     done = subprocess.run(
-        [sys.executable, *arguments, "--help"],
-        cwd=folder,
+        [sys.executable, "-m", "docs.figures", "--help"],
+        cwd=DOCS.parent,
         capture_output=True,
         text=True,
         check=False,
