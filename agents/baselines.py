@@ -5,7 +5,7 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
 
 * ``zero``: the mass stays at the centre of its rail; the convoy coasts.
 * ``random``: uniform actions from a seeded generator (reproducible per seed).
-* ``lqr``: :class:`trailer_env.controllers.HeuristicController`, a linear-quadratic
+* ``lqr``: :class:`trailer_env.controllers.LQRController`, a linear-quadratic
   regulator on the linearisation of the straight convoy (the mass's position and
   velocity included), gain-scheduled in the speed. It is the classical bar that
   learning has to beat.
@@ -22,7 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from trailer_env.controllers import HeuristicController, heading_policy
+from trailer_env.controllers import LQRController, heading_policy
 from trailer_env.settings import EnvSettings
 
 #: A policy: observations (B, obs_dim) -> actions (B, action_dim), float32 in [-1, 1].
@@ -68,7 +68,7 @@ class LQRPolicy:
     """The gain-scheduled linear regulator of :mod:`trailer_env.controllers`, batched."""
 
     def __init__(self, settings: EnvSettings) -> None:
-        self.controller = HeuristicController(settings)
+        self.controller = LQRController(settings)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         return np.atleast_2d(self.controller(np.atleast_2d(obs)))

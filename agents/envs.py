@@ -11,7 +11,7 @@ from trailer_env.settings import EnvSettings, settings_from_kwargs
 from trailer_env.vector import ConvoyVectorEnv
 
 #: The registered ids, e.g. "trailer_env/Reverse-v0".
-ENV_IDS: tuple[str, ...] = tuple(f"trailer_env/{scene}-v0" for scene in trailer_env.SCENES)
+ENV_IDS: tuple[str, ...] = tuple(trailer_env.ENVIRONMENTS)
 
 
 def check_env_id(env_id: str) -> str:

@@ -38,9 +38,12 @@ OUT_OF_RANGE = 1e3
 def soak_case(
     scene: str, n: int, mode: str, steps: int, num_envs: int, seed: int
 ) -> dict[str, Any]:
-    """Run ``steps`` environment steps (rounded up to whole vector steps) of one case."""
+    """Run ``steps`` environment steps (rounded up to whole vector steps) of one case.
+
+    ``scene`` is a registered id, e.g. "trailer_env/Reverse-v0".
+    """
     envs = gym.make_vec(
-        f"trailer_env/{scene}-v0",
+        scene,
         num_envs=num_envs,
         vectorization_mode="vector_entry_point",
         n_trailers=n,
@@ -76,7 +79,7 @@ def soak_case(
         max_substeps = max(max_substeps, int(core.substeps.max()))
     envs.close()
     return {
-        "scene": scene,
+        "scene": scene.removeprefix("trailer_env/").removesuffix("-v0"),
         "n": n,
         "mode": mode,
         "num_envs": num_envs,
@@ -111,7 +114,7 @@ def main(argv: list[str] | None = None) -> int:
     total = 10**4 if args.quick else args.steps
     if total < 1 or args.num_envs < 1:
         parser.error("--steps and --num-envs must be >= 1")
-    cases = [(scene, n, mode) for scene in trailer_env.SCENES for n in NS for mode in MODES]
+    cases = [(env_id, n, mode) for env_id in trailer_env.ENVIRONMENTS for n in NS for mode in MODES]
     per_case = -(-total // len(cases))
     rows = []
     start = time.perf_counter()
@@ -122,7 +125,8 @@ def main(argv: list[str] | None = None) -> int:
         for index, (scene, n, mode) in enumerate(cases):
             row = soak_case(scene, n, mode, per_case, args.num_envs, args.seed + index)
             rows.append(row)
-            print(f"{scene:8} {n:>2} {mode:6} {row['env_steps']:>8} {row['nonfinite_obs']:>5} "
+            print(f"{row['scene']:8} {n:>2} {mode:6} {row['env_steps']:>8} "
+                  f"{row['nonfinite_obs']:>5} "
                   f"{row['nonfinite_reward']:>5} {row['nonfinite_info']:>5} "
                   f"{row['exceptions']:>4} {row['folds']:>6} {row['max_substeps']:>5} "
                   f"{row['seconds']:>6.2f}")  # fmt: skip

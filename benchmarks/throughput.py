@@ -126,7 +126,7 @@ def mean_substeps(env_id: str, num_envs: int, seed: int = 1, **kwargs: Any) -> f
     )
     envs.action_space.seed(seed)
     envs.reset(seed=seed)
-    core = envs.unwrapped.core  # type: ignore[attr-defined]
+    core = envs.unwrapped.core
     total = 0
     for _ in range(200):
         envs.step(envs.action_space.sample())

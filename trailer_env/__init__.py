@@ -26,33 +26,28 @@ Keyword arguments: ``n_trailers``, any :class:`dynamics.ConvoyParams` field, ``d
 ``fidelity``, ``action_mode``, ``rail_accel_max``, ``servo_bandwidth``,
 ``singular_band``, ``fold_angle`` (see :mod:`trailer_env.settings`). The
 stable-baselines3 adapter lives in :mod:`trailer_env.sb3` (imported on demand).
+``python -m trailer_env`` lists the ids; ``python -m trailer_env --play ID`` drives one
+from the keyboard (needs a display and pygame).
 """
 
 from __future__ import annotations
 
-import gymnasium as gym
+__version__ = "0.2.0"
 
 from trailer_env.fidelity import Fidelity
+from trailer_env.registry import ENVIRONMENTS, register_scenes
 from trailer_env.scenes import CoastEnv, DockEnv, HeadingEnv, ReverseEnv
 from trailer_env.settings import EnvSettings
 
-#: Scene name -> max_episode_steps.
-SCENES: dict[str, int] = {"Reverse": 400, "Coast": 300, "Heading": 300, "Dock": 400}
+register_scenes()
 
-
-def _register() -> None:
-    for name, max_steps in SCENES.items():
-        env_id = f"trailer_env/{name}-v0"
-        if env_id in gym.registry:
-            continue
-        gym.register(
-            id=env_id,
-            entry_point=f"trailer_env.scenes:{name}Env",
-            vector_entry_point=f"trailer_env.vector:{name}VectorEnv",
-            max_episode_steps=max_steps,
-        )
-
-
-_register()
-
-__all__ = ["SCENES", "CoastEnv", "DockEnv", "EnvSettings", "Fidelity", "HeadingEnv", "ReverseEnv"]
+__all__ = [
+    "ENVIRONMENTS",
+    "CoastEnv",
+    "DockEnv",
+    "EnvSettings",
+    "Fidelity",
+    "HeadingEnv",
+    "ReverseEnv",
+    "__version__",
+]

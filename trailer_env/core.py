@@ -76,8 +76,15 @@ class ConvoyCore:
         substeps: Substeps used by the last step.
     """
 
+    #: The scene's name and version: it is registered as ``trailer_env/{scene}-v{version}``.
+    scene: ClassVar[str] = ""
+    version: ClassVar[int] = 0
     #: Truncation length registered for the scene (steps).
     max_episode_steps: ClassVar[int] = 400
+    #: The rate the agents report first for this scene (a key of ``agents.metrics``).
+    headline_metric: ClassVar[str] = "success_rate"
+    #: Names of the ``agents`` baselines that apply to this scene.
+    baselines: ClassVar[tuple[str, ...]] = ("zero", "random", "lqr")
     #: Whether the scene itself needs the cart's pose (x, y, theta).
     uses_pose: ClassVar[bool] = False
     #: Number of task features appended to the observation.
@@ -86,6 +93,8 @@ class ConvoyCore:
     fold_penalty: ClassVar[float] = 10.0
     #: Reward per step spent in the singular band (subtracted).
     band_penalty: ClassVar[float] = 0.5
+    #: Task values :meth:`set_task` accepts (``reset(options=...)`` keys beyond the state).
+    task_keys: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         if (
@@ -190,9 +199,56 @@ class ConvoyCore:
         if task:
             raise ValueError(f"unknown task value(s) {sorted(task)} for {type(self).__name__}")
 
-    def render_extras(self, i: int) -> dict[str, Any]:
-        """Extra :class:`~trailer_env.rendering.RenderFrame` fields for row ``i`` (targets)."""
-        return {}
+    def set_row_state(
+        self, i: int, z: Any, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
+    ) -> None:
+        """Put row ``i`` in a hand-built state and start a new episode there.
+
+        Args:
+            i: The row.
+            z: (u, omega, alpha_1..alpha_n), optionally followed by the cart's pose
+                (x, y, theta) when the core tracks it (otherwise the pose is the origin,
+                heading along x).
+            s, s_dot: The mass on the rail (rail modes; in planar mode the lateral axis).
+            **task: The scene's task values (:attr:`task_keys`, e.g. ``target_heading``).
+
+        Raises:
+            ValueError: If the shape is wrong, a value is not finite, the mass is off the
+                rail or could not stop before its ends, or a task value is unknown.
+        """
+        state = np.asarray(z, dtype=np.float64)
+        if state.ndim != 1 or state.shape[0] not in (self.n + 2, self.z.shape[1]):
+            raise ValueError(
+                f"z must have length {self.n + 2} or {self.z.shape[1]}, got shape {state.shape}"
+            )
+        if not np.all(np.isfinite(state)) or not (np.isfinite(s) and np.isfinite(s_dot)):
+            raise ValueError("z, s and s_dot must be finite")
+        s_max = self._s_max
+        accel = self.settings.rail_accel_max
+        if (
+            abs(s) > s_max
+            or s + max(s_dot, 0.0) ** 2 / (2 * accel) > s_max
+            or (s - max(-s_dot, 0.0) ** 2 / (2 * accel) < -s_max)
+        ):
+            raise ValueError("the mass must be on the rail and able to stop before its ends")
+        rows = np.array([i], dtype=np.int64)
+        self.z[i] = 0.0
+        self.z[i, : state.shape[0]] = state
+        self.act[i] = 0.0
+        self.act[i, 0] = self._b
+        self.act[i, 1] = s
+        self.act[i, 3] = s_dot
+        self.set_task(i, **task)
+        self.refresh(rows)
+        self.energy0[i] = self.energy[i]
+        self.reward[i] = 0.0
+        self.terminated[i] = False
+        self._after_reset(rows)
+        self.success[i] = self._is_success()[i]
+
+    def render_markers(self, i: int) -> tuple[Any, ...]:
+        """Row ``i``'s targets to draw (:class:`~trailer_env.rendering.Marker`); default none."""
+        return ()
 
     def render_view_size(self) -> float | None:
         """Metres across the rendered picture; None lets the renderer fit the convoy."""

@@ -8,21 +8,42 @@ to name its core class and carry its documentation.
 from __future__ import annotations
 
 import numbers
-from collections import deque
 from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from dynamics import body_poses
 from dynamics.params import real_number
-from trailer_env.core import ConvoyCore, NonFiniteStateError
+from trailer_env.core import ConvoyCore
+from trailer_env.rendering import PathTrace, core_frame, make_renderer
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 
 RENDER_MODES = ("human", "rgb_array")
 #: Past cart positions kept for the rendered path.
 PATH_LENGTH = 2000
+#: ``reset(options=...)`` keys of every scene; each scene adds its ``task_keys``.
+STATE_OPTIONS = ("state", "s", "s_dot")
+
+
+def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, Any]:
+    """``options`` as a dict (None -> {}), its keys checked against the scene's.
+
+    Raises:
+        TypeError: If ``options`` is not a dict or None.
+        ValueError: Naming unknown keys, or ``s``/``s_dot`` given without ``state``.
+    """
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+    valid = (*STATE_OPTIONS, *task_keys)
+    unknown = sorted(set(options) - set(valid), key=str)
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {unknown}; valid: {list(valid)}")
+    if "state" not in options and ("s" in options or "s_dot" in options):
+        raise ValueError("reset options 's' and 's_dot' need 'state' (the convoy's state)")
+    return options
 
 
 def check_render_mode(render_mode: object) -> None:
@@ -94,6 +115,44 @@ def as_action_array(
     return array
 
 
+#: Largest magnitude of a hand-built state's components (set_state, reset options): the
+#: energy (~ M u^2, I0 omega^2) and the float32 observations (up to 3.4e38) stay finite.
+MAX_STATE_MAGNITUDE = 1e30
+
+
+def checked_state(z: Any, s: Any, s_dot: Any) -> tuple[np.ndarray, float, float]:
+    """A hand-built state as a float64 vector and the mass's position and velocity as floats.
+
+    The shape and the rail are checked by :meth:`ConvoyCore.set_row_state`.
+
+    Raises:
+        TypeError: If ``z``, ``s`` or ``s_dot`` is not made of real numbers (bools,
+            strings, complex numbers, None).
+        ValueError: If a value is not finite or beyond 1e30 in magnitude
+            (:data:`MAX_STATE_MAGNITUDE`), or ``z`` is ragged.
+    """
+    if isinstance(z, np.ndarray):
+        given = z
+    elif z is None or isinstance(z, (str, bytes, bool, np.bool_)):
+        raise TypeError(f"z must be a sequence of real numbers, got {type(z).__name__}")
+    else:
+        try:
+            given = np.asarray(z)
+        except (ValueError, TypeError) as error:
+            raise ValueError(f"z must be a flat sequence of real numbers, got {z!r}") from error
+    if given.dtype.kind not in "iuf":
+        raise TypeError(f"z must hold real numbers, got dtype {given.dtype}")
+    state = given.astype(np.float64)
+    if not np.all(np.isfinite(state)):
+        raise ValueError("z must be finite")
+    if state.size and np.max(np.abs(state)) > MAX_STATE_MAGNITUDE:
+        raise ValueError(
+            f"z is too large: every component must be within +-{MAX_STATE_MAGNITUDE:g} (the "
+            f"energy and the float32 observation would overflow), got {np.max(np.abs(state)):g}"
+        )
+    return state, real_number("s", s), real_number("s_dot", s_dot)
+
+
 class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
     """Base of the scenes' single environments (see each scene's docstring).
 
@@ -130,17 +189,42 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         self._rows = np.zeros(1, dtype=np.int64)
         self._action = np.zeros((1, self.settings.action_dim))
         self._action_shape: tuple[int, ...] = (self.settings.action_dim,)
-        self._path: deque[tuple[float, float]] = deque(maxlen=PATH_LENGTH)
+        self._path = PathTrace(1, PATH_LENGTH)
         self._renderer: Any = None
         self._has_reset = False
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start an episode; ``seed`` seeds the generator that draws the starting state."""
+        """Start an episode; ``seed`` seeds the generator that draws the starting state.
+
+        Args:
+            seed: Seeds the generator (None keeps drawing from the current one).
+            options: None, or a dict with any of ``state`` (the start, as for
+                :meth:`set_state`: (u, omega, alpha_1..alpha_n) optionally followed by the
+                pose), ``s`` and ``s_dot`` (the mass; need ``state``) and the scene's task
+                values (``target_heading`` in Heading, ``target`` in Dock). The random start
+                is drawn first either way, so the generator's stream does not depend on the
+                options; given values then replace it.
+
+        Raises:
+            TypeError: If ``options`` is not a dict.
+            ValueError: On an unknown option or an invalid value (naming it).
+        """
+        options = check_reset_options(options, self.core.task_keys)
+        # A bad start state is refused before anything changes (generator included).
+        given = (
+            checked_state(options["state"], options.get("s", 0.0), options.get("s_dot", 0.0))
+            if "state" in options
+            else None
+        )
         super().reset(seed=seed)
         self.core.reset_rows(self._rows, [self.np_random])
         self._has_reset = True
+        if options:
+            task = {key: value for key, value in options.items() if key not in STATE_OPTIONS}
+            state, s, s_dot = given if given is not None else (self.core.z[0].copy(), 0.0, 0.0)
+            self.core.set_row_state(0, state, s=s, s_dot=s_dot, **task)
         self._path.clear()
         self._record_path()
         if self.render_mode == "human":
@@ -211,99 +295,44 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         """
         if not self._has_reset:
             self.reset()
-        core = self.core
-        if isinstance(z, np.ndarray):
-            given = z
-        elif z is None or isinstance(z, (str, bytes, bool, np.bool_)):
-            raise TypeError(f"z must be a sequence of real numbers, got {type(z).__name__}")
-        else:
-            try:
-                given = np.asarray(z)
-            except (ValueError, TypeError) as error:
-                raise ValueError(f"z must be a flat sequence of real numbers, got {z!r}") from error
-        if given.dtype.kind not in "iuf":
-            raise TypeError(f"z must hold real numbers, got dtype {given.dtype}")
-        state = given.astype(np.float64)
-        if state.ndim != 1 or state.shape[0] not in (core.n + 2, core.z.shape[1]):
-            raise ValueError(
-                f"z must have length {core.n + 2} or {core.z.shape[1]}, got shape {state.shape}"
-            )
-        if not np.all(np.isfinite(state)):
-            raise ValueError("z must be finite")
-        s = real_number("s", s)
-        s_dot = real_number("s_dot", s_dot)
-        s_max = self.settings.params.s_max
-        accel = self.settings.rail_accel_max
-        if (
-            abs(s) > s_max
-            or s + max(s_dot, 0.0) ** 2 / (2 * accel) > s_max
-            or (s - max(-s_dot, 0.0) ** 2 / (2 * accel) < -s_max)
-        ):
-            raise ValueError("the mass must be on the rail and able to stop before its ends")
-        previous_z, previous_act = core.z[0].copy(), core.act[0].copy()
-        core.z[0] = 0.0  # a pose not given starts at the origin, heading along x
-        core.z[0, : state.shape[0]] = state
-        core.act[0] = 0.0
-        core.act[0, 0] = self.settings.params.b
-        core.act[0, 1] = s
-        core.act[0, 3] = s_dot
-        try:
-            core.refresh()
-            overflow = not (np.isfinite(core.energy[0]) and np.all(np.isfinite(core.obs[0])))
-        except NonFiniteStateError:
-            overflow = True
-        if overflow:
-            core.z[0], core.act[0] = previous_z, previous_act
-            core.refresh()
-            raise ValueError(
-                "z is too large: its energy or its float32 observation overflows "
-                "(the state was left unchanged)"
-            )
-        core.set_task(0, **task)
-        core.refresh()
-        core.energy0[0] = core.energy[0]
-        core._after_reset(self._rows)
+        state, s, s_dot = checked_state(z, s, s_dot)
+        self.core.set_row_state(0, state, s=s, s_dot=s_dot, **task)
         self._path.clear()
         self._record_path()
-        return core.obs[0].copy()
+        return self.core.obs[0].copy()
 
     def _record_path(self) -> None:
         if self.core.with_pose:
             n = self.core.n
-            self._path.append((float(self.core.z[0, n + 2]), float(self.core.z[0, n + 3])))
+            self._path.record(self.core.z[:1, n + 2 : n + 4])
 
-    def render(self) -> np.ndarray | None:
+    def render(self) -> np.ndarray | None:  # type: ignore[override]
         """Draw the convoy (top-down) in a window ("human") or return an RGB array ("rgb_array")."""
         if self.render_mode is None:
             gym.logger.warn("render() called without a render_mode; pass render_mode to gym.make")
             return None
         if not self._has_reset:
             raise gym.error.ResetNeeded("call reset() before render()")
-        from trailer_env.rendering import ConvoyRenderer, RenderFrame  # pygame only when rendering
-
         if self._renderer is None:
-            self._renderer = ConvoyRenderer(
-                self.settings.params,
-                render_mode=self.render_mode,
-                singular_band=self.settings.singular_band,
-                fps=self.metadata["render_fps"],
-                view_size=self.core.render_view_size(),
-            )
-        core = self.core
-        n = core.n
-        x, y, theta = core.z[0, n + 2 : n + 5]
-        xs, ys, thetas = body_poses(self.settings.params.l, x, y, theta, core.z[0, 2 : 2 + n])
-        frame = RenderFrame(
-            xs=xs,
-            ys=ys,
-            thetas=thetas,
-            mass_xy_body=(float(core.act[0, 0]), float(core.act[0, 1])),
-            singular_margin=float(core.singular_margin[0]),
-            path=np.asarray(self._path, dtype=np.float64).reshape(-1, 2),
-            text=f"u = {core.z[0, 0]:+.2f} m/s   margin = {core.singular_margin[0]:.2f}",
-            **core.render_extras(0),
-        )
-        return self._renderer.draw(frame)
+            self._renderer = make_renderer(self.core, self.render_mode, self.metadata["render_fps"])
+        return self._renderer.draw(core_frame(self.core, 0, self._path.path(0)))
+
+    def get_keys_to_action(self) -> dict[tuple[str, ...], np.ndarray]:
+        """Keyboard map for :func:`gymnasium.utils.play.play` (no key: the action 0).
+
+        Servo and accel modes: ``a`` pushes the mass to the left end of its rail (+1), ``d``
+        to the right (-1). Planar mode adds ``w`` (forward, +1) and ``s`` (back, -1) on the
+        first axis, with ``a``/``d`` on the second; pairs combine.
+        """
+        if self.settings.action_dim == 1:
+            return {("a",): np.array([1.0], np.float32), ("d",): np.array([-1.0], np.float32)}
+        keys: dict[tuple[str, ...], np.ndarray] = {}
+        for forward, first in (("", 0.0), ("w", 1.0), ("s", -1.0)):
+            for side, second in (("", 0.0), ("a", 1.0), ("d", -1.0)):
+                combination = tuple(sorted(key for key in (forward, side) if key))
+                if combination:
+                    keys[combination] = np.array([first, second], np.float32)
+        return keys
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickle everything but the renderer (it holds pygame objects); it is recreated by

@@ -8,7 +8,8 @@ Colour map of the singular margin (:func:`margin_colour`): bodies and hitch rods
 from amber to red (:data:`RED`) at margin 0, so red always means "inside the singular band".
 The moving mass is blue, a dock target purple, the cart's past path grey.
 
-Run ``python -m trailer_env.rendering --out docs/img/render_example.png`` for a sample picture.
+Run ``python -m trailer_env.rendering --out docs/img/render_example.png`` for a real frame
+(Reverse-v0, three trailers, the LQR baseline steering).
 """
 
 from __future__ import annotations
@@ -37,6 +38,32 @@ RENDER_MODES = ("human", "rgb_array")
 _MAX_PIXEL = 16000.0  # gfxdraw takes 16-bit coordinates: keep far-away points representable
 
 
+MARKER_KINDS = ("pose", "arrow")
+
+
+@dataclass(frozen=True)
+class Marker:
+    """A scene's extra drawn over the floor: a target pose or a direction.
+
+    Attributes:
+        kind: "pose" (the outline of a trailer and its rod at (x, y), facing ``heading``,
+            e.g. a dock) or "arrow" (an arrow from (x, y) along ``heading``, e.g. a target
+            heading drawn from the cart's axle).
+        x, y, heading: World position (m) and direction (rad).
+        colour: RGB of the outline or arrow.
+    """
+
+    kind: str
+    x: float
+    y: float
+    heading: float
+    colour: RGB = TARGET
+
+    def __post_init__(self) -> None:
+        if self.kind not in MARKER_KINDS:
+            raise ValueError(f"marker kind must be one of {MARKER_KINDS}, got {self.kind!r}")
+
+
 @dataclass(frozen=True)
 class RenderFrame:
     """Everything one picture shows; the environment builds it from its state.
@@ -48,8 +75,7 @@ class RenderFrame:
             (xi forward, eta to the left).
         singular_margin: Distance to the singular set in [0, 1]; 0 = singular.
         path: ``(k, 2)`` past positions of the cart's axle midpoint.
-        target: Dock scene: target pose (x, y, heading) of the last trailer's axle midpoint.
-        target_heading: Heading scene: target heading of the cart (rad).
+        markers: The scene's targets (:class:`Marker`), drawn under the convoy.
         text: Overlay in the top-left corner; lines split on newlines.
     """
 
@@ -59,9 +85,72 @@ class RenderFrame:
     mass_xy_body: tuple[float, float]
     singular_margin: float
     path: np.ndarray
-    target: tuple[float, float, float] | None = None
-    target_heading: float | None = None
+    markers: tuple[Marker, ...] = ()
     text: str = ""
+
+
+class PathTrace:
+    """The last ``length`` positions of each of ``batch`` carts, held as one ring buffer.
+
+    Recording and clearing work on the whole batch at once, so a vector env that renders
+    keeps its paths without a Python loop over environments.
+    """
+
+    def __init__(self, batch: int, length: int = 2000) -> None:
+        self.length = length
+        self._points = np.zeros((batch, length, 2))
+        self._count = np.zeros(batch, dtype=np.int64)
+        self._head = np.zeros(batch, dtype=np.int64)  # index the next point goes to
+
+    def clear(self, rows: np.ndarray | slice = slice(None)) -> None:
+        """Forget the paths of ``rows`` (all by default)."""
+        self._count[rows] = 0
+        self._head[rows] = 0
+
+    def record(self, xy: np.ndarray, rows: np.ndarray | slice = slice(None)) -> None:
+        """Append one position ``xy`` (len(rows), 2) to the paths of ``rows``."""
+        indices = np.arange(self._count.size)[rows]
+        self._points[indices, self._head[indices]] = xy
+        self._head[indices] = (self._head[indices] + 1) % self.length
+        self._count[indices] = np.minimum(self._count[indices] + 1, self.length)
+
+    def path(self, i: int) -> np.ndarray:
+        """Row ``i``'s path, oldest point first, ``(k, 2)``."""
+        count, head = int(self._count[i]), int(self._head[i])
+        order = (head - count + np.arange(count)) % self.length
+        return self._points[i, order].copy()
+
+    def __len__(self) -> int:
+        """Points held for row 0 (the single env's path)."""
+        return int(self._count[0])
+
+
+def core_frame(core: Any, i: int, path: np.ndarray) -> RenderFrame:
+    """The picture of row ``i`` of a :class:`~trailer_env.core.ConvoyCore` tracking its pose."""
+    n = core.n
+    z = core.z[i]
+    xs, ys, thetas = body_poses(core.params.l, z[n + 2], z[n + 3], z[n + 4], z[2 : 2 + n])
+    return RenderFrame(
+        xs=xs,
+        ys=ys,
+        thetas=thetas,
+        mass_xy_body=(float(core.act[i, 0]), float(core.act[i, 1])),
+        singular_margin=float(core.singular_margin[i]),
+        path=path,
+        markers=core.render_markers(i),
+        text=f"u = {z[0]:+.2f} m/s   margin = {core.singular_margin[i]:.2f}",
+    )
+
+
+def make_renderer(core: Any, render_mode: str, fps: int) -> ConvoyRenderer:
+    """A renderer for the scene of ``core`` (its geometry, singular band and view size)."""
+    return ConvoyRenderer(
+        core.params,
+        render_mode=render_mode,
+        singular_band=core.settings.singular_band,
+        fps=fps,
+        view_size=core.render_view_size(),
+    )
 
 
 def margin_colour(margin: float, singular_band: float = 0.3) -> RGB:
@@ -202,19 +291,8 @@ class ConvoyRenderer:
         path = np.asarray(frame.path, dtype=np.float64).reshape(-1, 2)
         if len(path) >= 2:
             pg.draw.aalines(surface, PATH, False, self._to_pixels(path).tolist())
-        if frame.target is not None:  # outline of the wanted last-trailer pose and its rod
-            tx, ty, th = frame.target
-            self._vehicle(tx, ty, th, -0.25 * l, 0.25 * l, 0.2 * l, None, TARGET)
-            rod_end = np.array([tx + l * math.cos(th), ty + l * math.sin(th)])
-            self._polygon(self._bar(np.array([tx, ty]), rod_end, 0.015 * l), None, TARGET)
-        if frame.target_heading is not None:  # arrow from the cart's axle along the target
-            start = np.array([xs[0], ys[0]])
-            direction = np.array([math.cos(frame.target_heading), math.sin(frame.target_heading)])
-            tip = start + 1.6 * l * direction
-            self._polygon(self._bar(start, tip - 0.2 * l * direction, 0.03 * l), TARGET, TARGET)
-            tip_x, tip_y, heading = tip[0], tip[1], frame.target_heading
-            head = self._box(tip_x, tip_y, heading, -0.25 * l, 0.0, 0.12 * l, -0.12 * l)
-            self._polygon([head[1], head[3], head[0]], TARGET, TARGET)  # tip, back-left, back-right
+        for marker in frame.markers:
+            self._marker(marker)
 
         colour = margin_colour(frame.singular_margin, self.singular_band)
         axles = np.stack([xs, ys], -1)
@@ -245,6 +323,20 @@ class ConvoyRenderer:
                 image = self._font.render(line, True, INK, BACKGROUND)
                 surface.blit(image, (8, 6 + row * self._font.get_linesize()))
         return self._present()
+
+    def _marker(self, marker: Marker) -> None:
+        l, colour = self.params.l, marker.colour
+        x, y, heading = marker.x, marker.y, marker.heading
+        start = np.array([x, y])
+        direction = np.array([math.cos(heading), math.sin(heading)])
+        if marker.kind == "pose":  # a trailer's outline and its rod
+            self._vehicle(x, y, heading, -0.25 * l, 0.25 * l, 0.2 * l, None, colour)
+            self._polygon(self._bar(start, start + l * direction, 0.015 * l), None, colour)
+            return
+        tip = start + 1.6 * l * direction
+        self._polygon(self._bar(start, tip - 0.2 * l * direction, 0.03 * l), colour, colour)
+        head = self._box(tip[0], tip[1], heading, -0.25 * l, 0.0, 0.12 * l, -0.12 * l)
+        self._polygon([head[1], head[3], head[0]], colour, colour)  # tip, back-left, back-right
 
     def _draw_scale_bar(self) -> None:
         length = round(self.scale_bar_metres * self.pixels_per_metre)
@@ -285,26 +377,33 @@ class ConvoyRenderer:
 
 
 def main(argv: list[str] | None = None) -> None:
-    """Write a sample picture: three trailers on a gentle left curve, mass left of centre."""
+    """Write a real frame: Reverse-v0 with three trailers under the LQR baseline, after 5 s."""
     parser = argparse.ArgumentParser(description=main.__doc__)
     parser.add_argument("--out", default="docs/img/render_example.png")
+    parser.add_argument("--env", default="trailer_env/Reverse-v0")
+    parser.add_argument("--n-trailers", type=int, default=3)
+    parser.add_argument("--seed", type=int, default=1003)
+    parser.add_argument("--steps", type=int, default=100)
     args = parser.parse_args(argv)
-    params = ConvoyParams(n_trailers=3)
-    xs, ys, thetas = body_poses(params.l, 0.0, 0.0, 0.5, np.array([0.25, 0.2, 0.15]))
-    arc = np.linspace(-1.2, 0.5, 60)  # the cart came along a circle of radius 4 m
-    path = np.stack([4.0 * np.sin(arc), 4.0 * (1.0 - np.cos(arc))], -1)
-    path -= path[-1]
-    frame = RenderFrame(
-        xs=xs, ys=ys, thetas=thetas, mass_xy_body=(params.b, 0.18), singular_margin=0.9,
-        path=path, target=(-0.2, 1.2, 0.9), text="step 120   reward 0.84\nmargin 0.90",
-    )
-    renderer = ConvoyRenderer(params, render_mode="rgb_array")
-    pixels = renderer.draw(frame)
+    import gymnasium as gym
+
+    import trailer_env  # noqa: F401  (registers the ids)
+    from trailer_env.controllers import LQRController
+
+    env = gym.make(args.env, n_trailers=args.n_trailers, render_mode="rgb_array")
+    controller = LQRController.from_env(env)
+    obs, _ = env.reset(seed=args.seed)
+    for _ in range(args.steps):
+        obs, _, terminated, truncated, _ = env.step(controller(obs))
+        if terminated or truncated:
+            break
+    pixels: Any = env.render()
     assert pixels is not None
+    renderer = env.unwrapped._renderer  # type: ignore[attr-defined]
     os.makedirs(os.path.dirname(args.out) or ".", exist_ok=True)
     renderer._pg.image.save(renderer._surface, args.out)
-    renderer.close()
-    print(f"wrote {args.out} ({pixels.shape[1]}x{pixels.shape[0]})")
+    env.close()
+    print(f"wrote {args.out} ({pixels.shape[1]}x{pixels.shape[0]}): {args.env}, seed {args.seed}")
 
 
 if __name__ == "__main__":

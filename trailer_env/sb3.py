@@ -15,37 +15,29 @@ last observation is in ``infos[i]["terminal_observation"]`` and
 ``infos[i]["TimeLimit.truncated"]`` says whether it was cut by the time limit.
 Seeding follows SB3 (``venv.seed(s)`` seeds environment i with ``s + i`` at the next
 ``reset()``), which matches the native vector env and ``gym.make`` + ``reset(seed=s + i)``.
+
+Episode statistics are recorded as SB3's ``Monitor``/``VecMonitor`` record them: the
+info of the step that ends an episode holds ``info["episode"] = {"r": return, "l":
+length, "t": seconds since the adapter was built}``, so SB3's logger shows
+``rollout/ep_rew_mean`` without a wrapper, and ``env_is_wrapped(Monitor)`` answers True.
+Wrapping in ``VecMonitor`` as well is harmless (it writes the same values).
 """
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Sequence
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
-from trailer_env.core import ConvoyCore
+from trailer_env.registry import core_class_of
 from trailer_env.settings import settings_from_kwargs
-from trailer_env.vector import ConvoyVectorEnv, as_action_batch, seed_generators
-
-
-def core_class_of(env_id: str) -> type[ConvoyCore]:
-    """The scene core registered for ``env_id`` (e.g. "trailer_env/Reverse-v0")."""
-    import trailer_env  # noqa: F401  (registers the ids)
-
-    spec = gym.spec(env_id)
-    entry = spec.vector_entry_point
-    if entry is None:
-        raise ValueError(f"{env_id} has no vector_entry_point")
-    creator: Any = entry
-    if isinstance(entry, str):
-        creator = gym.envs.registration.load_env_creator(entry)
-    if not (isinstance(creator, type) and issubclass(creator, ConvoyVectorEnv)):
-        raise ValueError(f"{env_id} is not a trailer_env scene")
-    return creator.core_class
+from trailer_env.vector import as_action_batch, seed_generators
 
 
 class ConvoySB3VecEnv(VecEnv):
@@ -83,6 +75,9 @@ class ConvoySB3VecEnv(VecEnv):
         self._generators: list[np.random.Generator] | None = None
         self._all_rows = np.arange(self.num_envs)
         self._actions = np.zeros((self.num_envs, self.settings.action_dim))
+        self._episode_returns = np.zeros(self.num_envs)
+        self._episode_lengths = np.zeros(self.num_envs, dtype=np.int64)
+        self._start_time = time.time()
 
     def reset(self) -> np.ndarray:
         """Reset every environment (with the seeds set by :meth:`seed`, if any)."""
@@ -90,6 +85,8 @@ class ConvoySB3VecEnv(VecEnv):
         self._generators = seed_generators(seeds, self.num_envs, self._generators)
         self.core.reset_rows(self._all_rows, self._generators)
         self.elapsed_steps[:] = 0
+        self._episode_returns[:] = 0.0
+        self._episode_lengths[:] = 0
         self.reset_infos = [self.core.info_row(i) for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
@@ -108,14 +105,24 @@ class ConvoySB3VecEnv(VecEnv):
         truncated = (self.elapsed_steps >= self.max_episode_steps) & ~terminated
         dones = terminated | truncated
         rewards = core.reward.astype(np.float32)
+        self._episode_returns += rewards
+        self._episode_lengths += 1
         infos = self._infos()
         rows = np.flatnonzero(dones)
         if rows.size:
+            elapsed = round(time.time() - self._start_time, 6)
             for i in rows.tolist():
                 infos[i]["terminal_observation"] = core.obs[i].copy()
                 infos[i]["TimeLimit.truncated"] = bool(truncated[i])
+                infos[i]["episode"] = {
+                    "r": float(self._episode_returns[i]),
+                    "l": int(self._episode_lengths[i]),
+                    "t": elapsed,
+                }
             core.reset_rows(rows, [self._generators[i] for i in rows.tolist()])
             self.elapsed_steps[rows] = 0
+            self._episode_returns[rows] = 0.0
+            self._episode_lengths[rows] = 0
         return core.obs.copy(), rewards, dones, infos
 
     def _infos(self) -> list[dict[str, Any]]:
@@ -174,7 +181,9 @@ class ConvoySB3VecEnv(VecEnv):
     def env_is_wrapped(
         self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None
     ) -> list[bool]:
-        return [False for _ in self._indices(indices)]
+        # The adapter records episodes exactly as Monitor does (see the module docstring).
+        recorded = isinstance(wrapper_class, type) and issubclass(Monitor, wrapper_class)
+        return [recorded for _ in self._indices(indices)]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [None for _ in range(self.num_envs)]

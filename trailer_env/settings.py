@@ -194,10 +194,13 @@ def settings_from_kwargs(
     """
     unknown = sorted(set(param_overrides) - _PARAM_FIELDS)
     if unknown:
+        # Python's own wording, which wrappers match (TorchRL drops `frameskip` on
+        # "unexpected keyword argument 'frameskip'"); every unknown name is listed.
         raise TypeError(
-            f"unknown argument(s) {unknown}; valid: n_trailers, params, dt, fidelity, "
-            "action_mode, rail_accel_max, servo_bandwidth, singular_band, fold_angle and the "
-            f"ConvoyParams fields {sorted(_PARAM_FIELDS - {'n_trailers'})}"
+            "; ".join(f"unexpected keyword argument {name!r}" for name in unknown)
+            + "; valid: n_trailers, params, dt, fidelity, action_mode, rail_accel_max, "
+            "servo_bandwidth, singular_band, fold_angle and the ConvoyParams fields "
+            f"{sorted(_PARAM_FIELDS - {'n_trailers'})}"
         )
     count = (
         None if n_trailers is None else bounded_integer("n_trailers", n_trailers, 0, MAX_TRAILERS)

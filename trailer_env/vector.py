@@ -5,9 +5,23 @@ Registered as each id's ``vector_entry_point``::
     envs = gym.make_vec("trailer_env/Reverse-v0", num_envs=4096,
                         vectorization_mode="vector_entry_point", n_trailers=3)
 
-Autoreset mode NEXT_STEP (Gymnasium 1.x): the step after an episode ends
-resets that environment, ignores its action and returns its first observation
-with reward 0, terminated and truncated False.
+Autoreset modes (Gymnasium 1.x, ``autoreset_mode=``; the attribute and
+``metadata["autoreset_mode"]`` say which):
+
+* ``"next_step"`` (default): the step after an episode ends resets that
+  environment, ignores its action and returns its first observation with reward 0,
+  terminated and truncated False.
+* ``"same_step"``: an environment that ends is reset within the same step; its last
+  observation is in ``info["final_obs"]`` (an object array, None for the others) and
+  its info in ``info["final_info"]``, masked by ``info["_final_obs"]``.
+* ``"disabled"``: nothing resets by itself; ``reset(options={"reset_mask": mask})``
+  resets the environments where the boolean ``mask`` is True (TorchRL's convention).
+  Stepping an environment that ended and was not reset raises RuntimeError.
+
+Reset options: ``reset_mask`` (above) and ``state``, an ``(N, n + 2)`` array of
+starting states (u, omega, alpha_1..alpha_n) for the environments being reset.
+Rendering: ``render_mode="rgb_array"`` makes ``render()`` return a tuple of one
+frame per environment, as :class:`gymnasium.vector.SyncVectorEnv` does.
 
 Seeding: ``reset(seed=s)`` seeds environment ``i`` with ``s + i`` (a list of N
 seeds sets them one by one). Environment ``i`` then draws every starting state,
@@ -20,7 +34,7 @@ actions.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, ClassVar
+from typing import Any
 
 import numpy as np
 from gymnasium import spaces
@@ -30,9 +44,11 @@ from gymnasium.vector.utils import batch_space
 
 from dynamics.params import bounded_integer
 from trailer_env.core import ConvoyCore
-from trailer_env.env import as_action_array
-from trailer_env.scenes import CoastCore, DockCore, HeadingCore, ReverseCore
+from trailer_env.env import PATH_LENGTH, as_action_array
+from trailer_env.rendering import PathTrace, core_frame, make_renderer
 from trailer_env.settings import settings_from_kwargs
+
+VECTOR_RENDER_MODES = ("rgb_array",)
 
 
 def seed_generators(
@@ -67,6 +83,21 @@ def seed_generators(
     return generators
 
 
+def parse_autoreset_mode(mode: Any) -> AutoresetMode:
+    """An :class:`AutoresetMode` from itself, its value ("NextStep") or name ("next_step").
+
+    Raises:
+        ValueError: Naming the valid modes otherwise.
+    """
+    if isinstance(mode, AutoresetMode):
+        return mode
+    for member in AutoresetMode:
+        if mode in (member.value, member.name.lower()):
+            return member
+    valid = [member.name.lower() for member in AutoresetMode]
+    raise ValueError(f"autoreset_mode must be one of {valid}, got {mode!r}")
+
+
 def as_action_batch(actions: Any, count: int, action_dim: int) -> np.ndarray:
     """Actions as a float64 (count, action_dim) array; (count,) is accepted when action_dim == 1.
 
@@ -98,11 +129,18 @@ MAX_EPISODE_STEPS = 2**62
 class ConvoyVectorEnv(VectorEnv):
     """N environments of one scene stepped together (see the module docstring).
 
+    Each registered id's ``vector_entry_point`` is this class bound to the scene's core
+    (:mod:`trailer_env.registry`); ``ConvoyVectorEnv(ReverseCore, num_envs=8)`` builds one
+    directly.
+
     Args:
+        core_class: The scene's batch core.
         num_envs: Number of environments N, an integer in [1, 2**24].
         max_episode_steps: Truncation length, an integer >= 1; default the scene's
             registered value.
-        render_mode: Must be None (render single environments instead).
+        render_mode: None or "rgb_array" (one frame per environment).
+        autoreset_mode: "next_step" (default), "same_step" or "disabled" (or an
+            :class:`gymnasium.vector.AutoresetMode`), see the module docstring.
         **kwargs: The single environments' settings (``n_trailers``, ``dt``, ``mu`` ...).
 
     Raises:
@@ -110,31 +148,52 @@ class ConvoyVectorEnv(VectorEnv):
         ValueError: On a value out of range (``num_envs=0`` included), naming it.
     """
 
-    metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}  # noqa: RUF012
-    core_class: ClassVar[type[ConvoyCore]]
+    metadata = {  # noqa: RUF012
+        "render_modes": list(VECTOR_RENDER_MODES),
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
 
     def __init__(
         self,
+        core_class: type[ConvoyCore],
         num_envs: int = 1,
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
+        autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         **kwargs: Any,
     ) -> None:
-        if render_mode is not None:
+        if render_mode is not None and not isinstance(render_mode, str):
+            raise TypeError(
+                f"render_mode must be None or one of {VECTOR_RENDER_MODES}, "
+                f"got {type(render_mode).__name__} {render_mode!r}"
+            )
+        if render_mode is not None and render_mode not in VECTOR_RENDER_MODES:
             raise ValueError(
-                "the vector environments do not render; render a single env (gym.make)"
+                f"render_mode must be None or one of {VECTOR_RENDER_MODES} for the vector env "
+                f"(a window per environment is not offered), got {render_mode!r}"
             )
         num_envs = bounded_integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
+        self.autoreset_mode = parse_autoreset_mode(autoreset_mode)
+        if not (isinstance(core_class, type) and issubclass(core_class, ConvoyCore)):
+            raise TypeError(f"core_class must be a ConvoyCore subclass, got {core_class!r}")
+        self.core_class = core_class
         if max_episode_steps is None:
-            max_episode_steps = self.core_class.max_episode_steps
+            max_episode_steps = core_class.max_episode_steps
         max_episode_steps = bounded_integer(
             "max_episode_steps", max_episode_steps, 1, MAX_EPISODE_STEPS
         )
         self.settings = settings_from_kwargs(**kwargs)
-        self.core = self.core_class(self.settings, num_envs)
+        self.core = core_class(self.settings, num_envs, track_pose=render_mode is not None)
         self.num_envs = self.core.batch_size
         self.max_episode_steps = int(max_episode_steps)
-        self.render_mode = None
+        self.render_mode = render_mode
+        self.metadata = {
+            **self.metadata,
+            "autoreset_mode": self.autoreset_mode,
+            "render_fps": max(1, round(1.0 / self.settings.dt)),
+        }
+        self._paths = PathTrace(self.num_envs, PATH_LENGTH) if render_mode else None
+        self._renderer: Any = None
         low, high = self.core.observation_bounds()
         self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
         self.single_action_space = spaces.Box(
@@ -155,67 +214,152 @@ class ConvoyVectorEnv(VectorEnv):
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Reset every environment; ``seed`` seeds environment i with ``seed + i``."""
+        """Reset every environment, or those of ``options["reset_mask"]``.
+
+        ``seed`` seeds environment i with ``seed + i`` (see the module docstring); with a
+        mask, only the masked environments' generators are reseeded. Options:
+        ``reset_mask`` (bool array (N,)) and ``state`` (float array (N, n + 2)).
+
+        Raises:
+            TypeError: If ``options`` is not a dict.
+            ValueError: On an unknown option or a mask or state of the wrong shape.
+        """
+        rows, states = self._reset_options(options)
         if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
             super().reset(seed=int(seed))
-        self._generators = seed_generators(seed, self.num_envs, self._generators)
-        self.core.reset_rows(self._all_rows, self._generators)
-        self.elapsed_steps[:] = 0
-        self._needs_reset[:] = False
+        generators = seed_generators(seed, self.num_envs, self._generators)
+        if self._generators is None or rows.size == self.num_envs:
+            self._generators = generators
+        else:
+            for i in rows.tolist():
+                self._generators[i] = generators[i]
+        self._start(rows, states)
         return self.core.obs.copy(), self._infos()
+
+    def _reset_options(self, options: Any) -> tuple[np.ndarray, np.ndarray | None]:
+        """The rows to reset and their given states (None: draw them) from ``options``."""
+        if options is None:
+            return self._all_rows, None
+        if not isinstance(options, dict):
+            raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+        unknown = sorted(set(options) - {"reset_mask", "state"}, key=str)
+        if unknown:
+            raise ValueError(f"unknown reset option(s) {unknown}; valid: ['reset_mask', 'state']")
+        rows = self._all_rows
+        if "reset_mask" in options:
+            mask = np.asarray(options["reset_mask"])
+            if mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
+                raise ValueError(
+                    f"reset_mask must be a bool array of shape ({self.num_envs},), got "
+                    f"{mask.dtype} {mask.shape}"
+                )
+            if self._generators is None and not mask.all():
+                raise ValueError("the first reset must reset every environment (reset_mask)")
+            rows = np.flatnonzero(mask)
+        states = None
+        if "state" in options:
+            width = self.core.n + 2
+            states = np.asarray(options["state"], dtype=np.float64)
+            if states.shape != (self.num_envs, width):
+                raise ValueError(
+                    f"state must have shape ({self.num_envs}, {width}), got {states.shape}"
+                )
+        return rows, states
+
+    def _start(self, rows: np.ndarray, states: np.ndarray | None = None) -> None:
+        """New episodes in ``rows``, drawn from their generators or set to ``states[rows]``."""
+        assert self._generators is not None
+        self.core.reset_rows(rows, [self._generators[i] for i in rows.tolist()])
+        if states is not None:
+            for i in rows.tolist():
+                self.core.set_row_state(i, states[i])
+        self.elapsed_steps[rows] = 0
+        self._needs_reset[rows] = False
+        if self._paths is not None:
+            self._paths.clear(rows)
+            self._record_paths(rows)
 
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
-        """Step every environment (NEXT_STEP autoreset).
+        """Step every environment (autoreset as ``autoreset_mode`` says).
 
         Raises:
             ValueError: On NaN or infinite actions or a wrong shape (nothing is stepped).
+            RuntimeError: Before the first reset, or (autoreset disabled) when an
+                environment that ended was not reset.
         """
         if self._generators is None:
             raise RuntimeError("call reset() before step()")
+        mode = self.autoreset_mode
+        if mode == AutoresetMode.DISABLED and self._needs_reset.any():
+            ended = np.flatnonzero(self._needs_reset)[:8].tolist()
+            raise RuntimeError(
+                f"environments {ended} ended; reset them with "
+                "reset(options={'reset_mask': mask}) before stepping (autoreset_mode disabled)"
+            )
         core = self.core
         core.step(as_action_batch(actions, self.num_envs, self.settings.action_dim))
         self.elapsed_steps += 1
+        if self._paths is not None:
+            self._record_paths(self._all_rows)
         reward = core.reward.copy()
         terminated = core.terminated.copy()
         truncated = self.elapsed_steps >= self.max_episode_steps
-        rows = np.flatnonzero(self._needs_reset)
-        if rows.size:
-            core.reset_rows(rows, [self._generators[i] for i in rows.tolist()])
-            self.elapsed_steps[rows] = 0
-            reward[rows] = 0.0
-            terminated[rows] = False
-            truncated[rows] = False
-        self._needs_reset = terminated | truncated
-        return core.obs.copy(), reward, terminated, truncated, self._infos()
+        final: dict[str, Any] = {}
+        if mode == AutoresetMode.NEXT_STEP:
+            rows = np.flatnonzero(self._needs_reset)
+            if rows.size:
+                self._start(rows)
+                reward[rows] = 0.0
+                terminated[rows] = False
+                truncated[rows] = False
+            self._needs_reset = terminated | truncated
+        elif mode == AutoresetMode.SAME_STEP:
+            done = terminated | truncated
+            rows = np.flatnonzero(done)
+            if rows.size:
+                final_obs = np.full(self.num_envs, None, dtype=object)
+                for i in rows.tolist():
+                    final_obs[i] = core.obs[i].copy()
+                final = {
+                    "final_obs": final_obs,
+                    "_final_obs": done,
+                    "final_info": self._infos(done),
+                    "_final_info": done,
+                }
+                self._start(rows)
+        else:
+            self._needs_reset = terminated | truncated
+        return core.obs.copy(), reward, terminated, truncated, {**self._infos(), **final}
 
-    def _infos(self) -> dict[str, Any]:
+    def _record_paths(self, rows: np.ndarray) -> None:
+        assert self._paths is not None
+        n = self.core.n
+        self._paths.record(self.core.z[rows, n + 2 : n + 4], rows)
+
+    def render(self) -> tuple[np.ndarray, ...] | None:  # type: ignore[override]
+        """One ``(height, width, 3)`` uint8 frame per environment ("rgb_array"); None otherwise."""
+        if self.render_mode is None or self._paths is None:
+            return None
+        if self._generators is None:
+            raise RuntimeError("call reset() before render()")
+        if self._renderer is None:
+            self._renderer = make_renderer(self.core, self.render_mode, self.metadata["render_fps"])
+        frames = []
+        for i in range(self.num_envs):
+            frames.append(self._renderer.draw(core_frame(self.core, i, self._paths.path(i))))
+        return tuple(frames)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Release the renderer, if any."""
+        if getattr(self, "_renderer", None) is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    def _infos(self, mask: np.ndarray | None = None) -> dict[str, Any]:
         infos: dict[str, Any] = self.core.info_batch()
+        present = self._mask if mask is None else mask
         for key in list(infos):
-            infos[f"_{key}"] = self._mask
+            infos[f"_{key}"] = present
         return infos
-
-
-class ReverseVectorEnv(ConvoyVectorEnv):
-    """Batched Reverse-v0 (see :class:`trailer_env.scenes.ReverseEnv`)."""
-
-    core_class = ReverseCore
-
-
-class CoastVectorEnv(ConvoyVectorEnv):
-    """Batched Coast-v0 (see :class:`trailer_env.scenes.CoastEnv`)."""
-
-    core_class = CoastCore
-
-
-class HeadingVectorEnv(ConvoyVectorEnv):
-    """Batched Heading-v0 (see :class:`trailer_env.scenes.HeadingEnv`)."""
-
-    core_class = HeadingCore
-
-
-class DockVectorEnv(ConvoyVectorEnv):
-    """Batched Dock-v0 (see :class:`trailer_env.scenes.DockEnv`)."""
-
-    core_class = DockCore

@@ -9,7 +9,7 @@ import numpy as np
 
 import trailer_env
 
-SCENE_IDS = [f"trailer_env/{name}-v0" for name in trailer_env.SCENES]
+SCENE_IDS = list(trailer_env.ENVIRONMENTS)
 
 
 def make(scene: str, **kwargs: Any) -> gym.Env:

@@ -152,8 +152,16 @@ class TestSetState:
         env.reset(seed=0)
         obs = env.set_state([1.0, 0.1, 0.0, 0.0])
         before = env.core.z.copy()
-        with pytest.raises(ValueError, match="z is too large"):
+        with pytest.raises(
+            ValueError, match=r"z is too large: every component must be within \+-1e\+30"
+        ):
             env.set_state([1e200, 1e200, 0.0, 0.0])
+        with pytest.raises(ValueError, match="z is too large"):
+            env.reset(options={"state": [1.0, 2e30, 0.0, 0.0]})
+        with pytest.raises(TypeError, match="z must hold real numbers"):
+            env.reset(options={"state": ["1", "0", "0", "0"]})
+        with pytest.raises(TypeError, match="s must be a real number"):
+            env.reset(options={"state": [1.0, 0.0, 0.0, 0.0], "s": "0.1"})
         np.testing.assert_array_equal(env.core.z, before)
         np.testing.assert_array_equal(env.core.obs[0], obs)
         assert np.isfinite(env.step([0.0])[1])

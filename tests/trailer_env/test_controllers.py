@@ -1,4 +1,4 @@
-"""The heuristic controller has real authority where the zero action folds the convoy."""
+"""The LQR controller has real authority where the zero action folds the convoy."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import gymnasium as gym
 import numpy as np
 
 from tests.trailer_env.helpers import make
-from trailer_env.controllers import HeuristicController, heuristic_policy
+from trailer_env.controllers import LQRController, lqr_policy
 
 
 def _jackknife_rate(policy: str, seeds: int = 24, n: int = 2) -> tuple[float, float]:
@@ -16,14 +16,14 @@ def _jackknife_rate(policy: str, seeds: int = 24, n: int = 2) -> tuple[float, fl
         vectorization_mode="vector_entry_point",
         n_trailers=n,
     )
-    controller = HeuristicController.from_env(envs)
+    controller = LQRController.from_env(envs)
     obs, _ = envs.reset(seed=100)
     alive = np.ones(seeds, dtype=bool)
     folded = np.zeros(seeds, dtype=bool)
     lifetime = np.zeros(seeds)
     for _ in range(400):
         actions = (
-            controller(obs) if policy == "heuristic" else np.zeros((seeds, 1), dtype=np.float32)
+            controller(obs) if policy == "lqr" else np.zeros((seeds, 1), dtype=np.float32)
         )
         obs, _, terminated, truncated, infos = envs.step(actions)
         folded |= alive & infos["jackknifed"]
@@ -34,24 +34,24 @@ def _jackknife_rate(policy: str, seeds: int = 24, n: int = 2) -> tuple[float, fl
     return float(folded.mean()), float(lifetime.mean())
 
 
-def test_heuristic_keeps_a_reversing_convoy_from_folding() -> None:
+def test_lqr_keeps_a_reversing_convoy_from_folding() -> None:
     zero_rate, zero_life = _jackknife_rate("zero")
-    heuristic_rate, heuristic_life = _jackknife_rate("heuristic")
+    lqr_rate, lqr_life = _jackknife_rate("lqr")
     assert zero_rate >= 0.9 and zero_life < 100  # the unstable node folds within seconds
-    assert heuristic_rate <= 0.5 and heuristic_life > 2 * zero_life
+    assert lqr_rate <= 0.5 and lqr_life > 2 * zero_life
 
 
-def test_heuristic_policy_shapes_and_modes() -> None:
+def test_lqr_policy_shapes_and_modes() -> None:
     env = make("Reverse", n_trailers=2)
     obs, _ = env.reset(seed=0)
-    action = heuristic_policy(obs, n_trailers=2)
+    action = lqr_policy(obs, n_trailers=2)
     assert action.shape == (1,) and action.dtype == np.float32 and env.action_space.contains(action)
-    batch = heuristic_policy(np.stack([obs, obs]), n_trailers=2)
+    batch = lqr_policy(np.stack([obs, obs]), n_trailers=2)
     assert batch.shape == (2, 1)
     for mode in ("accel", "planar"):
         env = make("Dock", n_trailers=1, action_mode=mode)
         obs, _ = env.reset(seed=0)
-        action = HeuristicController.from_env(env)(obs)
+        action = LQRController.from_env(env)(obs)
         assert env.action_space.contains(action)
 
 

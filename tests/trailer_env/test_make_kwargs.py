@@ -182,5 +182,8 @@ def test_every_hostile_value_of_every_keyword_is_refused_or_works(env_id: str) -
 
 
 def test_unknown_keywords_are_a_type_error_for_torchrl() -> None:
-    with pytest.raises(TypeError, match="frameskip"):
+    """Python's wording: TorchRL drops the keyword it probes when it reads it."""
+    with pytest.raises(TypeError, match="unexpected keyword argument 'frameskip'"):
         gym.make("trailer_env/Reverse-v0", frameskip=4)
+    with pytest.raises(TypeError, match="argument 'Mu'; unexpected keyword argument 'frameskip'"):
+        gym.make("trailer_env/Reverse-v0", frameskip=4, Mu=0.1)

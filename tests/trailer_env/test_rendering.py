@@ -24,6 +24,7 @@ from trailer_env.rendering import (
     RED,
     TARGET,
     ConvoyRenderer,
+    Marker,
     RenderFrame,
     main,
     margin_colour,
@@ -137,8 +138,8 @@ def test_targets_are_drawn() -> None:
     params = ConvoyParams(n_trailers=1)
     plain = draw(params, make_frame(params))
     assert colour_mask(plain, TARGET, tolerance=20).sum() == 0
-    dock = draw(params, make_frame(params, target=(-1.0, 1.2, 0.0)))
-    heading = draw(params, make_frame(params, target_heading=-math.pi / 2))
+    dock = draw(params, make_frame(params, markers=(Marker("pose", -1.0, 1.2, 0.0),)))
+    heading = draw(params, make_frame(params, markers=(Marker("arrow", 0.0, 0.0, -math.pi / 2),)))
     assert colour_mask(dock, TARGET, tolerance=20).sum() > 50
     rows, _ = np.nonzero(colour_mask(heading, TARGET, tolerance=20))
     assert len(rows) > 50
@@ -158,7 +159,8 @@ def test_text_overlay_changes_the_top_left_corner() -> None:
 
 def test_determinism() -> None:
     params = ConvoyParams(n_trailers=2)
-    frame = make_frame(params, theta=0.7, eta=0.1, margin=0.2, target=(0.0, 1.0, 0.5), text="x")
+    marker = Marker("pose", 0.0, 1.0, 0.5)
+    frame = make_frame(params, theta=0.7, eta=0.1, margin=0.2, markers=(marker,), text="x")
     renderer = ConvoyRenderer(params, render_mode="rgb_array", width=WIDTH, height=HEIGHT)
     first, second = renderer.draw(frame), renderer.draw(frame)
     assert first is not None and second is not None
@@ -198,6 +200,19 @@ def test_human_mode_with_dummy_video_driver() -> None:
 
 def test_example_script_writes_a_png(tmp_path: os.PathLike[str]) -> None:
     out = os.path.join(tmp_path, "example.png")
-    main(["--out", out])
+    main(["--out", out, "--steps", "20"])
     with open(out, "rb") as handle:
         assert handle.read(8) == b"\x89PNG\r\n\x1a\n"
+    # It is a real frame: the same pixels as rendering the same rollout of Reverse-v0.
+    import gymnasium as gym
+    import pygame
+
+    from trailer_env.controllers import LQRController
+
+    env = gym.make("trailer_env/Reverse-v0", n_trailers=3, render_mode="rgb_array")
+    controller = LQRController.from_env(env)
+    obs, _ = env.reset(seed=1003)
+    for _ in range(20):
+        obs, *_ = env.step(controller(obs))
+    saved = pygame.surfarray.array3d(pygame.image.load(out)).transpose(1, 0, 2)
+    np.testing.assert_array_equal(saved, env.render())

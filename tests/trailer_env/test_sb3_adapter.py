@@ -64,7 +64,7 @@ def test_ppo_trains_on_the_adapter() -> None:
 def test_adapter_rejects_bad_input() -> None:
     with pytest.raises(ValueError, match="mu"):
         ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=2, mu=-1.0)
-    with pytest.raises(ValueError, match="trailer_env scene"):
+    with pytest.raises(ValueError, match="unknown environment"):
         ConvoySB3VecEnv("CartPole-v1", num_envs=2)
     venv = ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=2)
     venv.reset()
@@ -91,3 +91,27 @@ def test_subproc_vec_env_pickles_and_steps() -> None:
         np.testing.assert_array_equal(obs[1], expected)
     finally:
         venv.close()
+
+
+def test_adapter_records_episodes_like_vecmonitor() -> None:
+    kwargs = {"num_envs": 3, "max_episode_steps": 60, "n_trailers": 2}
+    native = ConvoySB3VecEnv("trailer_env/Reverse-v0", **kwargs)
+    monitored = VecMonitor(ConvoySB3VecEnv("trailer_env/Reverse-v0", **kwargs))
+    native.seed(2)
+    monitored.seed(2)
+    native.reset()
+    monitored.reset()
+    ours, theirs = [], []
+    for _ in range(130):
+        *_, infos = native.step(np.zeros((3, 1)))
+        *_, monitor_infos = monitored.step(np.zeros((3, 1)))
+        ours += [(i["episode"]["r"], i["episode"]["l"]) for i in infos if "episode" in i]
+        theirs += [(i["episode"]["r"], i["episode"]["l"]) for i in monitor_infos if "episode" in i]
+    assert len(ours) >= 6 and [length for _, length in ours] == [length for _, length in theirs]
+    np.testing.assert_allclose([r for r, _ in ours], [r for r, _ in theirs], rtol=1e-6)
+    from stable_baselines3.common.monitor import Monitor
+
+    assert native.env_is_wrapped(Monitor) == [True, True, True]
+    model = PPO("MlpPolicy", native, n_steps=64, batch_size=64, n_epochs=1, seed=0)
+    model.learn(256)
+    assert len(model.ep_info_buffer) >= 3  # SB3's logger sees the episodes without a wrapper

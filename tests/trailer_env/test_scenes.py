@@ -15,6 +15,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import trailer_env
 from dynamics import ConvoyParams, energy, is_jackknifed, rhs, singular_margin
 from tests.trailer_env.helpers import SCENE_IDS, make
+from trailer_env.vector import ConvoyVectorEnv
 
 
 @pytest.mark.parametrize("env_id", SCENE_IDS)
@@ -44,10 +45,16 @@ def test_other_action_modes_pass_the_checker(mode: str) -> None:
 
 
 def test_ids_are_registered_with_both_entry_points() -> None:
-    for name, steps in trailer_env.SCENES.items():
-        spec = gym.spec(f"trailer_env/{name}-v0")
+    expected = {"Reverse-v0": 400, "Coast-v0": 300, "Heading-v0": 300, "Dock-v0": 400}
+    assert list(trailer_env.ENVIRONMENTS) == [f"trailer_env/{name}" for name in expected]
+    for name, steps in expected.items():
+        spec = gym.spec(f"trailer_env/{name}")
         assert spec.max_episode_steps == steps
-        assert spec.vector_entry_point == f"trailer_env.vector:{name}VectorEnv"
+        assert spec.entry_point == f"trailer_env.scenes.{name[:-3].lower()}:{name[:-3]}Env"
+        envs = gym.make_vec(spec.id, num_envs=2, vectorization_mode="vector_entry_point")
+        assert isinstance(envs.unwrapped, ConvoyVectorEnv)
+        assert envs.unwrapped.core_class.scene == name[:-3]
+        assert envs.unwrapped.max_episode_steps == steps
     env = gym.make("trailer_env:trailer_env/Reverse-v0")
     assert type(env.unwrapped).__name__ == "ReverseEnv"
 

@@ -181,10 +181,11 @@ def test_num_envs_out_of_range_names_it(num_envs: object) -> None:
 
 @pytest.mark.parametrize("num_envs", [True, "4", None])
 def test_num_envs_of_the_wrong_type_names_it(num_envs: object) -> None:
-    from trailer_env.vector import ReverseVectorEnv
+    from trailer_env.scenes import ReverseCore
+    from trailer_env.vector import ConvoyVectorEnv
 
     with pytest.raises(TypeError, match="num_envs must be an integer"):
-        ReverseVectorEnv(num_envs=num_envs)  # type: ignore[arg-type]
+        ConvoyVectorEnv(ReverseCore, num_envs=num_envs)  # type: ignore[arg-type]
 
 
 def test_render_mode_is_validated() -> None:

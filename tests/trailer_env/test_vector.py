@@ -118,8 +118,8 @@ def test_vector_bad_actions() -> None:
     with pytest.raises(ValueError, match="shape"):
         envs.step(np.zeros((2, 1)))
     envs.step(np.zeros(3))  # (N,) is accepted for 1-D actions
-    with pytest.raises(ValueError, match="render"):
-        make_vec("trailer_env/Reverse-v0", 2, render_mode="rgb_array")
+    with pytest.raises(ValueError, match="render_mode"):
+        make_vec("trailer_env/Reverse-v0", 2, render_mode="human")
 
 
 def test_large_batches_use_the_parallel_kernels_with_identical_results(

@@ -1,11 +1,23 @@
-"""The scenes: one module each, holding its batch core (task logic) and its Gymnasium env."""
+"""The scenes: one module each, holding its batch core (task logic) and its Gymnasium env.
 
+Adding a scene: write its module (a :class:`~trailer_env.core.ConvoyCore` subclass that
+declares ``scene``, ``version``, ``max_episode_steps``, ``headline_metric`` and
+``baselines``, and a :class:`~trailer_env.env.ConvoyEnv` subclass naming it), then add the
+env class to :data:`SCENE_ENVS`. Registration, the vector env, the SB3 adapter and the
+agents' command lines all read that table.
+"""
+
+from trailer_env.env import ConvoyEnv
 from trailer_env.scenes.coast import CoastCore, CoastEnv
 from trailer_env.scenes.dock import DockCore, DockEnv
 from trailer_env.scenes.heading import HeadingCore, HeadingEnv
 from trailer_env.scenes.reverse import ReverseCore, ReverseEnv
 
+#: The one table of scenes, in registration order.
+SCENE_ENVS: tuple[type[ConvoyEnv], ...] = (ReverseEnv, CoastEnv, HeadingEnv, DockEnv)
+
 __all__ = [
+    "SCENE_ENVS",
     "CoastCore",
     "CoastEnv",
     "DockCore",

@@ -25,6 +25,7 @@ OMEGA_WEIGHT = 1.0
 class CoastCore(ShapedCore):
     """Batched task logic of Coast-v0 (no task features, no pose)."""
 
+    scene = "Coast"
     max_episode_steps = 300
 
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:

@@ -9,6 +9,7 @@ import numpy as np
 from dynamics import body_poses
 from trailer_env.core import ShapedCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.rendering import Marker
 from trailer_env.scenes.heading import wrap_angle
 
 SPEED_RANGE = (0.8, 1.2)
@@ -39,7 +40,9 @@ class DockCore(ShapedCore):
         dock_heading_error: (B,) last body's heading minus the dock heading, wrapped.
     """
 
+    scene = "Dock"
     max_episode_steps = 400
+    task_keys = ("target",)
     uses_pose = True
     n_task_features = 4
     # 400 steps * (0.01 + 0.05) = 24 < 30: neither folding nor missing on purpose pays.
@@ -88,10 +91,9 @@ class DockCore(ShapedCore):
                 )
             self.target[i] = target
 
-    def render_extras(self, i: int) -> dict[str, Any]:
-        return {
-            "target": (float(self.target[i, 0]), float(self.target[i, 1]), float(self.target[i, 2]))
-        }
+    def render_markers(self, i: int) -> tuple[Marker, ...]:
+        x, y, heading = (float(value) for value in self.target[i])
+        return (Marker("pose", x, y, heading),)
 
     def render_view_size(self) -> float:
         # The picture is centred on the convoy: leave room for the farthest dock on either side.

@@ -8,6 +8,7 @@ import numpy as np
 
 from trailer_env.core import ShapedCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.rendering import Marker
 
 SPEED_RANGE = (0.8, 1.2)
 ANGLE_NOISE = 0.05
@@ -33,7 +34,10 @@ class HeadingCore(ShapedCore):
     per environment.
     """
 
+    scene = "Heading"
     max_episode_steps = 300
+    baselines = ("zero", "random", "lqr", "heading-p")
+    task_keys = ("target_heading",)
     uses_pose = True
     n_task_features = 3
 
@@ -64,8 +68,10 @@ class HeadingCore(ShapedCore):
                 raise ValueError("target_heading must be finite")
             self.target_heading[i] = value
 
-    def render_extras(self, i: int) -> dict[str, Any]:
-        return {"target_heading": float(self.target_heading[i])}
+    def render_markers(self, i: int) -> tuple[Marker, ...]:
+        n = self.n  # the arrow starts at the cart's axle midpoint
+        x, y, heading = float(self.z[i, n + 2]), float(self.z[i, n + 3]), self.target_heading[i]
+        return (Marker("arrow", x, y, float(heading)),)
 
     def _task_feature_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return np.array([-1.0, -1.0, 0.0]), np.array([1.0, 1.0, 1.0])

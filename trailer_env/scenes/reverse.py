@@ -45,7 +45,9 @@ def reverse_reward(
 class ReverseCore(ConvoyCore):
     """Batched task logic of Reverse-v0 (no task features, no pose)."""
 
+    scene = "Reverse"
     max_episode_steps = 400
+    headline_metric = "safe_rate"
 
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:
         z = self.z[i]
