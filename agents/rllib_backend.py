@@ -288,7 +288,6 @@ def train_rllib(
             writer.writerows(rows)
         checkpoint = run_dir / "checkpoint"
         algorithm.save_to_path(str(checkpoint.resolve()))
-        module = algorithm.get_module()
         record.update(
             {
                 "timesteps": steps,
@@ -297,7 +296,7 @@ def train_rllib(
                 "episode_return_mean": rows[-1]["episode_return_mean"],
             }
         )
-        export_policy(module, checkpoint, record)
+        export_policy(algorithm, checkpoint, record)
         (run_dir / "config.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")
         algorithm.stop()
         return record
@@ -306,20 +305,40 @@ def train_rllib(
             ray.shutdown()
 
 
-def export_policy(module: Any, checkpoint: Path, card: dict[str, Any]) -> None:
+def learner_policy_state(algorithm: Any) -> dict[str, Any]:
+    """The trained policy's weights (inference part, as tensors) from the learner.
+
+    Read from the learner group, whose module is the one being optimised (the env
+    runners hold copies synchronised after each iteration).
+    """
+    import torch
+    from ray.rllib.core import COMPONENT_LEARNER, COMPONENT_RL_MODULE, DEFAULT_MODULE_ID
+
+    path = f"{COMPONENT_LEARNER}/{COMPONENT_RL_MODULE}/{DEFAULT_MODULE_ID}"
+    state = algorithm.learner_group.get_state(components=path, inference_only=True)
+    weights = state[COMPONENT_LEARNER][COMPONENT_RL_MODULE][DEFAULT_MODULE_ID]
+    return {key: torch.as_tensor(np.asarray(value)) for key, value in weights.items()}
+
+
+def export_policy(algorithm: Any, checkpoint: Path, card: dict[str, Any]) -> None:
     """Write the pickle-free policy export (weights + card) into ``checkpoint``."""
     import torch
 
     checkpoint.mkdir(parents=True, exist_ok=True)
-    state = {key: value.detach().cpu() for key, value in module.state_dict().items()}
-    torch.save(state, checkpoint / POLICY_WEIGHTS)
+    torch.save(learner_policy_state(algorithm), checkpoint / POLICY_WEIGHTS)
+    module = algorithm.get_module()
     spaces = {
         "observation_shape": list(module.observation_space.shape),
         "action_shape": list(module.action_space.shape),
         "action_low": np.asarray(module.action_space.low, dtype=float).tolist(),
         "action_high": np.asarray(module.action_space.high, dtype=float).tolist(),
     }
-    document = {**card, "module": "DefaultPPOTorchRLModule", "spaces": spaces}
+    document = {
+        **card,
+        "module": "DefaultPPOTorchRLModule",
+        "inference_only": True,
+        "spaces": spaces,
+    }
     (checkpoint / POLICY_CARD).write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
 
 
@@ -402,6 +421,7 @@ def load_rllib_policy(
         observation_space=observation_space,
         action_space=action_space,
         model_config=DefaultModelConfig(fcnet_hiddens=hiddens),
+        inference_only=card.get("inference_only", True),
     ).build()
     try:
         state = torch.load(path / POLICY_WEIGHTS, map_location="cpu", weights_only=True)
