@@ -5,10 +5,11 @@ Usage::
     python -m agents.train --backend rllib --env trailer_env/Reverse-v0 --algo ppo \\
         --num-env-runners 2 --timesteps 200000 [--address ray://head:10001 | auto]
 
-Without ``--address`` a local Ray is started (``ray.init`` with ``num_cpus`` equal to
-the runners plus one, no dashboard, logs in the run folder when its path is short
-enough for Ray's sockets) and shut down on exit, even after an error; with
-``--address`` the driver joins that cluster and leaves it running.
+Without ``--address`` a local Ray is started (``ray.init`` with ``num_cpus=2``, or one
+per runner when there are more, no dashboard, worker logs not echoed, Ray's session
+folder in the run folder's ``ray/`` when that path is short enough for Ray's unix
+sockets, else Ray's default under /tmp) and shut down on exit, even after an error;
+with ``--address`` the driver joins that cluster and only disconnects at the end.
 
 How the env runners find the environment: :func:`register_trailer_env` registers
 the creator :func:`make_rllib_env` under :data:`RLLIB_ENV_NAME` with
@@ -160,7 +161,9 @@ def _ray_init(address: str | None, num_env_runners: int, run_dir: Path) -> bool:
     if len(str(temp_dir)) <= _MAX_RAY_TEMP_DIR:
         options["_temp_dir"] = str(temp_dir)
     ray.init(
-        num_cpus=num_env_runners + 1,
+        # Each runner reserves one CPU; the learner runs in this process. Two logical
+        # CPUs at least (Ray's own tasks), more only when more runners must be placed.
+        num_cpus=max(2, num_env_runners),
         include_dashboard=False,
         log_to_driver=False,
         configure_logging=False,
@@ -257,7 +260,7 @@ def train_rllib(
             "command": command or [],
         }
         (run_dir / "config.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")
-        rows = []
+        rows: list[dict[str, Any]] = []
         started = time.perf_counter()
         steps = 0
         while steps < budget:
@@ -416,7 +419,7 @@ def load_rllib_policy(
             f"but the environment gives {tuple(observation_space.shape)}"
         )
     hiddens = list(card["hyperparams"]["fcnet_hiddens"])
-    module = RLModuleSpec(
+    module: Any = RLModuleSpec(
         module_class=DefaultPPOTorchRLModule,
         observation_space=observation_space,
         action_space=action_space,

@@ -219,7 +219,9 @@ def test_evaluate_writes_a_video_of_one_episode(
         [sys.executable, "-m", "agents.evaluate", *argv, "--no-plots", "--out", str(tmp_path)],
         cwd=ROOT, capture_output=True, text=True, timeout=300, check=False,
     )  # fmt: skip
-    assert code.returncode == 2 and "argument --video" in code.stderr and "--overwrite" in code.stderr
+    assert (
+        code.returncode == 2 and "argument --video" in code.stderr and "--overwrite" in code.stderr
+    )
 
 
 def test_train_errors_name_their_argument(
@@ -238,16 +240,23 @@ def test_train_errors_name_their_argument(
             archive.writestr(name, content)
     exported = _model_copy(tmp_path / "exported")
     base = ["--env", REVERSE, "--algo", "ppo"]
+    hp_file = broken_yaml / "ppo.yml"
     cases = [
         (["--timesteps", "inf"], "argument --timesteps: expected a positive integer, got 'inf'"),
         (["--timesteps", "nan"], "argument --timesteps"),
         (["--run-dir", str(a_file)], f"argument --run-dir: {a_file} exists and is not a folder"),
-        (["--resume", str(no_weights)], "argument --resume: " f"{no_weights} holds no policy weights"),
-        (["--hyperparams", str(broken_yaml)], "argument --hyperparams: " f"{broken_yaml / 'ppo.yml'} is not valid YAML"),
-        (["--export", str(exported), "--run-dir", str(tmp_path / "r")], f"argument --export: {exported} exists; pass --overwrite"),
-        (["--backend", "rllib", "--resume", str(exported)], "argument --resume: not supported with --backend rllib"),
+        (["--resume", str(no_weights)], f"argument --resume: {no_weights} holds no policy weights"),
+        (["--hyperparams", str(broken_yaml)], f"argument --hyperparams: {hp_file} is not valid"),
+        (
+            ["--export", str(exported), "--run-dir", str(tmp_path / "r")],
+            f"argument --export: {exported} exists; pass --overwrite",
+        ),
+        (
+            ["--backend", "rllib", "--resume", str(exported)],
+            "argument --resume: not supported with --backend rllib",
+        ),
         (["--address", "auto"], "argument --address: only with --backend rllib"),
-    ]  # fmt: skip
+    ]
     for argv, message in cases:
         code, err = _exit(train.main, [*base, *argv], capsys)
         assert code == 2 and message in err, (argv, err)

@@ -132,7 +132,7 @@ def test_an_unknown_pickled_entry_is_refused(tmp_path: Path) -> None:
         data = json.loads(archive.read("data"))
     data["surprise"] = {":serialized:": base64.b64encode(pickle.dumps(1)).decode()}
     _rewrite_zip(model, {"data": json.dumps(data).encode()})
-    with pytest.raises(UnsafeFileError, match="entry 'surprise' is a pickle.*--trust-pickle"):
+    with pytest.raises(UnsafeFileError, match=r"entry 'surprise' is a pickle.*--trust-pickle"):
         load_policy(str(model), REVERSE, {"n_trailers": 1})
 
 

@@ -10,17 +10,17 @@ import pytest
 
 pytest.importorskip("ray.rllib")
 
-import gymnasium as gym  # noqa: E402
+import gymnasium as gym
 
-from agents import evaluate, train  # noqa: E402
-from agents.callbacks import read_curve  # noqa: E402
-from agents.rllib_backend import (  # noqa: E402
+from agents import evaluate, train
+from agents.callbacks import read_curve
+from agents.rllib_backend import (
     POLICY_CARD,
     POLICY_WEIGHTS,
     load_rllib_policy,
     make_rllib_env,
 )
-from trailer_env.vector import ConvoyVectorEnv  # noqa: E402
+from trailer_env.vector import ConvoyVectorEnv
 
 REVERSE = "trailer_env/Reverse-v0"
 

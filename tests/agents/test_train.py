@@ -98,7 +98,8 @@ def test_resume_continues_the_timestep_count(tmp_path: Path) -> None:
     assert _train(tmp_path, "--timesteps", "4096", *common) == 0
     checkpoint = run / "checkpoints" / "ppo_2048_steps.zip"
     assert (
-        checkpoint.is_file() and (run / "checkpoints" / "ppo_vecnormalize_2048_steps.json").is_file()
+        checkpoint.is_file()
+        and (run / "checkpoints" / "ppo_vecnormalize_2048_steps.json").is_file()
     )
     assert load_model(run / "final_model.zip").num_timesteps == 4096
     resumed = ["--resume", str(checkpoint), "--eval-freq", "2048"]
