@@ -312,13 +312,19 @@ def convert_pickled_stats(pickled: Path, destination: Path, overwrite: bool = Fa
     Raises:
         FileExistsError: If ``destination`` exists and ``overwrite`` is false.
     """
-    import pickle
-
     if destination.exists() and not overwrite:
         raise FileExistsError(f"{destination} exists; pass --overwrite to replace it")
+    return save_stats(load_pickled_stats(pickled), destination)
+
+
+def load_pickled_stats(pickled: Path) -> Any:
+    """Unpickle a legacy ``VecNormalize`` (read-only, no env). Only for trusted files."""
+    import pickle
+
     with pickled.open("rb") as handle:
         vecnormalize = pickle.load(handle)  # the caller vouches for the file
-    return save_stats(vecnormalize, destination)
+    vecnormalize.training = False
+    return vecnormalize
 
 
 def main(argv: list[str] | None = None) -> int:

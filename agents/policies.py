@@ -88,7 +88,12 @@ def load_stats(model_path: Path, observation_space: Any = None, trust_pickle: bo
         ValueError: On a damaged statistics file, statistics that do not fit
             ``observation_space``, or a pickled one without ``trust_pickle``.
     """
-    from agents.model_files import UnsafeFileError, frozen_normalizer, read_stats
+    from agents.model_files import (
+        UnsafeFileError,
+        frozen_normalizer,
+        load_pickled_stats,
+        read_stats,
+    )
 
     path = stats_path(model_path)
     if path.is_file():
@@ -106,12 +111,7 @@ def load_stats(model_path: Path, observation_space: Any = None, trust_pickle: bo
             f"the observation statistics of {model_path} are a pickle ({pickled}); "
             "pass --trust-pickle to load them only if you trust the file"
         )
-    import pickle
-
-    with pickled.open("rb") as handle:
-        stats = pickle.load(handle)  # the user opted in (trust_pickle)
-    stats.training = False
-    return stats
+    return load_pickled_stats(pickled)
 
 
 def read_card(model_path: Path) -> dict[str, Any]:

@@ -52,7 +52,14 @@ import numpy as np
 
 from agents.config import Hyperparams, load_hyperparams
 from agents.envs import ENV_IDS, env_settings, make_sb3_env, scene_of
-from agents.model_files import UnsafeFileError, load_sb3, read_stats, restore_stats, save_stats
+from agents.model_files import (
+    UnsafeFileError,
+    load_pickled_stats,
+    load_sb3,
+    read_stats,
+    restore_stats,
+    save_stats,
+)
 from agents.policies import (
     ALGOS,
     algo_class,
@@ -437,10 +444,7 @@ def _restore_checkpoint_stats(venv: Any, checkpoint: Path, trust_pickle: bool) -
         raise UnsafeFileError(
             f"the statistics {pickled} are a pickle; pass --trust-pickle to load them"
         )
-    import pickle
-
-    with pickled.open("rb") as handle:
-        loaded = pickle.load(handle)  # the user opted in (trust_pickle)
+    loaded = load_pickled_stats(pickled)
     for key in ("obs_rms", "ret_rms", "clip_obs", "clip_reward", "epsilon"):
         setattr(venv, key, getattr(loaded, key))
 

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import pickle
 from pathlib import Path
+
+import pytest
 
 from agents import train
 from agents.callbacks import read_curve
@@ -12,6 +15,17 @@ from agents.metrics import rollout, summarize
 from agents.policies import load_model, load_policy, make_baseline
 
 REVERSE = "trailer_env/Reverse-v0"
+
+
+class _Touch:
+    """A pickle that creates a file when unpickled (stands for hostile code)."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):  # type: ignore[no-untyped-def]
+        return (Path.touch, (self.marker,))
+
 
 #: A small PPO for tests (rl-zoo3 format): 16 environments, 1024 steps per update.
 SMALL_PPO = """\
@@ -91,7 +105,9 @@ def test_smoke_training_beats_random(tmp_path: Path) -> None:
     assert (run / "best_model_vecnormalize.json").is_file()
 
 
-def test_resume_continues_the_timestep_count(tmp_path: Path) -> None:
+def test_resume_continues_the_timestep_count(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     _hyperparams(tmp_path)
     run = tmp_path / "run"
     common = ["--run-dir", str(run), "--checkpoint-freq", "2048", "--eval-freq", "2048"]
@@ -103,6 +119,18 @@ def test_resume_continues_the_timestep_count(tmp_path: Path) -> None:
     )
     assert load_model(run / "final_model.zip").num_timesteps == 4096
     resumed = ["--resume", str(checkpoint), "--eval-freq", "2048"]
+    # Statistics only in the legacy pickle format are not unpickled without the flag.
+    stats = run / "checkpoints" / "ppo_vecnormalize_2048_steps.json"
+    saved = stats.read_text()
+    stats.unlink()
+    marker = tmp_path / "ran"
+    stats.with_suffix(".pkl").write_bytes(pickle.dumps(_Touch(marker)))
+    with pytest.raises(SystemExit) as refused:
+        _train(tmp_path, "--timesteps", "6144", *resumed)
+    assert refused.value.code == 2 and not marker.exists()
+    assert "ppo_vecnormalize_2048_steps.pkl are a pickle" in capsys.readouterr().err
+    stats.with_suffix(".pkl").unlink()
+    stats.write_text(saved)
     assert _train(tmp_path, "--timesteps", "6144", *resumed) == 0
     assert load_model(run / "final_model.zip").num_timesteps == 6144
     steps = [int(row["timesteps"]) for row in read_curve(run / "evaluations.csv")]
@@ -112,7 +140,9 @@ def test_resume_continues_the_timestep_count(tmp_path: Path) -> None:
     assert walls == sorted(walls)  # the wall clock goes on across the resume
 
 
-def test_off_policy_resume_restores_the_replay_buffer(tmp_path: Path) -> None:
+def test_off_policy_resume_restores_the_replay_buffer(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     _hyperparams(tmp_path)
     run = tmp_path / "sac"
     common = ["--run-dir", str(run), "--checkpoint-freq", "300", "--eval-freq", "300"]
@@ -121,6 +151,10 @@ def test_off_policy_resume_restores_the_replay_buffer(tmp_path: Path) -> None:
     assert (run / "checkpoints" / "sac_replay_buffer_300_steps.pkl").is_file()
     # SB3 pickles the replay buffer: resuming with it is an explicit opt-in.
     resume = ["--timesteps", "400", "--resume", str(checkpoint)]
+    with pytest.raises(SystemExit) as refused:
+        _train(tmp_path, *resume, algo="sac")
+    assert refused.value.code == 2
+    assert "replay buffer" in capsys.readouterr().err
     assert _train(tmp_path, *resume, "--trust-pickle", algo="sac") == 0
     model = load_model(run / "final_model.zip")
     assert model.num_timesteps == 400
