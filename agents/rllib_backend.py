@@ -6,10 +6,11 @@ Usage::
         --num-env-runners 2 --timesteps 200000 [--address ray://head:10001 | auto]
 
 Without ``--address`` a local Ray is started (``ray.init`` with ``num_cpus=2``, or one
-per runner when there are more, no dashboard, worker logs not echoed, Ray's session
-folder in the run folder's ``ray/`` when that path is short enough for Ray's unix
-sockets, else Ray's default under /tmp) and shut down on exit, even after an error;
-with ``--address`` the driver joins that cluster and only disconnects at the end.
+per runner when there are more, no dashboard, worker output not echoed) and shut down
+on exit, even after an error; its session's logs are copied to the run folder's
+``ray_logs/`` first (the session itself stays under Ray's /tmp folder: its unix
+sockets need a short path). With ``--address`` the driver joins that cluster and only
+disconnects at the end (the logs stay on the cluster).
 
 How the env runners find the environment: :func:`register_trailer_env` registers
 the creator :func:`make_rllib_env` under :data:`RLLIB_ENV_NAME` with
@@ -40,6 +41,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shutil
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -55,8 +57,6 @@ RLLIB_ENV_NAME = "trailer_env_rllib"
 #: Files of the pickle-free policy export inside a checkpoint folder.
 POLICY_WEIGHTS = "policy_weights.pt"
 POLICY_CARD = "policy_card.json"
-#: Ray puts unix sockets under its temp dir; their paths must stay under 107 bytes.
-_MAX_RAY_TEMP_DIR = 60
 #: Algorithms the RLlib backend trains.
 RLLIB_ALGOS = ("ppo",)
 
@@ -147,29 +147,39 @@ def ppo_config(
     )
 
 
-def _ray_init(address: str | None, num_env_runners: int, run_dir: Path) -> bool:
-    """Start a local Ray (or join ``address``); True when this call started one."""
+def _ray_init(address: str | None, num_env_runners: int) -> tuple[bool, Path | None]:
+    """Start a local Ray (or join ``address``).
+
+    Returns whether this call connected (and so must shut down) and, for a local Ray
+    it started, the session's log folder.
+    """
     import ray
 
     if ray.is_initialized():
-        return False
+        return False, None
     if address is not None:
         ray.init(address=address, include_dashboard=False, log_to_driver=False)
-        return True
-    temp_dir = (run_dir / "ray").resolve()
-    options: dict[str, Any] = {}
-    if len(str(temp_dir)) <= _MAX_RAY_TEMP_DIR:
-        options["_temp_dir"] = str(temp_dir)
-    ray.init(
+        return True, None
+    context = ray.init(
         # Each runner reserves one CPU; the learner runs in this process. Two logical
         # CPUs at least (Ray's own tasks), more only when more runners must be placed.
         num_cpus=max(2, num_env_runners),
         include_dashboard=False,
         log_to_driver=False,
         configure_logging=False,
-        **options,
     )
-    return True
+    return True, Path(context.address_info["session_dir"]) / "logs"
+
+
+def _shutdown(started: bool, logs: Path | None, run_dir: Path) -> None:
+    """Copy the local Ray session's logs into ``run_dir/ray_logs``, then shut Ray down."""
+    import ray
+
+    if logs is not None and logs.is_dir():
+        # Ray's session folder stays under /tmp: its unix sockets need a short path.
+        shutil.copytree(logs, run_dir / "ray_logs", dirs_exist_ok=True)
+    if started:
+        ray.shutdown()
 
 
 def _env_steps(result: Mapping[str, Any]) -> int:
@@ -217,13 +227,12 @@ def train_rllib(
         raise ValueError(f"the rllib backend trains {list(RLLIB_ALGOS)}, not {algo!r}")
     if num_env_runners < 0:
         raise ValueError(f"num_env_runners must be >= 0, got {num_env_runners}")
-    import ray
 
     env_kwargs = {**hyperparams.env_kwargs, "n_trailers": n_trailers}
     budget = int(timesteps if timesteps is not None else hyperparams.n_timesteps)
     per_runner = envs_per_runner or max(hyperparams.n_envs // max(num_env_runners, 1), 1)
     run_dir.mkdir(parents=True, exist_ok=True)
-    started_ray = _ray_init(address, num_env_runners, run_dir)
+    started_ray, ray_logs = _ray_init(address, num_env_runners)
     try:
         config = ppo_config(env_id, env_kwargs, hyperparams, seed, num_env_runners, per_runner)
         algorithm = config.build_algo()
@@ -304,8 +313,7 @@ def train_rllib(
         algorithm.stop()
         return record
     finally:
-        if started_ray:
-            ray.shutdown()
+        _shutdown(started_ray, ray_logs, run_dir)
 
 
 def learner_policy_state(algorithm: Any) -> dict[str, Any]:

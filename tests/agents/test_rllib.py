@@ -59,6 +59,7 @@ def test_rllib_trains_with_a_remote_runner_and_its_checkpoint_evaluates(tmp_path
             str(tmp_path / "hp"), "--run-dir", str(run), "--quiet"]  # fmt: skip
     assert train.main(argv) == 0
     assert not ray.is_initialized()  # the local Ray it started is shut down
+    assert any((run / "ray_logs").iterdir())  # with its logs kept in the run folder
     config = json.loads((run / "config.json").read_text())
     assert config["backend"] == "rllib" and config["num_env_runners"] == 1
     # The remote runner stepped the native batched env, not 8 Python envs.
