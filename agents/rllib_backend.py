@@ -276,6 +276,7 @@ def train_rllib(
             result = algorithm.train()
             steps = _env_steps(result)
             runners = result.get("env_runners", {})
+            timers = result.get("timers", {})
             mean_return = float(runners.get("episode_return_mean", float("nan")))
             rows.append(
                 {
@@ -285,6 +286,10 @@ def train_rllib(
                     "episode_return_mean": mean_return,
                     "episode_len_mean": float(runners.get("episode_len_mean", float("nan"))),
                     "num_episodes": int(runners.get("num_episodes_lifetime", 0)),
+                    # RLlib's own timers, smoothed across iterations (so not summable into
+                    # a wall time): sampling on the runners, the PPO update in the learner.
+                    "sample_s": float(timers.get("env_runner_sampling_timer", float("nan"))),
+                    "learn_s": float(timers.get("learner_update_timer", float("nan"))),
                 }
             )
             if verbose:
