@@ -160,7 +160,7 @@ def _ray_init(address: str | None, num_env_runners: int) -> tuple[bool, Path | N
     if address is not None:
         ray.init(address=address, include_dashboard=False, log_to_driver=False)
         return True, None
-    context = ray.init(
+    context: Any = ray.init(
         # Each runner reserves one CPU; the learner runs in this process. Two logical
         # CPUs at least (Ray's own tasks), more only when more runners must be placed.
         num_cpus=max(2, num_env_runners),
