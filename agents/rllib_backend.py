@@ -147,6 +147,14 @@ def ppo_config(
     )
 
 
+def _runner_env(runner: Any) -> tuple[str, bool]:
+    """An env runner's env class and whether it is the native batch (runs on the runner)."""
+    from trailer_env.vector import ConvoyVectorEnv
+
+    env = runner.env.unwrapped
+    return type(env).__name__, isinstance(env, ConvoyVectorEnv)
+
+
 def _ray_init(address: str | None, num_env_runners: int) -> tuple[bool, Path | None]:
     """Start a local Ray (or join ``address``).
 
@@ -237,11 +245,9 @@ def train_rllib(
         config = ppo_config(env_id, env_kwargs, hyperparams, seed, num_env_runners, per_runner)
         algorithm = config.build_algo()
         runner_envs = (
-            algorithm.env_runner_group.foreach_env_runner(
-                lambda runner: type(runner.env.unwrapped).__name__, local_env_runner=False
-            )
+            algorithm.env_runner_group.foreach_env_runner(_runner_env, local_env_runner=False)
             if num_env_runners > 0
-            else [type(algorithm.env_runner.env.unwrapped).__name__]
+            else [_runner_env(algorithm.env_runner)]
         )
         record: dict[str, Any] = {
             "algo": algo,
@@ -254,7 +260,8 @@ def train_rllib(
             "num_env_runners": num_env_runners,
             "envs_per_runner": per_runner,
             "address": address,
-            "runner_env_classes": sorted(set(runner_envs)),
+            # What each runner steps: (class name, is a native ConvoyVectorEnv batch).
+            "runner_envs": runner_envs,
             "hyperparams": {
                 "train_batch_size": config.train_batch_size_per_learner,
                 "minibatch_size": config.minibatch_size,
