@@ -166,9 +166,19 @@ def _ray_init(address: str | None, num_env_runners: int) -> tuple[bool, Path | N
     if ray.is_initialized():
         return False, None
     if address is not None:
-        ray.init(address=address, include_dashboard=False, log_to_driver=False)
+        try:
+            ray.init(address=address, include_dashboard=False, log_to_driver=False)
+        except (ConnectionError, RuntimeError) as error:
+            raise ConnectionError(
+                f"cannot connect to the Ray cluster at {address}: {str(error).splitlines()[0]} "
+                "(a cluster with token authentication, Ray's default, also needs "
+                "RAY_AUTH_MODE=token and its token in ~/.ray/auth_token or RAY_AUTH_TOKEN)"
+            ) from None
         return True, None
     context: Any = ray.init(
+        # "local": a new instance even when `ray start` left a cluster on this machine
+        # (plain ray.init() would join that one, where num_cpus is not allowed).
+        address="local",
         # Each runner reserves one CPU; the learner runs in this process. Two logical
         # CPUs at least (Ray's own tasks), more only when more runners must be placed.
         num_cpus=max(2, num_env_runners),
@@ -230,6 +240,7 @@ def train_rllib(
 
     Raises:
         ValueError: For an algorithm other than PPO or a negative runner count.
+        ConnectionError: If ``address`` cannot be reached.
     """
     if algo not in RLLIB_ALGOS:
         raise ValueError(f"the rllib backend trains {list(RLLIB_ALGOS)}, not {algo!r}")

@@ -577,20 +577,23 @@ def main(argv: list[str] | None = None) -> int:
     if args.backend == "rllib":
         from agents.rllib_backend import train_rllib
 
-        record = train_rllib(
-            args.env,
-            args.algo,
-            args.n_trailers,
-            args.timesteps,
-            args.seed,
-            run_dir,
-            hyperparams=hp,
-            num_env_runners=args.num_env_runners,
-            envs_per_runner=args.n_envs,
-            address=args.address,
-            verbose=0 if args.quiet else 1,
-            command=command,
-        )
+        try:
+            record = train_rllib(
+                args.env,
+                args.algo,
+                args.n_trailers,
+                args.timesteps,
+                args.seed,
+                run_dir,
+                hyperparams=hp,
+                num_env_runners=args.num_env_runners,
+                envs_per_runner=args.n_envs,
+                address=args.address,
+                verbose=0 if args.quiet else 1,
+                command=command,
+            )
+        except ConnectionError as error:
+            parser.error(f"argument --address: {error}")
         print(
             f"trained ppo on {args.env} (n = {args.n_trailers}) with RLlib to "
             f"{record['timesteps']} steps in {time.perf_counter() - started:.0f} s "

@@ -109,3 +109,23 @@ def test_rllib_options_are_checked(capsys: pytest.CaptureFixture[str]) -> None:
         with pytest.raises(SystemExit) as raised:
             train.main(["--backend", "rllib", "--env", REVERSE, *argv])
         assert raised.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_an_unreachable_cluster_exits_2_naming_the_address(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import ray
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise ConnectionError("Failed to connect to Ray cluster at 10.0.0.9:6379")
+
+    # (a real unreachable address makes Ray retry for minutes before it gives up)
+    monkeypatch.setattr(ray, "init", refuse)
+    argv = ["--backend", "rllib", "--env", REVERSE, "--algo", "ppo", "--address",
+            "10.0.0.9:6379", "--run-dir", str(tmp_path / "run")]  # fmt: skip
+    with pytest.raises(SystemExit) as raised:
+        train.main(argv)
+    err = capsys.readouterr().err
+    assert raised.value.code == 2
+    assert "argument --address: cannot connect to the Ray cluster at 10.0.0.9:6379" in err
+    assert "RAY_AUTH_MODE=token" in err
