@@ -3,16 +3,18 @@
 Modules (one concept each):
 
 * :mod:`agents.baselines`: zero, random, LQR and heading baselines as batched policies;
-* :mod:`agents.policies`: the registry (a baseline by name or a saved model by path);
+* :mod:`agents.policies`: the registry (a baseline by name, a saved model by path or stem);
 * :mod:`agents.envs`: environment construction (native batches, the SB3 adapter);
 * :mod:`agents.metrics`: seeded batched rollouts and the safety metrics;
 * :mod:`agents.config`: rl-zoo3 hyperparameter files (``agents/hyperparams/*.yml``);
 * :mod:`agents.callbacks`: periodic evaluation during training (learning curves);
 * :mod:`agents.wrappers`: training-time reward wrappers;
-* :mod:`agents.plots`: learning curves, margin histograms, rendered frames;
+* :mod:`agents.plots`: learning curves, margin histograms, rendered frames, episode videos;
+* :mod:`agents.model_files`: model files without pickles (JSON statistics, safe SB3 loads);
+* :mod:`agents.rllib_backend`: distributed PPO on Ray RLlib (``train --backend rllib``);
 * commands: :mod:`agents.train`, :mod:`agents.evaluate`, :mod:`agents.report` and the
   main job :mod:`agents.main`.
 
 Committed models live in ``agents/models/`` with their cards (``*.json``),
-observation statistics (``*_vecnormalize.pkl``) and learning curves (``*.csv``).
+observation statistics (``*_vecnormalize.json``) and learning curves (``*.csv``).
 """

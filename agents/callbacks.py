@@ -18,9 +18,10 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
 from agents.metrics import rollout, summarize
+from agents.model_files import save_stats
 from agents.policies import ModelPolicy, card_path, read_card, stats_path
 
 #: First seed of the validation episodes (evaluation/test episodes start at 1000).
@@ -50,6 +51,35 @@ def read_curve(path: Path) -> list[dict[str, float]]:
 def score(summary: Mapping[str, Any]) -> tuple[float, float, float]:
     """Ranking of an evaluation: safe rate, then success rate, then mean return."""
     return summary["safe_rate"], summary["success_rate"], summary["mean_return"]
+
+
+class StatsCheckpointCallback(CheckpointCallback):
+    """SB3's ``CheckpointCallback`` with the observation statistics saved as JSON.
+
+    SB3 pickles them (``save_vecnormalize``); this writes
+    ``<prefix>_vecnormalize_<k>_steps.json`` beside each ``<prefix>_<k>_steps.zip``
+    instead (:func:`agents.model_files.save_stats`). The replay buffer of SAC/TD3
+    (``save_replay_buffer``) stays SB3's pickle: resuming from it needs ``--trust-pickle``.
+    """
+
+    def __init__(
+        self, save_freq: int, save_path: str, name_prefix: str, save_replay_buffer: bool
+    ) -> None:
+        super().__init__(
+            save_freq=save_freq,
+            save_path=save_path,
+            name_prefix=name_prefix,
+            save_replay_buffer=save_replay_buffer,
+            save_vecnormalize=False,
+        )
+
+    def _on_step(self) -> bool:
+        saving = self.n_calls % self.save_freq == 0
+        result = super()._on_step()
+        stats = self.model.get_vec_normalize_env()
+        if saving and stats is not None:
+            save_stats(stats, Path(self._checkpoint_path("vecnormalize_", extension="json")))
+        return result
 
 
 class SafetyEvalCallback(BaseCallback):
@@ -159,7 +189,7 @@ class SafetyEvalCallback(BaseCallback):
             self.best = score(summary)
             self.model.save(self.best_path)
             if stats is not None:
-                stats.save(str(stats_path(self.best_path)))
+                save_stats(stats, stats_path(self.best_path))
             card = {"selected_at_timesteps": steps, "validation": row}
             card_path(self.best_path).write_text(json.dumps(card, indent=2) + "\n")
         if self.verbose:

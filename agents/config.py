@@ -114,7 +114,10 @@ def _schedule(key: str, value: Any) -> Any:
         kind, _, initial = value.partition("_")
         if kind != "lin":
             raise ValueError(f"{key}: unknown schedule {value!r} (only lin_<value> is supported)")
-        return linear_schedule(float(initial))
+        try:
+            return linear_schedule(float(initial))
+        except ValueError:
+            raise ValueError(f"{key}: bad schedule {value!r}") from None
     return value
 
 
@@ -139,16 +142,28 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
         ValueError: On a value the trainer cannot use.
     """
     path = hyperparams_file(algo, directory)
-    entries = yaml.safe_load(path.read_text())
+    try:
+        entries = yaml.safe_load(path.read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as error:
+        raise ValueError(f"{path} is not valid YAML: {error}") from None
+    if not isinstance(entries, dict):
+        raise ValueError(f"{path} must map environment ids to entries")
     if env_id not in entries:
-        raise KeyError(f"{path} has no entry for {env_id}; entries: {sorted(entries)}")
+        raise KeyError(f"{path} has no entry for {env_id}; entries: {sorted(map(str, entries))}")
+    if not isinstance(entries[env_id], dict):
+        raise ValueError(f"{path}: the entry for {env_id} must be a mapping")
     raw = dict(entries[env_id])
-    result = Hyperparams(
-        n_envs=int(raw.pop("n_envs", 1)),
-        n_timesteps=int(float(raw.pop("n_timesteps", 100_000))),
-        policy=str(raw.pop("policy", "MlpPolicy")),
-        env_kwargs=dict(raw.pop("env_kwargs", None) or {}),
-    )
+    try:
+        result = Hyperparams(
+            n_envs=int(raw.pop("n_envs", 1)),
+            n_timesteps=int(float(raw.pop("n_timesteps", 100_000))),
+            policy=str(raw.pop("policy", "MlpPolicy")),
+            env_kwargs=dict(raw.pop("env_kwargs", None) or {}),
+        )
+    except (TypeError, ValueError, OverflowError) as error:
+        raise ValueError(f"{path}: bad n_envs, n_timesteps or env_kwargs: {error}") from None
+    if result.n_envs < 1 or result.n_timesteps < 1:
+        raise ValueError(f"{path}: n_envs and n_timesteps must be >= 1")
     normalize = raw.pop("normalize", False)
     if isinstance(normalize, str):
         result.normalize = parse_policy_kwargs(normalize)

@@ -54,15 +54,13 @@ def make_vector_env(
 def make_sb3_env(
     env_id: str, num_envs: int, env_kwargs: dict[str, Any] | None = None, seed: int | None = None
 ) -> Any:
-    """The SB3 ``VecEnv`` over the native batch, wrapped in ``VecMonitor`` for episode stats.
+    """The SB3 ``VecEnv`` over the native batch (it records episode statistics itself).
 
     Environment ``i`` is seeded with ``seed + i`` at the first reset.
     """
-    from stable_baselines3.common.vec_env import VecMonitor
-
     from trailer_env.sb3 import ConvoySB3VecEnv
 
     venv = ConvoySB3VecEnv(check_env_id(env_id), num_envs=num_envs, **(env_kwargs or {}))
     if seed is not None:
         venv.seed(seed)
-    return VecMonitor(venv, info_keywords=("is_success",))
+    return venv

@@ -3,7 +3,15 @@
 Usage::
 
     python -m agents.evaluate --env trailer_env/Reverse-v0 --n-trailers 2 \\
-        --policy zero random lqr agents/models/ppo_reverse_n2.zip --episodes 100 --out out/eval
+        --policy zero random lqr ppo_reverse_n2 --episodes 100 --out out/eval
+
+A policy is a baseline name, the stem of a shipped model (``ppo_reverse_n2`` is the
+installed package's ``agents/models/ppo_reverse_n2.zip``, from any folder), a model
+zip's path or an RLlib checkpoint folder (``runs/<run>/checkpoint``). Model files are
+loaded without unpickling anything unless ``--trust-pickle``
+(:mod:`agents.model_files`), and a model whose card names another environment id or
+number of trailers is refused unless ``--force``. ``--video PATH.mp4|.gif`` also
+writes every frame of one episode (seed ``--seed``) of the first policy.
 
 Without ``--policy`` it evaluates the scene's baselines and every committed model
 (``agents/models/*.zip``) trained for that environment and number of trailers.
@@ -26,30 +34,32 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from agents.baselines import BASELINES
+from agents.baselines import BASELINES, Policy
 from agents.envs import ENV_IDS, check_env_id, env_settings
 from agents.metrics import EpisodeResults, rollout, summarize
 from agents.policies import (
+    MODELS_DIR,
     is_model_spec,
     limit_torch_threads,
     load_policy,
     policy_label,
     read_card,
+    resolve_model,
 )
 
-MODELS_DIR = Path(__file__).resolve().parent / "models"
 #: First seed of the test episodes (training validation uses 50000 and up).
 TEST_SEED = 1000
 
 
 @dataclass
 class Evaluation:
-    """One policy's evaluation: its label, spec, model card (if any) and results."""
+    """One policy's evaluation: its label, spec, model card (if any), results and policy."""
 
     label: str
     spec: str
     card: dict[str, Any]
     results: EpisodeResults
+    policy: Policy | None = None
 
     @property
     def summary(self) -> dict[str, Any]:
@@ -81,20 +91,62 @@ def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR)
     return found
 
 
+def model_card(spec: str) -> dict[str, Any]:
+    """The card of a model spec (SB3 zip or RLlib checkpoint); empty for a baseline."""
+    if not is_model_spec(spec):
+        return {}
+    path = Path(resolve_model(spec))
+    if path.is_dir():
+        from agents.rllib_backend import read_rllib_card
+
+        return read_rllib_card(path)
+    return read_card(path)
+
+
+def load_policies(
+    specs: Sequence[str],
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    seed: int = TEST_SEED,
+    *,
+    trust_pickle: bool = False,
+    force: bool = False,
+) -> list[tuple[str, Policy]]:
+    """Load every spec first (so a bad one fails before any episode runs): (spec, policy).
+
+    Shipped models' stems are resolved to their paths (:func:`agents.policies.resolve_model`).
+    """
+    return [
+        (
+            resolve_model(spec),
+            load_policy(
+                spec, env_id, env_kwargs, seed=seed, trust_pickle=trust_pickle, force=force
+            ),
+        )
+        for spec in specs
+    ]
+
+
 def evaluate_policies(
     specs: Sequence[str],
     env_id: str,
     env_kwargs: dict[str, Any],
     episodes: int,
     seed: int = TEST_SEED,
+    *,
+    trust_pickle: bool = False,
+    force: bool = False,
 ) -> list[Evaluation]:
-    """Evaluate each policy spec on the same ``episodes`` seeded episodes."""
+    """Evaluate each policy spec on the same ``episodes`` seeded episodes.
+
+    Args:
+        trust_pickle, force: As for :func:`agents.policies.load_policy`.
+    """
     evaluations = []
-    for spec in specs:
-        policy = load_policy(spec, env_id, env_kwargs, seed=seed)
+    loaded = load_policies(specs, env_id, env_kwargs, seed, trust_pickle=trust_pickle, force=force)
+    for spec, policy in loaded:
         results = rollout(policy, env_id, episodes, seed, env_kwargs)
-        card = read_card(Path(spec)) if is_model_spec(spec) else {}
-        evaluations.append(Evaluation(policy_label(spec), spec, card, results))
+        evaluations.append(Evaluation(policy_label(spec), spec, model_card(spec), results, policy))
     return evaluations
 
 
@@ -198,7 +250,7 @@ def write_pictures(
     for evaluation in evaluations:
         if evaluation.label == "random":
             continue
-        policy = load_policy(evaluation.spec, env_id, env_kwargs, seed=seed)
+        policy = evaluation.policy or load_policy(evaluation.spec, env_id, env_kwargs, seed=seed)
         rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
     if rows:
         written.append(plots.plot_frames(rows, out / f"{prefix}frames.png"))
@@ -242,13 +294,14 @@ def build_parser() -> argparse.ArgumentParser:
         nargs="+",
         default=None,
         metavar="POLICY",
-        help=f"baselines ({', '.join(BASELINES)}) and/or model paths (.zip); "
+        help=f"baselines ({', '.join(BASELINES)}), shipped models by stem "
+        "(e.g. ppo_reverse_n2), model paths (.zip) and/or RLlib checkpoint folders; "
         "default: the scene's baselines and its committed models",
     )
     parser.add_argument("--episodes", type=int, default=100, help="episodes (default 100)")
     parser.add_argument(
         "--seed",
-        type=int,
+        type=_non_negative_int,
         default=TEST_SEED,
         help=f"episode i is seeded seed + i (default {TEST_SEED})",
     )
@@ -256,7 +309,47 @@ def build_parser() -> argparse.ArgumentParser:
         "--out", type=Path, default=Path("out/eval"), help="output folder (default out/eval)"
     )
     parser.add_argument("--no-plots", action="store_true", help="write JSON and Markdown only")
+    parser.add_argument(
+        "--video",
+        type=Path,
+        default=None,
+        metavar="PATH.mp4|PATH.gif",
+        help="also write a video of one episode (seed --seed) of the first --policy",
+    )
+    parser.add_argument(
+        "--video-steps",
+        type=_non_negative_int,
+        default=None,
+        help="cut the video after this many steps (default: the whole episode)",
+    )
+    parser.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="allow unpickling parts of the model files (only for files you trust)",
+    )
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="evaluate models whose card names another environment or n_trailers",
+    )
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --video file")
     return parser
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
+    return value
+
+
+def check_out_folder(parser: argparse.ArgumentParser, out: Path, name: str = "--out") -> None:
+    """Exit 2 naming the argument when ``out`` exists and is not a folder."""
+    if out.exists() and not out.is_dir():
+        parser.error(f"argument {name}: {out} exists and is not a folder")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -267,8 +360,20 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --n-trailers: must be >= 0, got {args.n_trailers}")
     if args.episodes < 1:
         parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
+    check_out_folder(parser, args.out)
+    if args.video is not None:
+        from agents.plots import VIDEO_SUFFIXES
+
+        if args.video.suffix.lower() not in VIDEO_SUFFIXES:
+            parser.error(f"argument --video: must end in .mp4 or .gif, got {args.video.name!r}")
+        if args.video.exists() and not args.overwrite:
+            parser.error(f"argument --video: {args.video} exists; pass --overwrite to replace it")
     env_id = check_env_id(args.env)
     env_kwargs = {"n_trailers": args.n_trailers}
+    try:
+        env_settings(env_kwargs)
+    except (TypeError, ValueError) as error:
+        parser.error(f"argument --n-trailers: {error}")
     specs = args.policy or [
         *default_baselines(env_id),
         *(str(path) for path in committed_models(env_id, args.n_trailers)),
@@ -276,7 +381,15 @@ def main(argv: list[str] | None = None) -> int:
     limit_torch_threads()
     started = time.perf_counter()
     try:
-        evaluations = evaluate_policies(specs, env_id, env_kwargs, args.episodes, args.seed)
+        evaluations = evaluate_policies(
+            specs,
+            env_id,
+            env_kwargs,
+            args.episodes,
+            args.seed,
+            trust_pickle=args.trust_pickle,
+            force=args.force,
+        )
     except (ValueError, FileNotFoundError) as error:
         parser.error(f"argument --policy: {error}")
     args.out.mkdir(parents=True, exist_ok=True)
@@ -292,6 +405,15 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_plots:
         for path in write_pictures(evaluations, env_id, env_kwargs, args.out, args.seed):
             print(f"wrote {path}")
+    if args.video is not None:
+        from agents import plots
+
+        first = evaluations[0]
+        assert first.policy is not None  # evaluate_policies keeps every policy
+        frames = plots.episode_frames(env_id, first.policy, args.seed, env_kwargs, args.video_steps)
+        fps = 1.0 / env_settings(env_kwargs).dt
+        plots.write_video(frames, args.video, fps)
+        print(f"wrote {args.video} ({len(frames)} frames of {first.label}, seed {args.seed})")
     print(f"wrote {args.out / 'results.json'} and {args.out / 'results.md'}")
     return 0
 

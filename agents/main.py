@@ -1,10 +1,12 @@
 """The main job: the committed agent against the baselines on Reverse-v0 with two trailers.
 
-Run with ``python -m agents.main [--out DIR] [--episodes K] [--train-steps N] [--retrain]``.
+Run with ``python -m agents.main [--out DIR] [--episodes K] [--train-steps N] [--retrain
+[--overwrite]]``.
 
 1. Load the committed agents for ``trailer_env/Reverse-v0``, n = 2
    (``agents/models/*.zip`` whose card names that scene), or, when there are none
-   (or with ``--retrain``), train PPO on a short budget into ``<out>/run``.
+   (or with ``--retrain``), train PPO on a short budget into ``<out>/run``; a run
+   already there is replaced only with ``--overwrite``.
 2. Evaluate them and the baselines (zero, random, LQR) on K seeded episodes
    (seeds 1000 .. 1000 + K - 1) in one native batch per policy.
 3. Print the comparison table and write ``results.json``, ``results.md``,
@@ -17,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shutil
 import time
 from pathlib import Path
 
@@ -38,13 +41,27 @@ N_TRAILERS = 2
 SHORT_BUDGET = 1_000_000
 
 
-def train_short(out: Path, budget: int, seed: int = 0) -> Path:
-    """Train PPO on Reverse-v0 (n = 2) for ``budget`` steps; returns the exported model."""
+def short_run_files(out: Path) -> list[Path]:
+    """What :func:`train_short` writes under ``out`` and would replace: its run, its export."""
+    from agents.train import export_files
+
+    return [out / "run", *export_files(out / f"ppo_reverse_n{N_TRAILERS}.zip")]
+
+
+def train_short(out: Path, budget: int, seed: int = 0, overwrite: bool = False) -> Path:
+    """Train PPO on Reverse-v0 (n = 2) for ``budget`` steps; returns the exported model.
+
+    Raises:
+        FileExistsError: If ``out`` already holds such a run (or its export) and
+            ``overwrite`` is false.
+    """
     from agents.train import export_model, train
 
     run_dir = out / "run"
-    for stale in ("evaluations.csv", "best_model.zip"):
-        (run_dir / stale).unlink(missing_ok=True)
+    existing = [path for path in short_run_files(out) if path.exists()]
+    if existing and not overwrite:
+        raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
+    shutil.rmtree(run_dir, ignore_errors=True)
     print(f"no committed agent: training PPO for {budget} steps into {run_dir} ...", flush=True)
     train(
         ENV_ID,
@@ -57,7 +74,7 @@ def train_short(out: Path, budget: int, seed: int = 0) -> Path:
         progress_bar=False,
         command=["python", "-m", "agents.main", "--train-steps", str(budget)],
     )
-    return export_model(run_dir, out / f"ppo_reverse_n{N_TRAILERS}.zip")
+    return export_model(run_dir, out / f"ppo_reverse_n{N_TRAILERS}.zip", overwrite=overwrite)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -78,7 +95,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--retrain", action="store_true", help="train a fresh agent even if committed ones exist"
     )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="with --retrain: replace the run (and exported model) already in --out",
+    )
     args = parser.parse_args(argv)
+    if args.out.exists() and not args.out.is_dir():
+        parser.error(f"argument --out: {args.out} exists and is not a folder")
     if args.episodes < 1:
         parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
     if args.train_steps < 1:
@@ -87,7 +111,13 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     models = [] if args.retrain else committed_models(ENV_ID, N_TRAILERS)
     if not models:
-        models = [train_short(args.out, args.train_steps)]
+        existing = [path for path in short_run_files(args.out) if path.exists()]
+        if existing and not args.overwrite:
+            parser.error(
+                f"argument --out: {existing[0]} holds an earlier run; pass --overwrite "
+                "to replace it, or another --out"
+            )
+        models = [train_short(args.out, args.train_steps, overwrite=args.overwrite)]
     env_kwargs = {"n_trailers": N_TRAILERS}
     env_settings(env_kwargs)
     specs = [*default_baselines(ENV_ID), *(str(path) for path in models)]

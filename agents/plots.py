@@ -187,3 +187,69 @@ def _save(fig: Any, plt: Any, out: Path) -> Path:
     fig.savefig(out, dpi=80)
     plt.close(fig)
     return out
+
+
+def episode_frames(
+    env_id: str,
+    policy: Policy,
+    seed: int,
+    env_kwargs: dict[str, Any] | None = None,
+    max_steps: int | None = None,
+) -> list[np.ndarray]:
+    """Every ``rgb_array`` frame of one seeded episode of ``policy`` (single env).
+
+    The first frame is the reset state, then one per step: an episode of L steps gives
+    L + 1 frames (fewer when ``max_steps`` < L cuts it: ``max_steps`` + 1).
+    """
+    import gymnasium as gym
+
+    env = gym.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
+    obs, _ = env.reset(seed=seed)
+    frames = [np.asarray(env.render())]
+    steps = 0
+    while max_steps is None or steps < max_steps:
+        obs, _, terminated, truncated, _ = env.step(policy(obs[None])[0])
+        frames.append(np.asarray(env.render()))
+        steps += 1
+        if terminated or truncated:
+            break
+    env.close()
+    return frames
+
+
+#: Video formats :func:`write_video` writes.
+VIDEO_SUFFIXES = (".mp4", ".gif")
+
+
+def write_video(frames: Sequence[np.ndarray], out: Path, fps: float) -> Path:
+    """Write ``frames`` as an mp4 (imageio's ffmpeg, from the dev extra) or a gif (Pillow).
+
+    Raises:
+        ValueError: For another suffix than .mp4 or .gif, or no frames.
+    """
+    if out.suffix.lower() not in VIDEO_SUFFIXES:
+        raise ValueError(f"video must end in {' or '.join(VIDEO_SUFFIXES)}, got {out.name!r}")
+    if not frames:
+        raise ValueError("no frames to write")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix.lower() == ".gif":
+        from PIL import Image
+
+        images = [Image.fromarray(frame) for frame in frames]
+        # optimize=False and disposal=1 keep one GIF frame per env frame (Pillow would
+        # otherwise merge frames that happen to be identical).
+        images[0].save(
+            out,
+            save_all=True,
+            append_images=images[1:],
+            duration=round(1000 / fps),
+            loop=0,
+            optimize=False,
+            disposal=1,
+        )
+        return out
+    import imageio.v2 as imageio
+
+    # macro_block_size=1: the frames' size need not be a multiple of 16.
+    imageio.mimsave(out, list(frames), fps=fps, macro_block_size=1)
+    return out

@@ -1,9 +1,11 @@
-"""The policy registry: a baseline by name or a saved stable-baselines3 model by path.
+"""The policy registry: a baseline by name, a saved model by path or shipped stem.
 
 ``load_policy("lqr", ...)`` and ``load_policy("agents/models/sac_reverse_n2.zip", ...)``
 both return a batched :data:`agents.baselines.Policy`. A saved model may carry a
 *model card*, a JSON file beside it (same stem) written by :mod:`agents.train`, that
 records the algorithm, environment, seed, budget and wall time of its training.
+Models load without unpickling anything unless the caller trusts the file
+(:mod:`agents.model_files`); RLlib checkpoints come from :mod:`agents.rllib_backend`.
 """
 
 from __future__ import annotations
@@ -49,42 +51,85 @@ def card_path(model_path: Path) -> Path:
 
 
 def stats_path(model_path: Path) -> Path:
-    """Where the observation-normalisation statistics of ``model_path`` live, if it has any.
+    """Where the observation-normalisation statistics (JSON) of ``model_path`` live.
 
-    ``x.zip`` -> ``x_vecnormalize.pkl``; SB3 checkpoints ``<algo>_<k>_steps.zip`` ->
-    ``<algo>_vecnormalize_<k>_steps.pkl`` (the names ``CheckpointCallback`` writes);
-    rl-zoo3's ``<env>.zip`` -> ``<env>/vecnormalize.pkl``.
+    ``x.zip`` -> ``x_vecnormalize.json``; checkpoints ``<algo>_<k>_steps.zip`` ->
+    ``<algo>_vecnormalize_<k>_steps.json`` (beside them, as SB3's CheckpointCallback
+    names its statistics).
     """
     stem = model_path.stem
-    zoo_stats = model_path.with_suffix("") / "vecnormalize.pkl"
-    if zoo_stats.is_file():
-        return zoo_stats
     prefix, _, steps = stem.rpartition("_")
     if steps == "steps":
         algo, _, count = prefix.rpartition("_")
-        checkpoint_stats = model_path.with_name(f"{algo}_vecnormalize_{count}_steps.pkl")
-        if checkpoint_stats.is_file():
-            return checkpoint_stats
-    return model_path.with_name(f"{stem}_vecnormalize.pkl")
+        if algo and count.isdigit():
+            return model_path.with_name(f"{algo}_vecnormalize_{count}_steps.json")
+    return model_path.with_name(f"{stem}_vecnormalize.json")
 
 
-def load_stats(model_path: Path) -> Any:
-    """The ``VecNormalize`` saved with ``model_path`` (without its env), or None."""
+def pickled_stats_path(model_path: Path) -> Path | None:
+    """A legacy pickled ``VecNormalize`` beside ``model_path`` (``.pkl``; rl-zoo3's
+    ``<env>/vecnormalize.pkl``), or None."""
+    for candidate in (
+        stats_path(model_path).with_suffix(".pkl"),
+        model_path.with_suffix("") / "vecnormalize.pkl",
+    ):
+        if candidate.is_file():
+            return candidate
+    return None
+
+
+def load_stats(model_path: Path, observation_space: Any = None, trust_pickle: bool = False) -> Any:
+    """The read-only ``VecNormalize`` saved with ``model_path`` (no env), or None.
+
+    Reads ``stats_path(model_path)`` (JSON). A legacy pickled file is unpickled only
+    with ``trust_pickle``.
+
+    Raises:
+        ValueError: On a damaged statistics file, statistics that do not fit
+            ``observation_space``, or a pickled one without ``trust_pickle``.
+    """
+    from agents.model_files import (
+        UnsafeFileError,
+        frozen_normalizer,
+        load_pickled_stats,
+        read_stats,
+    )
+
     path = stats_path(model_path)
-    if not path.is_file():
-        return None
-    import pickle
+    if path.is_file():
+        if observation_space is None:
+            import gymnasium as gym
 
-    with path.open("rb") as handle:
-        stats = pickle.load(handle)
-    stats.training = False
-    return stats
+            mean = read_stats(path)["obs_rms"]["mean"]
+            observation_space = gym.spaces.Box(-np.inf, np.inf, np.shape(mean), np.float32)
+        return frozen_normalizer(read_stats(path), observation_space)
+    pickled = pickled_stats_path(model_path)
+    if pickled is None:
+        return None
+    if not trust_pickle:
+        raise UnsafeFileError(
+            f"the observation statistics of {model_path} are a pickle ({pickled}); "
+            "pass --trust-pickle to load them only if you trust the file"
+        )
+    return load_pickled_stats(pickled)
 
 
 def read_card(model_path: Path) -> dict[str, Any]:
-    """The model card of ``model_path``, or an empty dict when there is none."""
+    """The model card of ``model_path``, or an empty dict when there is none.
+
+    Raises:
+        ValueError: If the card is not a JSON object.
+    """
     path = card_path(model_path)
-    return json.loads(path.read_text()) if path.is_file() else {}
+    if not path.is_file():
+        return {}
+    try:
+        card = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise ValueError(f"model card {path} is not JSON: {error}") from None
+    if not isinstance(card, dict):
+        raise ValueError(f"model card {path} is not a JSON object")
+    return card
 
 
 def detect_algo(model_path: Path) -> str:
@@ -99,8 +144,10 @@ def detect_algo(model_path: Path) -> str:
     try:
         with zipfile.ZipFile(model_path) as archive:
             data = json.loads(archive.read("data"))
-    except (zipfile.BadZipFile, KeyError, json.JSONDecodeError) as error:
+    except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, UnicodeDecodeError) as error:
         raise ValueError(f"{model_path} is not a stable-baselines3 model: {error}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("policy_class", {}), dict):
+        raise ValueError(f"{model_path} is not a stable-baselines3 model: unexpected data")
     module = str(data.get("policy_class", {}).get("__module__", ""))
     for name in ("sac", "td3"):
         if f".{name}." in module:
@@ -131,63 +178,164 @@ class ModelPolicy:
         return np.asarray(actions, dtype=np.float32)
 
 
-def load_model(model_path: Path | str, algo: str | None = None) -> Any:
-    """Load a saved model on the CPU (the algorithm detected unless given).
+def load_model(
+    model_path: Path | str,
+    algo: str | None = None,
+    *,
+    env_id: str | None = None,
+    env_kwargs: dict[str, Any] | None = None,
+    trust_pickle: bool = False,
+) -> Any:
+    """Load a saved model on the CPU (the algorithm detected unless given) without pickles.
+
+    The spaces that replace the file's pickled ones are those of ``env_id`` with
+    ``env_kwargs``; by default the model card's environment (see
+    :mod:`agents.model_files` for what is and is not unpickled).
 
     Raises:
         FileNotFoundError: If the file does not exist.
-        ValueError: If it is not a model of a known algorithm.
+        ValueError: If it is not a loadable model of a known algorithm, or it needs
+            unpickling and ``trust_pickle`` is false.
     """
+    from agents.model_files import load_sb3
+
     path = Path(model_path)
     if not path.is_file():
         raise FileNotFoundError(f"no model file {path}")
-    return algo_class(algo or detect_algo(path)).load(path, device="cpu")
+    algo = algo or detect_algo(path)
+    card = read_card(path)
+    env_id = env_id or card.get("env_id")
+    if env_id is None and not trust_pickle:
+        raise ValueError(
+            f"{path} has no model card naming its environment: give the environment, "
+            "or pass --trust-pickle to read the spaces from the file's pickles"
+        )
+    if env_id is None:
+        return load_sb3(path, algo, None, None, trust_pickle=True)
+    kwargs = env_kwargs if env_kwargs is not None else card.get("env_kwargs", {})
+    probe = make_vector_env(env_id, 1, kwargs)
+    return load_sb3(
+        path,
+        algo,
+        probe.single_observation_space,
+        probe.single_action_space,
+        trust_pickle=trust_pickle,
+    )
+
+
+#: Where shipped models live (inside the installed package, not the working directory).
+MODELS_DIR = Path(__file__).resolve().parent / "models"
+
+
+def resolve_model(spec: str) -> str:
+    """A shipped model's path from its stem (``ppo_reverse_n2`` ->
+    ``<package>/models/ppo_reverse_n2.zip``); other specs are returned unchanged."""
+    if spec in BASELINES or "/" in spec or Path(spec).suffix:
+        return spec
+    shipped = MODELS_DIR / f"{spec}.zip"
+    return str(shipped) if shipped.is_file() else spec
+
+
+def shipped_models() -> list[str]:
+    """Stems of the models shipped in :data:`MODELS_DIR`."""
+    return sorted(path.stem for path in MODELS_DIR.glob("*.zip"))
 
 
 def is_model_spec(spec: str) -> bool:
-    """Whether ``spec`` names a model file rather than a baseline."""
-    return spec.endswith(".zip") or "/" in spec or Path(spec).suffix != ""
+    """Whether ``spec`` names a model (file, shipped stem or RLlib folder), not a baseline."""
+    if spec in BASELINES:
+        return False
+    return (
+        spec.endswith(".zip")
+        or "/" in spec
+        or Path(spec).suffix != ""
+        or (resolve_model(spec) != spec or Path(spec).is_dir())
+    )
 
 
 def policy_label(spec: str) -> str:
     """Short name of a policy spec for tables: the baseline name or the model's file stem."""
-    return Path(spec).stem if is_model_spec(spec) else spec
+    if not is_model_spec(spec):
+        return spec
+    path = Path(resolve_model(spec))
+    if path.is_dir() and path.name == "checkpoint":
+        return path.resolve().parent.name  # an RLlib run's checkpoint: the run's name
+    return path.stem
+
+
+def check_card(card: dict[str, Any], spec: str, env_id: str, env_kwargs: dict[str, Any]) -> None:
+    """Refuse a model whose card names another environment id or number of trailers.
+
+    Raises:
+        ValueError: On a mismatch (observations of equal length do not make two scenes
+            alike: a Reverse-v0 model and Dock-v0 both see 8 numbers with n = 2).
+    """
+    if not card:
+        return
+    trained_id = card.get("env_id")
+    trained_n = card.get("env_kwargs", {}).get("n_trailers")
+    wanted_n = env_settings(env_kwargs).n_trailers
+    if (trained_id is not None and trained_id != env_id) or (
+        trained_n is not None and trained_n != wanted_n
+    ):
+        raise ValueError(
+            f"model {spec} was trained on {trained_id} with n_trailers = {trained_n}, not "
+            f"{env_id} with n_trailers = {wanted_n}; pass --force to evaluate it anyway"
+        )
 
 
 def load_policy(
-    spec: str, env_id: str, env_kwargs: dict[str, Any] | None = None, seed: int | None = 0
+    spec: str,
+    env_id: str,
+    env_kwargs: dict[str, Any] | None = None,
+    seed: int | None = 0,
+    *,
+    trust_pickle: bool = False,
+    force: bool = False,
 ) -> Policy:
-    """A batched policy from a baseline name or a model path.
+    """A batched policy from a baseline name, a model path, a shipped model's stem or an
+    RLlib checkpoint folder.
 
     Args:
-        spec: A baseline name (:data:`agents.baselines.BASELINES`) or a ``.zip`` model path.
+        spec: A baseline name (:data:`agents.baselines.BASELINES`), a ``.zip`` model
+            path, the stem of a shipped model (:func:`resolve_model`), or an RLlib
+            checkpoint folder (:mod:`agents.rllib_backend`).
         env_id: The environment it will act in.
         env_kwargs: The environment's keyword arguments (``n_trailers`` ...).
         seed: Seed of the random baseline.
+        trust_pickle: Allow unpickling the file's pickled parts (see :mod:`agents.model_files`).
+        force: Evaluate a model whose card names another env id or n.
 
     Raises:
-        ValueError: Unknown name, unknown environment, or a model whose observation
-            space does not fit the environment (e.g. trained for another n).
+        ValueError: Unknown name, unknown environment, a model whose card or
+            observation space does not fit the environment, a damaged file, or one
+            that needs unpickling without ``trust_pickle``.
         FileNotFoundError: A model path that does not exist.
     """
     check_env_id(env_id)
+    kwargs = env_kwargs or {}
+    spec = resolve_model(spec)
     if not is_model_spec(spec):
         if spec not in BASELINES:
             raise ValueError(
-                f"unknown policy {spec!r}: give a baseline ({', '.join(BASELINES)}) "
-                "or the path of a saved model (.zip)"
+                f"unknown policy {spec!r}: give a baseline ({', '.join(BASELINES)}), "
+                f"a shipped model ({', '.join(shipped_models())}) "
+                "or the path of a saved model (.zip) or RLlib checkpoint"
             )
-        return make_baseline(spec, env_settings(env_kwargs), env_id, seed)
-    model = load_model(spec)
-    probe = make_vector_env(env_id, 1, env_kwargs)
-    expected = probe.single_observation_space.shape
-    if model.observation_space.shape != expected:
-        card = read_card(Path(spec))
-        trained = (
-            f" (trained on {card.get('env_id')} with {card.get('env_kwargs')})" if card else ""
+        return make_baseline(spec, env_settings(kwargs), env_id, seed)
+    path = Path(spec)
+    probe = make_vector_env(env_id, 1, kwargs)
+    if path.is_dir():
+        from agents.rllib_backend import is_rllib_checkpoint, load_rllib_policy, read_rllib_card
+
+        if not is_rllib_checkpoint(path):
+            raise ValueError(f"{path} is a folder but not an RLlib checkpoint")
+        if not force:
+            check_card(read_rllib_card(path), spec, env_id, kwargs)
+        return load_rllib_policy(
+            path, probe.single_observation_space, probe.single_action_space, trust_pickle
         )
-        raise ValueError(
-            f"model {spec} expects observations of shape {model.observation_space.shape}, "
-            f"but {env_id} with {env_kwargs or {}} gives {expected}{trained}"
-        )
-    return ModelPolicy(model, load_stats(Path(spec)))
+    if not force:
+        check_card(read_card(path), spec, env_id, kwargs)
+    model = load_model(path, env_id=env_id, env_kwargs=kwargs, trust_pickle=trust_pickle)
+    return ModelPolicy(model, load_stats(path, model.observation_space, trust_pickle))

@@ -11,13 +11,30 @@ run folder (default ``runs/<scene>_n<n>_<algo>_s<seed>``) receives:
 * ``config.json``: the command's arguments and the hyperparameters used;
 * ``evaluations.csv``: the learning curve (periodic seeded safety evaluations);
 * ``best_model.zip`` (+ card ``best_model.json``), ``final_model.zip`` (+ card), each
-  with ``*_vecnormalize.pkl`` when the hyperparameters normalise observations;
+  with ``*_vecnormalize.json`` (statistics, JSON) when the hyperparameters normalise
+  observations;
 * ``checkpoints/<algo>_<steps>_steps.zip`` (and the replay buffer for SAC/TD3);
 * ``logs/``: SB3's training statistics (CSV; TensorBoard too when installed).
 
 ``--resume <checkpoint.zip>`` continues a run: the timestep count goes on from the
-checkpoint's and ``--timesteps`` is the run's total budget. ``--export PATH`` copies
-the best model, its card and its learning curve to PATH (e.g. ``agents/models/``).
+checkpoint's and ``--timesteps`` is the run's total budget. Without ``--run-dir`` the
+run goes on in the checkpoint's run folder (the folder holding it, or the one above
+its ``checkpoints/``, when that folder has the run's ``config.json``); a checkpoint
+that is in no run folder (e.g. a shipped ``agents/models/*.zip``) starts the fresh
+default run folder instead: its own folder is never turned into a run. A folder that
+already holds another run is refused unless ``--overwrite``.
+
+``--export PATH`` copies the best model, its card, statistics and learning curve to
+PATH (e.g. ``agents/models/``); existing files there are refused unless ``--overwrite``.
+
+Nothing is unpickled from ``--resume``'s files unless ``--trust-pickle``
+(:mod:`agents.model_files`): observation statistics are JSON, the model's pickled
+entries are rebuilt from the environment and the hyperparameter file, and a SAC/TD3
+replay buffer (SB3 saves it as a pickle) is refused without the flag.
+
+``--backend rllib`` trains PPO on Ray RLlib instead (:mod:`agents.rllib_backend`):
+``--num-env-runners K`` remote runners, each stepping one native batch of
+``--n-envs`` convoys, on a local Ray or the cluster at ``--address``.
 """
 
 from __future__ import annotations
@@ -35,12 +52,22 @@ import numpy as np
 
 from agents.config import Hyperparams, load_hyperparams
 from agents.envs import ENV_IDS, env_settings, make_sb3_env, scene_of
+from agents.model_files import (
+    UnsafeFileError,
+    load_pickled_stats,
+    load_sb3,
+    read_stats,
+    restore_stats,
+    save_stats,
+)
 from agents.policies import (
     ALGOS,
     algo_class,
     card_path,
     detect_algo,
     limit_torch_threads,
+    load_model,
+    pickled_stats_path,
     stats_path,
 )
 from agents.wrappers import ForwardPenalty
@@ -54,7 +81,7 @@ def default_run_dir(env_id: str, algo: str, n_trailers: int, seed: int) -> Path:
 def _positive_int(text: str) -> int:
     try:
         value = int(float(text))
-    except ValueError:
+    except (ValueError, OverflowError):  # "abc", "nan"; "inf"
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
     if value < 1 or value != float(text):
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
@@ -76,6 +103,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m agents.train",
         description="Train PPO, SAC or TD3 on a trailer_env scene (native batched env).",
+    )
+    parser.add_argument(
+        "--backend",
+        choices=("sb3", "rllib"),
+        default="sb3",
+        help="sb3: stable-baselines3 on this machine (default); rllib: Ray RLlib PPO, "
+        "local Ray or a cluster (--address), see agents.rllib_backend",
     )
     parser.add_argument(
         "--env",
@@ -100,7 +134,20 @@ def build_parser() -> argparse.ArgumentParser:
         "--n-envs",
         type=_positive_int,
         default=None,
-        help="environments per batch (default: from the hyperparameters)",
+        help="environments per batch (default: from the hyperparameters); "
+        "with --backend rllib: per env runner",
+    )
+    parser.add_argument(
+        "--num-env-runners",
+        type=_non_negative_int,
+        default=1,
+        help="rllib: remote env runners, each stepping one native batch (default 1)",
+    )
+    parser.add_argument(
+        "--address",
+        default=None,
+        help="rllib: address of a running Ray cluster (ray start --head prints it; "
+        "'auto' finds a local one); default: start a local Ray",
     )
     parser.add_argument(
         "--hyperparams",
@@ -112,7 +159,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--run-dir",
         type=Path,
         default=None,
-        help="run folder (default runs/<scene>_n<n>_<algo>_s<seed>)",
+        help="run folder (default runs/<scene>_n<n>_<algo>_s<seed>; when resuming, the "
+        "checkpoint's run folder if it is in one)",
     )
     parser.add_argument(
         "--resume", type=Path, default=None, help="checkpoint (.zip) to continue from"
@@ -120,7 +168,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--overwrite",
         action="store_true",
-        help="start afresh in a run folder that already holds a run",
+        help="start afresh in a run folder that already holds a run; replace --export's files",
+    )
+    parser.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="allow unpickling parts of --resume's files (SB3 serialized entries, SAC/TD3 "
+        "replay buffers, legacy .pkl statistics): only for files you trust",
     )
     parser.add_argument(
         "--eval-freq",
@@ -177,11 +231,25 @@ def write_card(model_path: Path, card: dict[str, Any]) -> None:
     card_path(model_path).write_text(json.dumps(card, indent=2, sort_keys=True) + "\n")
 
 
-def export_model(run_dir: Path, destination: Path) -> Path:
-    """Copy ``best_model.zip``, its card and ``evaluations.csv`` to ``destination`` (.zip)."""
+def export_files(destination: Path) -> list[Path]:
+    """The files :func:`export_model` writes for ``destination``: model, card, statistics, curve."""
+    model = destination.with_suffix(".zip")
+    return [model, card_path(model), stats_path(model), model.with_suffix(".csv")]
+
+
+def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> Path:
+    """Copy ``best_model.zip``, its card, statistics and ``evaluations.csv`` to ``destination``.
+
+    Raises:
+        FileNotFoundError: If the run has no best model.
+        FileExistsError: If one of the destination files exists and ``overwrite`` is false.
+    """
     source = run_dir / "best_model.zip"
     if not source.is_file():
         raise FileNotFoundError(f"{run_dir} has no best_model.zip to export")
+    existing = [path for path in export_files(destination) if path.exists()]
+    if existing and not overwrite:
+        raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
     destination = destination.with_suffix(".zip")
     destination.parent.mkdir(parents=True, exist_ok=True)
     shutil.copyfile(source, destination)
@@ -212,6 +280,7 @@ def train(
     progress_bar: bool = True,
     verbose: int = 1,
     command: list[str] | None = None,
+    trust_pickle: bool = False,
 ) -> Any:
     """Train (or resume) an agent; returns the model. See the module docstring for outputs.
 
@@ -231,13 +300,18 @@ def train(
         progress_bar: Show SB3's progress bar (needs tqdm and rich).
         verbose: 1 prints one line per evaluation.
         command: The command line, recorded in the config and the model cards.
+        trust_pickle: Allow unpickling ``resume``'s pickled parts (serialized entries,
+            replay buffer, legacy statistics); otherwise they are replaced or refused
+            (:mod:`agents.model_files`).
+
+    Raises:
+        ValueError: If ``resume`` cannot be loaded safely (or at all).
     """
-    from stable_baselines3.common.callbacks import CheckpointCallback
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.noise import NormalActionNoise
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from agents.callbacks import SafetyEvalCallback
+    from agents.callbacks import SafetyEvalCallback, StatsCheckpointCallback
 
     hp = hyperparams if hyperparams is not None else load_hyperparams(algo, env_id)
     env_kwargs = {**hp.env_kwargs, "n_trailers": n_trailers}
@@ -250,31 +324,39 @@ def train(
     if forward_penalty > 0.0:
         venv = ForwardPenalty(venv, forward_penalty)
     if hp.normalize is not None:
-        saved_stats = stats_path(resume) if resume is not None else None
-        if saved_stats is not None and saved_stats.is_file():
-            venv = VecNormalize.load(str(saved_stats), venv)
-            venv.training = True
-        else:
-            normalize = {"gamma": hp.algo_kwargs.get("gamma", 0.99), **hp.normalize}
-            venv = VecNormalize(venv, **normalize)
-    cls = algo_class(algo)
+        normalize = {"gamma": hp.algo_kwargs.get("gamma", 0.99), **hp.normalize}
+        venv = VecNormalize(venv, **normalize)
+        if resume is not None:
+            _restore_checkpoint_stats(venv, resume, trust_pickle)
+    kwargs = dict(hp.algo_kwargs)
+    if hp.action_noise_std is not None:
+        dim = settings.action_dim
+        kwargs["action_noise"] = NormalActionNoise(
+            np.zeros(dim), hp.action_noise_std * np.ones(dim)
+        )
     if resume is not None:
-        model = cls.load(resume, env=venv, device="cpu")
+        model = load_sb3(
+            resume,
+            algo,
+            venv.observation_space,
+            venv.action_space,
+            env=venv,
+            algo_kwargs=kwargs,
+            trust_pickle=trust_pickle,
+        )
         start_steps = int(model.num_timesteps)
         # Fresh starting states, not a replay of the first session's.
         venv.seed(seed + start_steps)
         model.set_random_seed(seed + start_steps)
         buffer = _replay_buffer_of(resume)
         if buffer is not None and hasattr(model, "load_replay_buffer"):
+            if not trust_pickle:
+                raise UnsafeFileError(
+                    f"the replay buffer {buffer} is a pickle; pass --trust-pickle to load it"
+                )
             model.load_replay_buffer(buffer)
     else:
-        kwargs = dict(hp.algo_kwargs)
-        if hp.action_noise_std is not None:
-            dim = settings.action_dim
-            kwargs["action_noise"] = NormalActionNoise(
-                np.zeros(dim), hp.action_noise_std * np.ones(dim)
-            )
-        model = cls(hp.policy, venv, seed=seed, device="cpu", verbose=0, **kwargs)
+        model = algo_class(algo)(hp.policy, venv, seed=seed, device="cpu", verbose=0, **kwargs)
     outputs = ["csv"]
     if importlib.util.find_spec("tensorboard") is not None:
         outputs.append("tensorboard")
@@ -307,12 +389,11 @@ def train(
         resume_from=start_steps if resume is not None else None,
         verbose=verbose,
     )
-    checkpoints = CheckpointCallback(
+    checkpoints = StatsCheckpointCallback(
         save_freq=max((checkpoint_freq or max(budget // 5, batch)) // batch, 1),
         save_path=str(run_dir / "checkpoints"),
         name_prefix=algo,
         save_replay_buffer=algo in ("sac", "td3"),
-        save_vecnormalize=hp.normalize is not None,
     )
     model.learn(
         total_timesteps=remaining,
@@ -326,7 +407,7 @@ def train(
     model.save(final)
     stats = model.get_vec_normalize_env()
     if stats is not None:
-        stats.save(str(stats_path(final)))
+        save_stats(stats, stats_path(final))
     write_card(final, config)
     best = run_dir / "best_model.zip"
     if best.is_file():
@@ -346,45 +427,93 @@ def _replay_buffer_of(checkpoint: Path) -> Path | None:
     return candidate if candidate.is_file() else None
 
 
-def _run_dir_of_checkpoint(checkpoint: Path) -> Path:
+def _restore_checkpoint_stats(venv: Any, checkpoint: Path, trust_pickle: bool) -> None:
+    """Put ``checkpoint``'s observation statistics into the (training) ``VecNormalize``.
+
+    Raises:
+        UnsafeFileError: If they exist only as a pickle and ``trust_pickle`` is false.
+    """
+    saved = stats_path(checkpoint)
+    if saved.is_file():
+        restore_stats(venv, read_stats(saved))
+        return
+    pickled = pickled_stats_path(checkpoint)
+    if pickled is None:
+        return
+    if not trust_pickle:
+        raise UnsafeFileError(
+            f"the statistics {pickled} are a pickle; pass --trust-pickle to load them"
+        )
+    loaded = load_pickled_stats(pickled)
+    for key in ("obs_rms", "ret_rms", "clip_obs", "clip_reward", "epsilon"):
+        setattr(venv, key, getattr(loaded, key))
+
+
+def run_dir_of_checkpoint(checkpoint: Path) -> Path | None:
+    """The run folder a checkpoint belongs to, or None when it is in none.
+
+    A checkpoint belongs to a run when it lies in the run's folder or in its
+    ``checkpoints/`` subfolder and that folder holds the run's ``config.json``.
+    Anything else (a shipped model in ``agents/models/``, a downloaded file) is not
+    in a run: resuming it starts a fresh run folder, it never turns the file's folder
+    into one.
+    """
     parent = checkpoint.resolve().parent
-    return parent.parent if parent.name == "checkpoints" else parent
+    folder = parent.parent if parent.name == "checkpoints" else parent
+    return folder if (folder / "config.json").is_file() else None
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status (argparse errors exit with 2)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not args.forward_penalty >= 0.0:
-        parser.error(f"argument --forward-penalty: must be >= 0, got {args.forward_penalty}")
-    if args.resume is not None:
-        if not args.resume.is_file():
-            parser.error(f"argument --resume: no checkpoint file {args.resume}")
-        try:
-            saved_algo = detect_algo(args.resume)
-        except ValueError as error:
-            parser.error(f"argument --resume: {error}")
-        if saved_algo != args.algo:
-            parser.error(
-                f"argument --resume: {args.resume} was saved by {saved_algo}, not {args.algo}"
-            )
+def _check_resume(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse a --resume that is missing, of another algorithm, damaged or unsafe to load."""
+    if not args.resume.is_file():
+        parser.error(f"argument --resume: no checkpoint file {args.resume}")
     try:
-        hp = (
-            load_hyperparams(args.algo, args.env, args.hyperparams)
-            if args.hyperparams is not None
-            else load_hyperparams(args.algo, args.env)
+        saved_algo = detect_algo(args.resume)
+    except ValueError as error:
+        parser.error(f"argument --resume: {error}")
+    if saved_algo != args.algo:
+        parser.error(f"argument --resume: {args.resume} was saved by {saved_algo}, not {args.algo}")
+    env_kwargs = {"n_trailers": args.n_trailers}
+    try:
+        load_model(
+            args.resume,
+            args.algo,
+            env_id=args.env,
+            env_kwargs=env_kwargs,
+            trust_pickle=args.trust_pickle,
         )
-        env_settings({**hp.env_kwargs, "n_trailers": args.n_trailers})
-    except (FileNotFoundError, KeyError, TypeError, ValueError) as error:
-        parser.error(str(error).strip("'\""))
-    run_dir = args.run_dir
-    if run_dir is None:
-        run_dir = (
-            _run_dir_of_checkpoint(args.resume)
-            if args.resume is not None
-            else default_run_dir(args.env, args.algo, args.n_trailers, args.seed)
-        )
-    if args.resume is None and (run_dir / "evaluations.csv").exists():
+        if stats_path(args.resume).is_file():
+            read_stats(stats_path(args.resume))
+        elif pickled_stats_path(args.resume) is not None and not args.trust_pickle:
+            raise UnsafeFileError(
+                f"its statistics {pickled_stats_path(args.resume)} are a pickle; "
+                "pass --trust-pickle to load them"
+            )
+        buffer = _replay_buffer_of(args.resume)
+        if buffer is not None and not args.trust_pickle:
+            raise UnsafeFileError(
+                f"its replay buffer {buffer} is a pickle; pass --trust-pickle to load it "
+                "(only if you trust the file)"
+            )
+    except (ValueError, FileNotFoundError) as error:
+        parser.error(f"argument --resume: {error}")
+
+
+def _choose_run_dir(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Path:
+    """The run folder: --run-dir, the resumed checkpoint's run, or a fresh default.
+
+    A fresh start (or a resume into a folder that is not the checkpoint's run)
+    refuses a folder that already holds a run unless --overwrite, which clears it.
+    """
+    own_run = run_dir_of_checkpoint(args.resume) if args.resume is not None else None
+    run_dir = (
+        args.run_dir or own_run or default_run_dir(args.env, args.algo, args.n_trailers, args.seed)
+    )
+    if run_dir.exists() and not run_dir.is_dir():
+        parser.error(f"argument --run-dir: {run_dir} exists and is not a folder")
+    continuing = own_run is not None and run_dir.resolve() == own_run
+    holds_run = (run_dir / "evaluations.csv").exists() or (run_dir / "config.json").exists()
+    if not continuing and holds_run:
         if not args.overwrite:
             parser.error(
                 f"argument --run-dir: {run_dir} already holds a run; pass --resume "
@@ -392,14 +521,86 @@ def main(argv: list[str] | None = None) -> int:
             )
         for stale in (
             "evaluations.csv",
+            "config.json",
+            "progress.csv",
             "best_model.zip",
             "best_model.json",
+            "best_model_vecnormalize.json",
             "best_model_vecnormalize.pkl",
         ):
             (run_dir / stale).unlink(missing_ok=True)
-        shutil.rmtree(run_dir / "checkpoints", ignore_errors=True)
+        for folder in ("checkpoints", "checkpoint"):
+            shutil.rmtree(run_dir / folder, ignore_errors=True)
+    return run_dir
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments exit with 2, with a message)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not args.forward_penalty >= 0.0:
+        parser.error(f"argument --forward-penalty: must be >= 0, got {args.forward_penalty}")
+    if args.backend == "rllib":
+        for name, unsupported in (
+            ("--resume", args.resume is not None),
+            ("--export", args.export is not None),
+            ("--forward-penalty", args.forward_penalty > 0.0),
+        ):
+            if unsupported:
+                parser.error(f"argument {name}: not supported with --backend rllib")
+        if args.algo != "ppo":
+            parser.error(f"argument --algo: --backend rllib trains ppo, not {args.algo}")
+    elif args.address is not None:
+        parser.error("argument --address: only with --backend rllib")
+    if args.resume is not None:
+        _check_resume(parser, args)
+    try:
+        hp = (
+            load_hyperparams(args.algo, args.env, args.hyperparams)
+            if args.hyperparams is not None
+            else load_hyperparams(args.algo, args.env)
+        )
+    except (FileNotFoundError, KeyError, ValueError) as error:
+        parser.error(f"argument --hyperparams: {str(error).strip(chr(34) + chr(39))}")
+    try:
+        env_settings({**hp.env_kwargs, "n_trailers": args.n_trailers})
+    except (TypeError, ValueError) as error:
+        parser.error(f"argument --n-trailers (or the file's env_kwargs): {error}")
+    if args.export is not None:
+        existing = [path for path in export_files(args.export) if path.exists()]
+        if existing and not args.overwrite:
+            parser.error(f"argument --export: {existing[0]} exists; pass --overwrite to replace it")
+    run_dir = _choose_run_dir(parser, args)
     limit_torch_threads(args.torch_threads)
     started = time.perf_counter()
+    command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
+    if args.backend == "rllib":
+        from agents.rllib_backend import train_rllib
+
+        try:
+            record = train_rllib(
+                args.env,
+                args.algo,
+                args.n_trailers,
+                args.timesteps,
+                args.seed,
+                run_dir,
+                hyperparams=hp,
+                num_env_runners=args.num_env_runners,
+                envs_per_runner=args.n_envs,
+                address=args.address,
+                verbose=0 if args.quiet else 1,
+                command=command,
+            )
+        except ConnectionError as error:
+            parser.error(f"argument --address: {error}")
+        print(
+            f"trained ppo on {args.env} (n = {args.n_trailers}) with RLlib to "
+            f"{record['timesteps']} steps in {time.perf_counter() - started:.0f} s "
+            f"({record['env_steps_per_s']:.0f} env steps/s, {args.num_env_runners} runners); "
+            f"checkpoint {run_dir / 'checkpoint'}"
+        )
+        return 0
     model = train(
         args.env,
         args.algo,
@@ -416,14 +617,15 @@ def main(argv: list[str] | None = None) -> int:
         forward_penalty=args.forward_penalty,
         progress_bar=not args.no_progress,
         verbose=0 if args.quiet else 1,
-        command=["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)],
+        command=command,
+        trust_pickle=args.trust_pickle,
     )
     print(
         f"trained {args.algo} on {args.env} (n = {args.n_trailers}) to {model.num_timesteps} "
         f"steps in {time.perf_counter() - started:.0f} s; run folder {run_dir}"
     )
     if args.export is not None:
-        print(f"exported {export_model(run_dir, args.export)}")
+        print(f"exported {export_model(run_dir, args.export, overwrite=args.overwrite)}")
     return 0
 
 

@@ -3,15 +3,21 @@
 from __future__ import annotations
 
 import json
+import os
+import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 import pytest
 from stable_baselines3 import PPO
 
 from agents import evaluate, main, train
-from agents.envs import make_sb3_env
+from agents.baselines import make_baseline
+from agents.envs import env_settings, make_sb3_env
+from agents.metrics import rollout
+from agents.policies import MODELS_DIR, resolve_model
 
 REVERSE = "trailer_env/Reverse-v0"
 ROOT = Path(__file__).resolve().parents[2]
@@ -121,3 +127,171 @@ def test_commands_exit_nonzero_in_a_fresh_process() -> None:
         cwd=ROOT, capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert done.returncode == 2 and "argument --algo" in done.stderr
+
+
+def _model_copy(folder: Path, stem: str = "ppo_reverse_n2") -> Path:
+    """A shipped model, its card and statistics copied to ``folder`` (a file from elsewhere)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    for suffix in (".zip", ".json", "_vecnormalize.json"):
+        shutil.copyfile(MODELS_DIR / f"{stem}{suffix}", folder / f"{stem}{suffix}")
+    return folder / f"{stem}.zip"
+
+
+@pytest.mark.filterwarnings("ignore:Detected pickle protocol:UserWarning")  # the garbage
+def test_evaluate_errors_name_their_argument(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    garbage = _model_copy(tmp_path / "garbage")
+    with zipfile.ZipFile(garbage) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist()}
+    entries["policy.pth"] = b"\x80\x04garbage" * 50
+    with zipfile.ZipFile(garbage, "w") as archive:
+        for name, content in entries.items():
+            archive.writestr(name, content)
+    cases = [
+        (["--seed", "-1"], "argument --seed: expected an integer >= 0, got '-1'"),
+        (["--out", str(a_file)], f"argument --out: {a_file} exists and is not a folder"),
+        (["--policy", str(garbage)], "argument --policy: cannot load model"),
+        (
+            # Coast-v0 observations have Reverse-v0's shape: only the card tells them apart.
+            ["--env", "trailer_env/Coast-v0", "--policy", "ppo_reverse_n2"],
+            "was trained on trailer_env/Reverse-v0 with n_trailers = 2, not "
+            "trailer_env/Coast-v0 with n_trailers = 2; pass --force",
+        ),
+        (["--n-trailers", "1", "--policy", "ppo_reverse_n2"], "with n_trailers = 2, not"),
+        (["--video", str(tmp_path / "v.avi")], "argument --video: must end in .mp4 or .gif"),
+    ]
+    for argv, message in cases:
+        out = [] if "--out" in argv else ["--out", str(tmp_path / "out")]
+        code, err = _exit(evaluate.main, [*argv, "--no-plots", "--episodes", "2", *out], capsys)
+        assert code == 2 and message in err, (argv, err)
+        assert "Traceback" not in err
+
+
+def test_evaluate_forced_onto_another_scene_runs(tmp_path: Path) -> None:
+    argv = ["--env", "trailer_env/Coast-v0", "--policy", "ppo_reverse_n2", "--force"]
+    assert evaluate.main([*argv, "--episodes", "2", "--no-plots", "--out", str(tmp_path)]) == 0
+    document = json.loads((tmp_path / "results.json").read_text())
+    assert [policy["name"] for policy in document["policies"]] == ["ppo_reverse_n2"]
+
+
+def test_shipped_models_are_named_by_stem_from_any_folder(tmp_path: Path) -> None:
+    """A fresh process in an unrelated folder: the stem resolves through the package."""
+    done = subprocess.run(
+        [sys.executable, "-m", "agents.evaluate", "--policy", "ppo_reverse_n2", "lqr",
+         "--episodes", "3", "--no-plots", "--out", "out"],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300, check=False,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    document = json.loads((tmp_path / "out" / "results.json").read_text())
+    names = [policy["name"] for policy in document["policies"]]
+    assert names == ["ppo_reverse_n2", "lqr"] and document["policies"][0]["kind"] == "model"
+    assert resolve_model("ppo_reverse_n2") == str(MODELS_DIR / "ppo_reverse_n2.zip")
+    assert resolve_model("lqr") == "lqr" and resolve_model("absent_model") == "absent_model"
+
+
+@pytest.mark.parametrize(("suffix", "steps"), [(".gif", None), (".mp4", 30)])
+def test_evaluate_writes_a_video_of_one_episode(
+    tmp_path: Path, suffix: str, steps: int | None
+) -> None:
+    import imageio.v2 as imageio
+    from PIL import Image
+
+    video = tmp_path / f"episode{suffix}"
+    cut = [] if steps is None else ["--video-steps", str(steps)]
+    argv = ["--policy", "zero", "--episodes", "1", "--seed", "3", "--video", str(video), *cut]
+    assert evaluate.main([*argv, "--no-plots", "--out", str(tmp_path / "out")]) == 0
+    settings = env_settings({"n_trailers": 2})
+    length = int(rollout(make_baseline("zero", settings, REVERSE), REVERSE, 1, 3).lengths[0])
+    expected = length + 1 if steps is None else min(length, steps) + 1  # + the reset frame
+    if suffix == ".gif":
+        with Image.open(video) as gif:
+            frames, size = gif.n_frames, gif.size
+    else:
+        reader = imageio.get_reader(video)
+        frames, size = reader.count_frames(), tuple(reader.get_meta_data()["size"])
+        reader.close()
+    assert frames == expected and size == (600, 600)
+    code = subprocess.run(
+        [sys.executable, "-m", "agents.evaluate", *argv, "--no-plots", "--out", str(tmp_path)],
+        cwd=ROOT, capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+    assert (
+        code.returncode == 2 and "argument --video" in code.stderr and "--overwrite" in code.stderr
+    )
+
+
+def test_train_errors_name_their_argument(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    broken_yaml = tmp_path / "broken"
+    broken_yaml.mkdir()
+    (broken_yaml / "ppo.yml").write_text("trailer_env/Reverse-v0: [unclosed\n  n_envs: 2\n")
+    no_weights = _model_copy(tmp_path / "no_weights")
+    with zipfile.ZipFile(no_weights) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist() if name != "policy.pth"}
+    with zipfile.ZipFile(no_weights, "w") as archive:
+        for name, content in entries.items():
+            archive.writestr(name, content)
+    exported = _model_copy(tmp_path / "exported")
+    base = ["--env", REVERSE, "--algo", "ppo"]
+    hp_file = broken_yaml / "ppo.yml"
+    cases = [
+        (["--timesteps", "inf"], "argument --timesteps: expected a positive integer, got 'inf'"),
+        (["--timesteps", "nan"], "argument --timesteps"),
+        (["--run-dir", str(a_file)], f"argument --run-dir: {a_file} exists and is not a folder"),
+        (["--resume", str(no_weights)], f"argument --resume: {no_weights} holds no policy weights"),
+        (["--hyperparams", str(broken_yaml)], f"argument --hyperparams: {hp_file} is not valid"),
+        (
+            ["--export", str(exported), "--run-dir", str(tmp_path / "r")],
+            f"argument --export: {exported} exists; pass --overwrite",
+        ),
+        (
+            ["--backend", "rllib", "--resume", str(exported)],
+            "argument --resume: not supported with --backend rllib",
+        ),
+        (["--address", "auto"], "argument --address: only with --backend rllib"),
+    ]
+    for argv, message in cases:
+        code, err = _exit(train.main, [*base, *argv], capsys)
+        assert code == 2 and message in err, (argv, err)
+    assert not (tmp_path / "r").exists()  # refused before anything was written
+
+
+def test_resuming_a_model_outside_a_run_starts_a_fresh_run_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A shipped model's folder never becomes a run folder."""
+    assert train.run_dir_of_checkpoint(MODELS_DIR / "ppo_reverse_n2.zip") is None
+    model = _model_copy(tmp_path / "downloads", "ppo_reverse_n1")
+    monkeypatch.chdir(tmp_path)
+    argv = ["--env", REVERSE, "--algo", "ppo", "--n-trailers", "1", "--resume", str(model),
+            "--timesteps", "1000", "--quiet", "--no-progress"]  # fmt: skip
+    assert train.main(argv) == 0  # already past 1000 steps: nothing to train
+    assert sorted(path.name for path in model.parent.iterdir()) == [
+        "ppo_reverse_n1.json", "ppo_reverse_n1.zip", "ppo_reverse_n1_vecnormalize.json"
+    ]  # fmt: skip
+    config = json.loads((tmp_path / "runs" / "reverse_n1_ppo_s0" / "config.json").read_text())
+    assert config["env_kwargs"] == {"n_trailers": 1}
+    # A second resume into that folder is not a continuation of that run: refused.
+    code, err = _exit(train.main, argv, capsys)
+    assert code == 2 and "already holds a run" in err
+
+
+def test_main_refuses_to_replace_an_earlier_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "evaluations.csv").write_text("timesteps\n")
+    code, err = _exit(main.main, ["--retrain", "--out", str(tmp_path)], capsys)
+    assert code == 2 and "argument --out" in err and "--overwrite" in err
+    assert (tmp_path / "run" / "evaluations.csv").read_text() == "timesteps\n"
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    code, err = _exit(main.main, ["--out", str(a_file)], capsys)
+    assert code == 2 and f"argument --out: {a_file} exists and is not a folder" in err

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import pickle
 from pathlib import Path
+
+import pytest
 
 from agents import train
 from agents.callbacks import read_curve
@@ -12,6 +15,17 @@ from agents.metrics import rollout, summarize
 from agents.policies import load_model, load_policy, make_baseline
 
 REVERSE = "trailer_env/Reverse-v0"
+
+
+class _Touch:
+    """A pickle that creates a file when unpickled (stands for hostile code)."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):  # type: ignore[no-untyped-def]
+        return (Path.touch, (self.marker,))
+
 
 #: A small PPO for tests (rl-zoo3 format): 16 environments, 1024 steps per update.
 SMALL_PPO = """\
@@ -88,20 +102,35 @@ def test_smoke_training_beats_random(tmp_path: Path) -> None:
     card = json.loads((run / "best_model.json").read_text())
     assert card["algo"] == "ppo" and card["env_kwargs"] == {"n_trailers": 1}
     assert card["seed"] == 0 and card["timesteps"] == 40960 and card["wall_time_s"] > 0
-    assert (run / "best_model_vecnormalize.pkl").is_file()
+    assert (run / "best_model_vecnormalize.json").is_file()
 
 
-def test_resume_continues_the_timestep_count(tmp_path: Path) -> None:
+def test_resume_continues_the_timestep_count(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     _hyperparams(tmp_path)
     run = tmp_path / "run"
     common = ["--run-dir", str(run), "--checkpoint-freq", "2048", "--eval-freq", "2048"]
     assert _train(tmp_path, "--timesteps", "4096", *common) == 0
     checkpoint = run / "checkpoints" / "ppo_2048_steps.zip"
     assert (
-        checkpoint.is_file() and (run / "checkpoints" / "ppo_vecnormalize_2048_steps.pkl").is_file()
+        checkpoint.is_file()
+        and (run / "checkpoints" / "ppo_vecnormalize_2048_steps.json").is_file()
     )
     assert load_model(run / "final_model.zip").num_timesteps == 4096
     resumed = ["--resume", str(checkpoint), "--eval-freq", "2048"]
+    # Statistics only in the legacy pickle format are not unpickled without the flag.
+    stats = run / "checkpoints" / "ppo_vecnormalize_2048_steps.json"
+    saved = stats.read_text()
+    stats.unlink()
+    marker = tmp_path / "ran"
+    stats.with_suffix(".pkl").write_bytes(pickle.dumps(_Touch(marker)))
+    with pytest.raises(SystemExit) as refused:
+        _train(tmp_path, "--timesteps", "6144", *resumed)
+    assert refused.value.code == 2 and not marker.exists()
+    assert "ppo_vecnormalize_2048_steps.pkl are a pickle" in capsys.readouterr().err
+    stats.with_suffix(".pkl").unlink()
+    stats.write_text(saved)
     assert _train(tmp_path, "--timesteps", "6144", *resumed) == 0
     assert load_model(run / "final_model.zip").num_timesteps == 6144
     steps = [int(row["timesteps"]) for row in read_curve(run / "evaluations.csv")]
@@ -111,14 +140,22 @@ def test_resume_continues_the_timestep_count(tmp_path: Path) -> None:
     assert walls == sorted(walls)  # the wall clock goes on across the resume
 
 
-def test_off_policy_resume_restores_the_replay_buffer(tmp_path: Path) -> None:
+def test_off_policy_resume_restores_the_replay_buffer(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     _hyperparams(tmp_path)
     run = tmp_path / "sac"
     common = ["--run-dir", str(run), "--checkpoint-freq", "300", "--eval-freq", "300"]
     assert _train(tmp_path, "--timesteps", "300", *common, algo="sac") == 0
     checkpoint = run / "checkpoints" / "sac_300_steps.zip"
     assert (run / "checkpoints" / "sac_replay_buffer_300_steps.pkl").is_file()
-    assert _train(tmp_path, "--timesteps", "400", "--resume", str(checkpoint), algo="sac") == 0
+    # SB3 pickles the replay buffer: resuming with it is an explicit opt-in.
+    resume = ["--timesteps", "400", "--resume", str(checkpoint)]
+    with pytest.raises(SystemExit) as refused:
+        _train(tmp_path, *resume, algo="sac")
+    assert refused.value.code == 2
+    assert "replay buffer" in capsys.readouterr().err
+    assert _train(tmp_path, *resume, "--trust-pickle", algo="sac") == 0
     model = load_model(run / "final_model.zip")
     assert model.num_timesteps == 400
     export = tmp_path / "models" / "sac_reverse_n1.zip"

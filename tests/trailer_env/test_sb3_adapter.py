@@ -54,7 +54,7 @@ def test_adapter_replays_the_single_env_seeded_seed_plus_i(rng: np.random.Genera
 
 
 def test_ppo_trains_on_the_adapter() -> None:
-    venv = VecMonitor(ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=8, n_trailers=1))
+    venv = ConvoySB3VecEnv("trailer_env/Reverse-v0", num_envs=8, n_trailers=1)
     model = PPO("MlpPolicy", venv, n_steps=32, batch_size=64, n_epochs=1, seed=0, device="cpu")
     model.learn(total_timesteps=256)
     action, _ = model.predict(venv.reset(), deterministic=True)
@@ -96,7 +96,8 @@ def test_subproc_vec_env_pickles_and_steps() -> None:
 def test_adapter_records_episodes_like_vecmonitor() -> None:
     kwargs = {"num_envs": 3, "max_episode_steps": 60, "n_trailers": 2}
     native = ConvoySB3VecEnv("trailer_env/Reverse-v0", **kwargs)
-    monitored = VecMonitor(ConvoySB3VecEnv("trailer_env/Reverse-v0", **kwargs))
+    with pytest.warns(UserWarning, match="already wrapped with a `Monitor`"):
+        monitored = VecMonitor(ConvoySB3VecEnv("trailer_env/Reverse-v0", **kwargs))
     native.seed(2)
     monitored.seed(2)
     native.reset()

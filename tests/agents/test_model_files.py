@@ -1,0 +1,165 @@
+"""Model files without code execution: JSON statistics, SB3 zips loaded without unpickling."""
+
+from __future__ import annotations
+
+import base64
+import json
+import pickle
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import VecNormalize
+
+from agents.envs import make_sb3_env
+from agents.model_files import (
+    STATS_FORMAT,
+    UnsafeFileError,
+    frozen_normalizer,
+    read_stats,
+    restore_stats,
+    safe_custom_objects,
+    save_stats,
+)
+from agents.policies import MODELS_DIR, load_model, load_policy, load_stats, stats_path
+
+REVERSE = "trailer_env/Reverse-v0"
+
+
+class _Touch:
+    """A pickle that creates a file when it is unpickled (stands for hostile code)."""
+
+    def __init__(self, marker: Path) -> None:
+        self.marker = marker
+
+    def __reduce__(self):  # type: ignore[no-untyped-def]
+        return (Path.touch, (self.marker,))
+
+
+def _tiny_model(folder: Path, n: int = 1) -> Path:
+    path = folder / "tiny.zip"
+    venv = make_sb3_env(REVERSE, 2, {"n_trailers": n}, seed=0)
+    PPO("MlpPolicy", venv, policy_kwargs={"net_arch": [8]}, seed=0, device="cpu").save(path)
+    return path
+
+
+def _rewrite_zip(path: Path, replace: dict[str, bytes | None]) -> None:
+    """Rewrite the zip at ``path`` with some entries replaced (None: dropped)."""
+    with zipfile.ZipFile(path) as archive:
+        entries = {name: archive.read(name) for name in archive.namelist()}
+    for name, content in replace.items():
+        if content is None:
+            entries.pop(name, None)
+        else:
+            entries[name] = content
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, content in entries.items():
+            archive.writestr(name, content)
+
+
+def _plant_pickle(path: Path, key: str, marker: Path) -> None:
+    with zipfile.ZipFile(path) as archive:
+        data = json.loads(archive.read("data"))
+    payload = base64.b64encode(pickle.dumps(_Touch(marker))).decode()
+    data[key] = {**data[key], ":serialized:": payload}
+    _rewrite_zip(path, {"data": json.dumps(data).encode()})
+
+
+def test_statistics_round_trip_exactly_through_json(tmp_path: Path) -> None:
+    venv = VecNormalize(make_sb3_env(REVERSE, 4, {"n_trailers": 2}, seed=0), norm_reward=False)
+    venv.reset()
+    for _ in range(20):
+        venv.step(np.random.default_rng(0).uniform(-1, 1, (4, 1)).astype(np.float32))
+    path = save_stats(venv, tmp_path / "x_vecnormalize.json")
+    document = read_stats(path)
+    assert document["format"] == STATS_FORMAT and document["obs_rms"]["count"] > 20
+    restored = frozen_normalizer(document, venv.observation_space)
+    obs = np.random.default_rng(1).normal(size=(16, 8)).astype(np.float32)
+    np.testing.assert_array_equal(restored.normalize_obs(obs), venv.normalize_obs(obs))
+    fresh = VecNormalize(make_sb3_env(REVERSE, 2, {"n_trailers": 2}), norm_reward=False)
+    restore_stats(fresh, document)
+    np.testing.assert_array_equal(fresh.obs_rms.var, venv.obs_rms.var)
+    assert fresh.obs_rms.count == venv.obs_rms.count
+    with pytest.raises(ValueError, match=r"shape \(8,\), but the environment gives \(6,\)"):
+        restore_stats(VecNormalize(make_sb3_env(REVERSE, 1, {"n_trailers": 1})), document)
+
+
+def test_damaged_statistics_are_refused(tmp_path: Path) -> None:
+    path = tmp_path / "x_vecnormalize.json"
+    path.write_text("{not json")
+    with pytest.raises(ValueError, match="not a statistics JSON file"):
+        read_stats(path)
+    good = json.loads((MODELS_DIR / "ppo_reverse_n2_vecnormalize.json").read_text())
+    good["obs_rms"]["var"][0] = -1.0
+    path.write_text(json.dumps(good))
+    with pytest.raises(ValueError, match="negative-variance"):
+        read_stats(path)
+
+
+def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
+    zips = sorted(MODELS_DIR.glob("*.zip"))
+    assert len(zips) == 8 and not list(MODELS_DIR.glob("*.pkl"))
+    for model in zips:
+        document = read_stats(stats_path(model))
+        assert document["norm_obs"] is True and document["norm_reward"] is False
+        # Every pickled entry of the zip has a safe replacement: nothing is unpickled.
+        probe = make_sb3_env(REVERSE if "reverse" in model.stem else "trailer_env/Heading-v0",
+                             1, {"n_trailers": int(model.stem[-1])})  # fmt: skip
+        custom = safe_custom_objects(model, model.stem[:3], probe.observation_space,
+                                     probe.action_space)  # fmt: skip
+        assert {"policy_class", "observation_space", "action_space"} <= set(custom)
+
+
+def test_a_pickle_planted_in_the_zip_is_not_run(tmp_path: Path) -> None:
+    model = _tiny_model(tmp_path)
+    marker = tmp_path / "ran"
+    _plant_pickle(model, "observation_space", marker)
+    _plant_pickle(model, "lr_schedule", marker)
+    policy = load_policy(str(model), REVERSE, {"n_trailers": 1})
+    assert policy(np.zeros((2, 6), np.float32)).shape == (2, 1)
+    assert not marker.exists()
+    # SB3 itself runs it (then fails: the payload is no space): --trust-pickle allows that.
+    with pytest.raises(ValueError, match="not a Gymnasium space"):
+        load_model(model, "ppo", env_id=REVERSE, env_kwargs={"n_trailers": 1}, trust_pickle=True)
+    assert marker.exists()
+
+
+def test_an_unknown_pickled_entry_is_refused(tmp_path: Path) -> None:
+    model = _tiny_model(tmp_path)
+    with zipfile.ZipFile(model) as archive:
+        data = json.loads(archive.read("data"))
+    data["surprise"] = {":serialized:": base64.b64encode(pickle.dumps(1)).decode()}
+    _rewrite_zip(model, {"data": json.dumps(data).encode()})
+    with pytest.raises(UnsafeFileError, match=r"entry 'surprise' is a pickle.*--trust-pickle"):
+        load_policy(str(model), REVERSE, {"n_trailers": 1})
+
+
+def test_pickled_statistics_need_trust(tmp_path: Path) -> None:
+    model = _tiny_model(tmp_path)
+    marker = tmp_path / "ran"
+    stats_path(model).with_suffix(".pkl").write_bytes(pickle.dumps(_Touch(marker)))
+    with pytest.raises(UnsafeFileError, match=r"tiny_vecnormalize\.pkl.*--trust-pickle"):
+        load_policy(str(model), REVERSE, {"n_trailers": 1})
+    assert not marker.exists()
+    with pytest.raises(AttributeError):  # the "statistics" were only a payload
+        load_stats(model, trust_pickle=True)
+    assert marker.exists()
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        ({"policy.pth": b"\x00garbage weights\xff" * 10}, "cannot load model"),
+        ({"policy.pth": None}, r"holds no policy weights \(policy\.pth\)"),
+        ({"data": b"[1, 2]"}, "not a stable-baselines3 model"),
+    ],
+)
+def test_damaged_zips_raise_value_errors(
+    tmp_path: Path, damage: dict[str, bytes | None], message: str
+) -> None:
+    model = _tiny_model(tmp_path)
+    _rewrite_zip(model, damage)
+    with pytest.raises(ValueError, match=message):
+        load_policy(str(model), REVERSE, {"n_trailers": 1})
