@@ -5,14 +5,8 @@ core and the controllers all read it. :func:`settings_from_kwargs` turns the
 keyword arguments of ``gym.make`` (``n_trailers``, ``dt``, ConvoyParams field
 overrides such as ``mu=0.4`` ...) into settings.
 
-Default parameters are :class:`dynamics.ConvoyParams`' own. Its actuator (``mu =
-0.5``, half the cart's mass, on a rail ``b = 1.0`` m ahead of the axle with
-``s_max = 0.5`` m) was sized for these tasks: a full stroke of the mass turns
-the cart by about ``mu b 2 s_max / (I0 + mu b^2)``, 0.53 rad. With a weaker one
-(``mu = 0.25, b = 0.5, s_max = 0.3``: 0.15 rad) the linear controller of
-:mod:`trailer_env.controllers` keeps a reversing two-trailer convoy (Reverse-v0)
-from folding in 8 % of 50 episodes, against 64 % with the defaults, while the
-zero action folds every episode within about 3 s either way: hard, but feasible.
+Default parameters are :class:`dynamics.ConvoyParams`' own; how its actuator was
+sized for the scenes is in docs/physics.md ("Sizing the actuator").
 """
 
 from __future__ import annotations
