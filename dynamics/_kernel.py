@@ -280,7 +280,7 @@ _W_ROWS = N_HITCH + 2
 
 
 @njit(cache=True, nogil=True)
-def _sincos_block(x: np.ndarray, sin_out: np.ndarray, cos_out: np.ndarray, nb: int) -> None:
+def sincos_block(x: np.ndarray, sin_out: np.ndarray, cos_out: np.ndarray, nb: int) -> None:
     """sin and cos of ``x[:nb]``: the branch-free loop, then libm for any huge argument."""
     huge = False
     for lane in range(nb):
@@ -307,7 +307,7 @@ def _hitch_block(pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work:
     sin_k = work[_W_SIN]
     cos_k = work[_W_COS]
     for k in range(n):
-        _sincos_block(y[2 + k], sin_k, cos_k, nb)
+        sincos_block(y[2 + k], sin_k, cos_k, nb)
         for lane in range(nb):
             acc = (work[0, lane], work[1, lane], work[2, lane], work[3, lane], work[4, lane],
                    work[5, lane], work[6, lane], work[7, lane], work[8, lane], work[9, lane],
@@ -369,7 +369,7 @@ def field_block(
     if with_pose:
         sin_t = work[_W_SIN]
         cos_t = work[_W_COS]
-        _sincos_block(y[n + 4], sin_t, cos_t, nb)
+        sincos_block(y[n + 4], sin_t, cos_t, nb)
         for lane in range(nb):
             deriv[n + 2, lane] = y[0, lane] * cos_t[lane]
             deriv[n + 3, lane] = y[0, lane] * sin_t[lane]
@@ -391,8 +391,9 @@ def energy_block(
 
 @njit(cache=True, nogil=True)
 def new_workspace(width: int) -> tuple:
-    """Scratch of one thread for :func:`rk4_block`: state, stage, two derivative buffers,
-    mass state, hitch workspace and per-lane scalars (energy targets, energies, flags)."""
+    """Scratch of one thread for the block kernels: state, stage, two derivative buffers,
+    mass state, hitch workspace, per-lane scalars (energy targets, energies, flags) and
+    room for the sines and cosines of the row's angles (observations)."""
     return (
         np.empty((width, LANES)),
         np.empty((width, LANES)),
@@ -401,6 +402,7 @@ def new_workspace(width: int) -> tuple:
         np.empty((6, LANES)),
         np.empty((_W_ROWS, LANES)),
         np.empty((3, LANES)),
+        np.empty((2 * width, LANES)),
     )
 
 
@@ -414,10 +416,42 @@ def _wrapped_folded(alpha: float, fold_angle: float) -> bool:
 
 
 @njit(cache=True, nogil=True)
-def rk4_block(
+def gather_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int,
+                 workspace: tuple) -> None:  # fmt: skip
+    """Copy rows ``rows[:nb]`` of ``z`` and ``act`` into the workspace (structure of arrays)."""
+    y = workspace[0]
+    mass0 = workspace[4]
+    for j in range(z.shape[1]):
+        for lane in range(nb):
+            y[j, lane] = z[rows[lane], j]
+    for j in range(6):
+        for lane in range(nb):
+            mass0[j, lane] = act[rows[lane], j]
+
+
+@njit(cache=True, nogil=True)
+def scatter_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int, dt: float,
+                  workspace: tuple) -> None:  # fmt: skip
+    """Write the block back into ``z``; advance the mass state in ``act`` by ``dt`` exactly."""
+    y = workspace[0]
+    for j in range(z.shape[1]):
+        for lane in range(nb):
+            z[rows[lane], j] = y[j, lane]
+    for lane in range(nb):
+        i = rows[lane]
+        xi_ddot = act[i, 4]
+        eta_ddot = act[i, 5]
+        xi_dot0 = act[i, 2]
+        eta_dot0 = act[i, 3]
+        act[i, 0] = act[i, 0] + xi_dot0 * dt + 0.5 * xi_ddot * dt * dt
+        act[i, 1] = act[i, 1] + eta_dot0 * dt + 0.5 * eta_ddot * dt * dt
+        act[i, 2] = xi_dot0 + xi_ddot * dt
+        act[i, 3] = eta_dot0 + eta_ddot * dt
+
+
+@njit(cache=True, nogil=True)
+def advance_block(
     pv: np.ndarray,
-    z: np.ndarray,
-    act: np.ndarray,
     rows: np.ndarray,
     nb: int,
     n: int,
@@ -430,22 +464,16 @@ def rk4_block(
     folded: np.ndarray,
     workspace: tuple,
 ) -> None:
-    """Classical RK4 on the ``nb`` rows ``rows[:nb]`` of ``z`` and ``act``, in place.
+    """Classical RK4 on the gathered block (see :func:`gather_block`), ``substeps`` equal substeps.
 
-    Every row takes ``substeps`` equal substeps. Per row the arithmetic is that of
-    RK4 on :func:`field_row` (the same helpers, the same order of operations); the
-    rows of a block share only the loop. With a finite ``fold_angle``, ``folded[row]``
-    is set True if any wrapped |alpha_k| reaches it at the end of any substep (a fold
-    between control instants); rows that do not fold are left as they are.
+    Per row the arithmetic is that of RK4 on :func:`field_row` (the same helpers, the
+    same order of operations); the rows of a block share only the loops. With a
+    finite ``fold_angle``, ``folded[rows[lane]]`` is set True if any wrapped |alpha_k|
+    reaches it at the end of any substep (a fold between control instants); other
+    entries are left as they are. ``target_energy`` is indexed by row, like ``folded``.
     """
-    y, stage, deriv, total, mass0, work, lane_scalars = workspace
-    width = z.shape[1]
-    for j in range(width):
-        for lane in range(nb):
-            y[j, lane] = z[rows[lane], j]
-    for j in range(6):
-        for lane in range(nb):
-            mass0[j, lane] = act[rows[lane], j]
+    y, stage, deriv, total, mass0, work, lane_scalars, _ = workspace
+    width = y.shape[0]
     target = lane_scalars[0]
     current = lane_scalars[1]
     if preserve_energy:
@@ -502,19 +530,31 @@ def rk4_block(
                     for k in range(n):
                         if _wrapped_folded(y[2 + k, lane], fold_angle):
                             folded[rows[lane]] = True
-    for j in range(width):
-        for lane in range(nb):
-            z[rows[lane], j] = y[j, lane]
-    for lane in range(nb):
-        i = rows[lane]
-        xi_ddot = act[i, 4]
-        eta_ddot = act[i, 5]
-        xi_dot0 = act[i, 2]
-        eta_dot0 = act[i, 3]
-        act[i, 0] = act[i, 0] + xi_dot0 * dt + 0.5 * xi_ddot * dt * dt
-        act[i, 1] = act[i, 1] + eta_dot0 * dt + 0.5 * eta_ddot * dt * dt
-        act[i, 2] = xi_dot0 + xi_ddot * dt
-        act[i, 3] = eta_dot0 + eta_ddot * dt
+
+
+@njit(cache=True, nogil=True)
+def rk4_block(
+    pv: np.ndarray,
+    z: np.ndarray,
+    act: np.ndarray,
+    rows: np.ndarray,
+    nb: int,
+    n: int,
+    with_pose: bool,
+    dt: float,
+    substeps: int,
+    preserve_energy: bool,
+    target_energy: np.ndarray,
+    fold_angle: float,
+    folded: np.ndarray,
+    workspace: tuple,
+) -> None:
+    """Classical RK4 on the ``nb`` rows ``rows[:nb]`` of ``z`` and ``act``, in place
+    (:func:`gather_block`, :func:`advance_block`, :func:`scatter_block`)."""
+    gather_block(z, act, rows, nb, workspace)
+    advance_block(pv, rows, nb, n, with_pose, dt, substeps, preserve_energy, target_energy,
+                  fold_angle, folded, workspace)  # fmt: skip
+    scatter_block(z, act, rows, nb, dt, workspace)
 
 
 @njit(cache=True, nogil=True)

@@ -1,7 +1,10 @@
 """Numba-level building blocks, for jitted code outside :mod:`dynamics` (environments).
 
 Call these from ``@njit`` functions: they are the package's one implementation of
-the field, the energy and the singular tests, row by row. Row and parameter
+the field, the energy and the singular tests, row by row (``*_row``) and on blocks of
+up to :data:`LANES` rows held as structure of arrays (``*_block``: gather a block with
+:func:`gather_block` into a :func:`new_workspace`, advance it with :func:`advance_block`,
+read what you need from the block, write it back with :func:`scatter_block`). Row and parameter
 conventions are those of :mod:`dynamics._kernel` (``pv`` from :func:`pack_params`;
 a row is ``(u, omega, alpha_1..alpha_n[, x, y, theta])``; ``act`` is the mass's
 ``(xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)``).
@@ -23,19 +26,39 @@ from numba.core.caching import NullCache
 
 from dynamics import _kernel
 from dynamics._kernel import (
+    LANES,
+    advance_block,
+    block_order,
+    energy_block,
     energy_row,
+    field_block,
     field_row,
+    gather_block,
     is_folded_row,
+    new_workspace,
     pack_params,
+    scatter_block,
+    sincos,
+    sincos_block,
     singular_margin_row,
 )
 
 __all__ = [
+    "LANES",
+    "advance_block",
+    "block_order",
     "cached_njit",
+    "energy_block",
     "energy_row",
+    "field_block",
     "field_row",
+    "gather_block",
     "is_folded_row",
+    "new_workspace",
     "pack_params",
+    "scatter_block",
+    "sincos",
+    "sincos_block",
     "singular_margin_row",
 ]
 

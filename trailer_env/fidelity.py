@@ -135,6 +135,10 @@ HARD_MAX_SUBSTEPS = 1_000_000
 ) = range(9)
 
 
+class AccuracyWarning(UserWarning):
+    """A step's estimated error exceeded the fidelity's tolerance (a substep cap bound)."""
+
+
 class BatchIntegrator(Protocol):
     """What the environments call once per control step, for the whole batch."""
 
@@ -396,6 +400,33 @@ class Fidelity:
         return settings
 
 
+@njit(cache=True, nogil=True)
+def auto_substeps_row(z: np.ndarray, act: np.ndarray, settings: np.ndarray, i: int) -> tuple:
+    """The auto rule of the module docstring for row ``i``: (substeps, within tolerance).
+
+    The second value is False when a cap (``max_substeps`` on the accuracy rule, or
+    :data:`HARD_MAX_SUBSTEPS` on everything) keeps the count below what the error
+    estimate asks for: the step's estimated error then exceeds the tolerance.
+    """
+    speed_rate = settings[AUTO_SPEED_RATE]
+    dt = settings[AUTO_DT]
+    x_plain = dt * max(abs(z[i, 0]) * speed_rate, abs(z[i, 1]))
+    mass = settings[AUTO_MASS_SPEED] * (abs(act[i, 2]) + abs(act[i, 3])) + settings[
+        AUTO_MASS_ACCEL
+    ] * math.sqrt(abs(act[i, 4]) + abs(act[i, 5]))
+    x = max(settings[AUTO_CHAIN] * x_plain, dt * mass)
+    inv_x_safe = settings[AUTO_INV_X_SAFE]
+    if x <= settings[AUTO_X_ONE] and x_plain * inv_x_safe <= 1.0:
+        return 1, True  # the common case: no powers needed
+    if not math.isfinite(x):
+        return 1, True  # the environment reports the non-finite state
+    wanted = np.ceil(settings[AUTO_SCALE] * x**1.25)
+    accurate = min(wanted, settings[AUTO_MAX_SUBSTEPS])
+    stable = np.ceil(x_plain * inv_x_safe)
+    chosen = min(max(accurate, stable, 1.0), HARD_MAX_SUBSTEPS)
+    return int(chosen), chosen >= wanted
+
+
 @njit(cache=True)
 def auto_substeps(z: np.ndarray, act: np.ndarray, settings: np.ndarray, out: np.ndarray) -> None:
     """The auto rule of the module docstring for every row: substep counts into ``out``.
@@ -403,27 +434,5 @@ def auto_substeps(z: np.ndarray, act: np.ndarray, settings: np.ndarray, out: np.
     ``act`` must hold the accelerations of the step about to be taken; ``settings``
     comes from :meth:`Fidelity.auto_settings`.
     """
-    speed_rate = settings[AUTO_SPEED_RATE]
-    chain = settings[AUTO_CHAIN]
-    mass_speed = settings[AUTO_MASS_SPEED]
-    mass_accel = settings[AUTO_MASS_ACCEL]
-    dt = settings[AUTO_DT]
-    x_one = settings[AUTO_X_ONE]
-    scale = settings[AUTO_SCALE]
-    inv_x_safe = settings[AUTO_INV_X_SAFE]
-    max_substeps = settings[AUTO_MAX_SUBSTEPS]
     for i in range(z.shape[0]):
-        x_plain = dt * max(abs(z[i, 0]) * speed_rate, abs(z[i, 1]))
-        mass = mass_speed * (abs(act[i, 2]) + abs(act[i, 3])) + mass_accel * math.sqrt(
-            abs(act[i, 4]) + abs(act[i, 5])
-        )
-        x = max(chain * x_plain, dt * mass)
-        if x <= x_one and x_plain * inv_x_safe <= 1.0:
-            out[i] = 1  # the common case: no powers needed
-            continue
-        if not math.isfinite(x):
-            out[i] = 1  # the environment reports the non-finite state
-            continue
-        accurate = min(np.ceil(scale * x**1.25), max_substeps)
-        stable = np.ceil(x_plain * inv_x_safe)
-        out[i] = int(min(max(accurate, stable, 1.0), HARD_MAX_SUBSTEPS))
+        out[i], _ = auto_substeps_row(z, act, settings, i)
