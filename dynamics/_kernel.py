@@ -296,33 +296,42 @@ def sincos_block(x: np.ndarray, sin_out: np.ndarray, cos_out: np.ndarray, nb: in
 
 
 @njit(cache=True, nogil=True)
-def _hitch_block(pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work: np.ndarray,
-                 nb: int) -> None:  # fmt: skip
-    """Hitch accumulators of every lane into ``work[:N_HITCH]``; A_k into ``deriv[2 + k]``."""
-    l = pv[P_L]
-    start = _hitch_start()
-    for j in range(N_HITCH):
-        for lane in range(nb):
-            work[j, lane] = start[j]
-    sin_k = work[_W_SIN]
-    cos_k = work[_W_COS]
-    for k in range(n):
-        sincos_block(y[2 + k], sin_k, cos_k, nb)
-        for lane in range(nb):
-            acc = (work[0, lane], work[1, lane], work[2, lane], work[3, lane], work[4, lane],
-                   work[5, lane], work[6, lane], work[7, lane], work[8, lane], work[9, lane],
-                   work[10, lane])  # fmt: skip
-            a_k, acc = _hitch_step(k, sin_k[lane], cos_k[lane], l, acc)
-            deriv[2 + k, lane] = a_k
-            for j in range(N_HITCH):
-                work[j, lane] = acc[j]
-
-
-@njit(cache=True, nogil=True)
 def _accumulators(work: np.ndarray, lane: int) -> tuple:
     return (work[0, lane], work[1, lane], work[2, lane], work[3, lane], work[4, lane],
             work[5, lane], work[6, lane], work[7, lane], work[8, lane], work[9, lane],
             work[10, lane])  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _hitch_start_block(work: np.ndarray, nb: int) -> None:
+    start = _hitch_start()
+    for j in range(N_HITCH):
+        for lane in range(nb):
+            work[j, lane] = start[j]
+
+
+@njit(cache=True, nogil=True)
+def _hitch_accumulate(pv: np.ndarray, k: int, sin_k: np.ndarray, cos_k: np.ndarray,
+                      deriv: np.ndarray, work: np.ndarray, nb: int) -> None:  # fmt: skip
+    """Hitch k of every lane: :func:`_hitch_step` on ``work[:N_HITCH]``, A_k into ``deriv[2 + k]``."""
+    l = pv[P_L]
+    for lane in range(nb):
+        a_k, acc = _hitch_step(k, sin_k[lane], cos_k[lane], l, _accumulators(work, lane))
+        deriv[2 + k, lane] = a_k
+        for j in range(N_HITCH):
+            work[j, lane] = acc[j]
+
+
+@njit(cache=True, nogil=True)
+def _hitch_block(pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work: np.ndarray,
+                 nb: int) -> None:  # fmt: skip
+    """Hitch accumulators of every lane into ``work[:N_HITCH]``; A_k into ``deriv[2 + k]``."""
+    _hitch_start_block(work, nb)
+    sin_k = work[_W_SIN]
+    cos_k = work[_W_COS]
+    for k in range(n):
+        sincos_block(y[2 + k], sin_k, cos_k, nb)
+        _hitch_accumulate(pv, k, sin_k, cos_k, deriv, work, nb)
 
 
 @njit(cache=True, nogil=True)
@@ -383,6 +392,21 @@ def energy_block(
 ) -> None:  # fmt: skip
     """Energy of the first ``nb`` lanes, the mass as in ``mass0`` (``deriv`` is overwritten)."""
     _hitch_block(pv, y, n, deriv, work, nb)
+    for lane in range(nb):
+        r_trailers, _, _ = _hitch_totals(pv, _accumulators(work, lane))
+        out[lane] = _energy(pv, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
+                            mass0[2, lane], mass0[3, lane], mass0[0, lane])  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def energy_block_from_trig(
+    pv: np.ndarray, y: np.ndarray, n: int, mass0: np.ndarray, trig: np.ndarray,
+    deriv: np.ndarray, work: np.ndarray, out: np.ndarray, nb: int,
+) -> None:  # fmt: skip
+    """:func:`energy_block` with sin(alpha_k), cos(alpha_k) given in ``trig[k]``, ``trig[n + k]``."""
+    _hitch_start_block(work, nb)
+    for k in range(n):
+        _hitch_accumulate(pv, k, trig[k], trig[n + k], deriv, work, nb)
     for lane in range(nb):
         r_trailers, _, _ = _hitch_totals(pv, _accumulators(work, lane))
         out[lane] = _energy(pv, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],

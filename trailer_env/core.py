@@ -185,9 +185,11 @@ class ConvoyCore:
             self.z, self.act, self.substeps, self._z_backup, self._act_backup,
             np.full(size, np.nan), self.accuracy_exceeded,
         )  # fmt: skip
+        #: sin(alpha_k), then cos(alpha_k), of every row's current state (float64, (B, 2n)).
+        self.hitch_trig = np.zeros((size, 2 * n))
         self._outputs = (
             self.obs, self.singular_margin, self.cost, self.jackknifed, self.energy,
-            self._nonfinite,
+            self._nonfinite, self.hitch_trig,
         )  # fmt: skip
         self._observe_args = (n, self.planar, observe_settings, self._packed, self._outputs)
         self._step_kernel = step_parallel if self._parallel else step_serial

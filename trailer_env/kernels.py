@@ -27,7 +27,7 @@ from dynamics.jit import (
     advance_block,
     block_order,
     cached_njit,
-    energy_block,
+    energy_block_from_trig,
     gather_block,
     is_folded_row,
     new_workspace,
@@ -59,6 +59,7 @@ def observe_block(
     pv: np.ndarray,
     outputs: tuple,
     workspace: tuple,
+    fold_checked: bool,
 ) -> int:
     """Observation, margin, cost, jackknife flag and energy of the gathered block ``rows[:nb]``.
 
@@ -68,8 +69,12 @@ def observe_block(
     instants before). The margin and the fold test are :func:`dynamics.singular_margin`'s
     and :func:`dynamics.is_jackknifed`'s; so is the energy. Rows holding a non-finite
     value are left untouched and flagged in ``nonfinite``; returns their number.
+    ``outputs`` is ``(obs, margin, cost, jackknifed, energy, nonfinite, hitch_trig)``,
+    ``hitch_trig`` (B, 2n) receiving sin(alpha_k) then cos(alpha_k) in float64 (for the
+    scenes' formulas). With ``fold_checked`` the current state's fold test is skipped:
+    the step kernel's per-substep test has just done it.
     """
-    obs, margin, cost, jackknifed, energy, nonfinite = outputs
+    obs, margin, cost, jackknifed, energy, nonfinite, hitch_trig = outputs
     y, _, deriv, _, mass0, work, lane_scalars, trig = workspace
     width = y.shape[0]
     finite = lane_scalars[2]
@@ -78,10 +83,10 @@ def observe_block(
     for j in range(width):
         for lane in range(nb):
             finite[lane] += y[j, lane] * 0.0  # stays 0 unless a value is NaN or infinite
-    energies = lane_scalars[0]
-    energy_block(pv, y, n, mass0, deriv, work, energies, nb)
     for k in range(n):
         sincos_block(y[2 + k], trig[k], trig[n + k], nb)
+    energies = lane_scalars[0]
+    energy_block_from_trig(pv, y, n, mass0, trig, deriv, work, energies, nb)
     b = settings[OBS_B]
     s_max = settings[OBS_S_MAX]
     speed_max = settings[OBS_SPEED_MAX]
@@ -100,8 +105,11 @@ def observe_block(
         obs[i, 1] = y[1, lane]
         row_margin = 1.0
         for k in range(n):
+            sin_k = trig[k, lane]
             cos_k = trig[n + k, lane]
-            obs[i, 2 + k] = trig[k, lane]
+            hitch_trig[i, k] = sin_k
+            hitch_trig[i, n + k] = cos_k
+            obs[i, 2 + k] = sin_k
             obs[i, 2 + n + k] = cos_k
             if k < n - 1:
                 row_margin = min(row_margin, abs(cos_k))
@@ -115,7 +123,8 @@ def observe_block(
             obs[i, base + 1] = min(max(mass0[3, lane] / speed_max, -1.0), 1.0)
         margin[i] = row_margin
         cost[i] = 1.0 if row_margin < band else 0.0
-        jackknifed[i] = jackknifed[i] or is_folded_row(z[i], 2, n, fold_angle)
+        if not fold_checked:
+            jackknifed[i] = jackknifed[i] or is_folded_row(z[i], 2, n, fold_angle)
         energy[i] = energies[lane]
     return bad
 
@@ -134,7 +143,7 @@ def _observe_rows(
         for lane in range(nb):
             jackknifed[block[lane]] = False
         gather_block(z, act, block, nb, workspace)
-        bad += observe_block(z, block, nb, n, planar, settings, pv, outputs, workspace)
+        bad += observe_block(z, block, nb, n, planar, settings, pv, outputs, workspace, False)
     return bad
 
 
@@ -151,7 +160,7 @@ def observe(
 ) -> int:
     """:func:`observe_block` on ``rows`` (the state as it is: resets, states set by hand).
 
-    ``outputs`` is ``(obs, margin, cost, jackknifed, energy, nonfinite)``. Returns the
+    ``outputs`` is that of :func:`observe_block`. Returns the
     number of rows holding a non-finite value (they are left untouched).
     """
     return _observe_rows(z, act, rows, 0, rows.shape[0], n, planar, settings, pv, outputs)
@@ -184,8 +193,10 @@ def _step_chunk(
                 substeps[i] = count
                 exceeded[i] = not within
                 over_tolerance += not within
-            z_backup[i] = z[i]
-            act_backup[i] = act[i]
+            for k in range(z.shape[1]):
+                z_backup[i, k] = z[i, k]
+            for k in range(6):
+                act_backup[i, k] = act[i, k]
         jackknifed[i] = False
     # Blocks of equal substep counts, in a chunk-local order: per-row results do not
     # depend on the chunking.
@@ -211,7 +222,8 @@ def _step_chunk(
         for lane in range(nb):
             clamp_row_to_rail(act, block[lane], b, s_max)
         gather_block(z, act, block, nb, workspace)
-        bad += observe_block(z, block, nb, n, planar, obs_settings, pv, outputs, workspace)
+        bad += observe_block(z, block, nb, n, planar, obs_settings, pv, outputs, workspace,
+                             fold_angle < np.inf)  # fmt: skip
         first = last
     return bad, over_tolerance
 
