@@ -132,7 +132,7 @@ def bare_substep_runner(n: int, num_envs: int, seed: int = 0) -> Callable[[int],
         n_trailers=n,
     )  # fmt: skip
     envs.reset(seed=seed)
-    core = envs.unwrapped.core  # type: ignore[attr-defined]
+    core = envs.unwrapped.core
     z, act = core.z.copy(), core.act.copy()
     stepper = Stepper(core.params)
     substeps = np.ones(num_envs, dtype=np.int64)
@@ -153,7 +153,7 @@ def mean_substeps(env_id: str, num_envs: int, seed: int = 1, **kwargs: Any) -> f
     )
     envs.action_space.seed(seed)
     envs.reset(seed=seed)
-    core = envs.unwrapped.core  # type: ignore[attr-defined]
+    core = envs.unwrapped.core
     total = 0
     for _ in range(200):
         envs.step(envs.action_space.sample())

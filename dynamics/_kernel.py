@@ -313,7 +313,7 @@ def _hitch_start_block(work: np.ndarray, nb: int) -> None:
 @njit(cache=True, nogil=True)
 def _hitch_accumulate(pv: np.ndarray, k: int, sin_k: np.ndarray, cos_k: np.ndarray,
                       deriv: np.ndarray, work: np.ndarray, nb: int) -> None:  # fmt: skip
-    """Hitch k of every lane: :func:`_hitch_step` on ``work[:N_HITCH]``, A_k into ``deriv[2 + k]``."""
+    """Hitch k of every lane (:func:`_hitch_step` on ``work``); A_k into ``deriv[2 + k]``."""
     l = pv[P_L]
     for lane in range(nb):
         a_k, acc = _hitch_step(k, sin_k[lane], cos_k[lane], l, _accumulators(work, lane))
@@ -403,7 +403,7 @@ def energy_block_from_trig(
     pv: np.ndarray, y: np.ndarray, n: int, mass0: np.ndarray, trig: np.ndarray,
     deriv: np.ndarray, work: np.ndarray, out: np.ndarray, nb: int,
 ) -> None:  # fmt: skip
-    """:func:`energy_block` with sin(alpha_k), cos(alpha_k) given in ``trig[k]``, ``trig[n + k]``."""
+    """:func:`energy_block` given sin(alpha_k) in ``trig[k]``, cos(alpha_k) in ``trig[n + k]``."""
     _hitch_start_block(work, nb)
     for k in range(n):
         _hitch_accumulate(pv, k, trig[k], trig[n + k], deriv, work, nb)

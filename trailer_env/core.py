@@ -152,8 +152,9 @@ class ConvoyCore:
         self._nonfinite = np.zeros(size, dtype=bool)
         self._integrator = fidelity.make_integrator(self.params, self.with_pose)
         # The built-in RK4 runs inside the step kernel; other integrators are called from here.
-        self._fused = type(self._integrator) is RK4Integrator
-        preserve_energy = self._fused and self._integrator.preserve_energy
+        integrator = self._integrator
+        self._fused = type(integrator) is RK4Integrator
+        preserve_energy = isinstance(integrator, RK4Integrator) and integrator.preserve_energy
         self._packed = pack_params(self.params)
         self._mode = MODE_CODES[settings.action_mode]
         self._all_rows = np.arange(size, dtype=np.int64)
@@ -305,12 +306,12 @@ class ConvoyCore:
         if not self._fused:
             return self._unfused_step(action, rows, prepare)
         if self.scene_kernel is not None:
-            return self.scene_kernel(  # type: ignore[no-any-return]
+            return self.scene_kernel(
                 self._parallel, action, rows, prepare, self._config, self._state,
                 self._outputs, self._scene,
             )  # fmt: skip
         kernel = self._step_kernel if rows.size >= PARALLEL_MIN_ROWS else step_serial
-        return kernel(action, rows, prepare, self._config, self._state, self._outputs)  # type: ignore[no-any-return]
+        return kernel(action, rows, prepare, self._config, self._state, self._outputs)
 
     def _unfused_step(self, action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:
         over = 0
