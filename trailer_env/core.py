@@ -194,7 +194,7 @@ class ConvoyCore:
         )  # fmt: skip
         self._observe_args = (n, self.planar, observe_settings, self._packed, self._outputs)
         self._step_kernel = step_parallel if self._parallel else step_serial
-        self._scene = self._scene_arguments() if self.scene_kernel is not None else ()
+        self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
 
     def _scene_arguments(self) -> tuple:
         """The scene kernel's last argument (arrays it reads and writes), built once."""
@@ -306,6 +306,8 @@ class ConvoyCore:
         if not self._fused:
             return self._unfused_step(action, rows, prepare)
         if self.scene_kernel is not None:
+            if self._scene is None:
+                self._scene = self._scene_arguments()
             return self.scene_kernel(
                 self._parallel, action, rows, prepare, self._config, self._state,
                 self._outputs, self._scene,

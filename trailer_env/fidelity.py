@@ -49,6 +49,15 @@ The auto rule. With ``n`` trailers, at the start of a step (rates in 1/s):
 * ``k = max(min(k_acc, max_substeps), k_stab, 1)``: stability always wins over
   ``max_substeps`` (up to :data:`HARD_MAX_SUBSTEPS`, speeds no scene reaches).
 
+When a cap binds (``k_acc > max_substeps`` and stability does not ask for as many, or
+anything above :data:`HARD_MAX_SUBSTEPS`), the step's estimated error exceeds the
+tolerance: at ``|u| = 1000`` m/s (n = 2, dt = 0.05) one step with zero action loses
+12 % of the energy, at ``|u| = 1e8`` 91 %. Such a step is never silent: the
+environments flag its rows (``core.accuracy_exceeded``) and issue an
+:class:`AccuracyWarning` once per batch (:mod:`trailer_env.core`). Raise
+``max_substeps`` to hold the tolerance there, or use ``"dopri5"``. The scenes' own
+speeds never reach the cap (tests/trailer_env/test_extreme_states.py).
+
 How the constants were measured (default parameters, dt = 0.05 unless stated):
 states from all four scenes under random held servo and planar actions, n = 0..32,
 their speeds scaled by 0.03 .. 30 (by homogeneity, ``dt |u| / l`` from 0.002 to 1.5);

@@ -10,8 +10,8 @@ import numba
 import numpy as np
 import pytest
 
-import trailer_env.core
 from tests.trailer_env.helpers import make
+from trailer_env.core import ConvoyCore
 from trailer_env.fidelity import AccuracyWarning
 from trailer_env.scenes import CoastCore, ReverseCore
 from trailer_env.settings import settings_from_kwargs
@@ -56,20 +56,21 @@ def test_scene_speeds_stay_within_the_tolerance(rng: np.random.Generator) -> Non
             assert not core.accuracy_exceeded.any()
 
 
-def _failing_once(real: object, row: int) -> object:
-    """A step kernel whose first prepared step leaves ``row`` non-finite."""
-    state = {"failed": False}
+def _fail_rows(core: ConvoyCore, monkeypatch: pytest.MonkeyPatch, row: int, times: int) -> None:
+    """Make the next ``times`` integrations of ``row`` (first try, then retries) non-finite."""
+    real = core._physics_step
+    left = [times]
 
-    def kernel(action, rows, prepare, config, state_arrays, outputs):  # type: ignore[no-untyped-def]
-        result = real(action, rows, prepare, config, state_arrays, outputs)  # type: ignore[operator]
-        if prepare and not state["failed"]:
-            state["failed"] = True
-            state_arrays[0][row] = np.nan
-            outputs[5][row] = True
+    def physics_step(action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:
+        result = real(action, rows, prepare)
+        if left[0] > 0 and row in rows:
+            left[0] -= 1
+            core.z[row] = np.nan
+            core._nonfinite[row] = True
             return result[0], 1, result[2]
         return result
 
-    return kernel
+    monkeypatch.setattr(core, "_physics_step", physics_step)
 
 
 @pytest.mark.parametrize("fidelity", [2, "auto"])
@@ -85,11 +86,8 @@ def test_a_diverged_step_is_retried_on_its_rows_only(
     used = reference.substeps.copy()
     core = CoastCore(settings, 6)
     core.reset_rows(np.arange(6), seeds)
-    with monkeypatch.context() as patch:
-        patch.setattr(
-            trailer_env.core, "step_serial", _failing_once(trailer_env.core.step_serial, 4)
-        )
-        core.step(actions)
+    _fail_rows(core, monkeypatch, 4, 1)
+    core.step(actions)
     assert np.all(np.isfinite(core.z))
     others = [0, 1, 2, 3, 5]
     np.testing.assert_array_equal(core.z[others], reference.z[others])
@@ -112,17 +110,9 @@ def test_a_diverged_step_is_retried_on_its_rows_only(
 def test_a_step_that_diverges_twice_leaves_the_state_unchanged(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    real = trailer_env.core.step_serial
-
-    def always_failing(action, rows, prepare, config, state_arrays, outputs):  # type: ignore[no-untyped-def]
-        result = real(action, rows, prepare, config, state_arrays, outputs)
-        state_arrays[0][rows[0]] = np.nan
-        outputs[5][rows[0]] = True
-        return result[0], 1, result[2]
-
-    monkeypatch.setattr(trailer_env.core, "step_serial", always_failing)
     core = CoastCore(settings_from_kwargs(n_trailers=2, fidelity=1), 3)
     core.reset_rows(np.arange(3), [np.random.default_rng(i) for i in range(3)])
+    _fail_rows(core, monkeypatch, 0, 2)
     before = core.z.copy()
     with pytest.raises(FloatingPointError, match="previous step"):
         core.step(np.zeros((3, 1)))
