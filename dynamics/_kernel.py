@@ -417,7 +417,8 @@ def energy_block_from_trig(
 def new_workspace(width: int) -> tuple:
     """Scratch of one thread for the block kernels: state, stage, two derivative buffers,
     mass state, hitch workspace, per-lane scalars (energy targets, energies, flags) and
-    room for the sines and cosines of the row's angles (observations)."""
+    room for the sines and cosines of the row's angles (observations), and the row
+    path's buffers (:func:`advance_row`)."""
     return (
         np.empty((width, LANES)),
         np.empty((width, LANES)),
@@ -427,6 +428,7 @@ def new_workspace(width: int) -> tuple:
         np.empty((_W_ROWS, LANES)),
         np.empty((3, LANES)),
         np.empty((2 * width, LANES)),
+        np.empty((3, width)),
     )
 
 
@@ -462,15 +464,114 @@ def scatter_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int, dt:
         for lane in range(nb):
             z[rows[lane], j] = y[j, lane]
     for lane in range(nb):
-        i = rows[lane]
-        xi_ddot = act[i, 4]
-        eta_ddot = act[i, 5]
-        xi_dot0 = act[i, 2]
-        eta_dot0 = act[i, 3]
-        act[i, 0] = act[i, 0] + xi_dot0 * dt + 0.5 * xi_ddot * dt * dt
-        act[i, 1] = act[i, 1] + eta_dot0 * dt + 0.5 * eta_ddot * dt * dt
-        act[i, 2] = xi_dot0 + xi_ddot * dt
-        act[i, 3] = eta_dot0 + eta_ddot * dt
+        advance_mass_row(act, rows[lane], dt)
+
+
+@njit(cache=True, nogil=True)
+def advance_mass_row(act: np.ndarray, i: int, dt: float) -> None:
+    """The mass state of row ``i`` after ``dt`` under its held acceleration (exact)."""
+    xi_ddot = act[i, 4]
+    eta_ddot = act[i, 5]
+    xi_dot0 = act[i, 2]
+    eta_dot0 = act[i, 3]
+    act[i, 0] = act[i, 0] + xi_dot0 * dt + 0.5 * xi_ddot * dt * dt
+    act[i, 1] = act[i, 1] + eta_dot0 * dt + 0.5 * eta_ddot * dt * dt
+    act[i, 2] = xi_dot0 + xi_ddot * dt
+    act[i, 3] = eta_dot0 + eta_ddot * dt
+
+
+#: Blocks of at most this many rows take the row path (:func:`advance_row`): the block
+#: loops' fixed cost outweighs their vectorisation there. Same helpers, same order of
+#: operations, same results to the bit (tests/dynamics/test_block_kernel.py).
+ROW_PATH_MAX_ROWS = 4
+
+
+@njit(cache=True, nogil=True)
+def _field_at(pv: np.ndarray, row: np.ndarray, n: int, with_pose: bool, act: np.ndarray,
+              i: int, tau: float, out: np.ndarray) -> None:  # fmt: skip
+    """:func:`field_row` at time ``tau`` into the call (the mass's exact quadratic motion)."""
+    xi_ddot = act[i, 4]
+    eta_ddot = act[i, 5]
+    field_row(
+        pv, row, n, with_pose,
+        act[i, 0] + act[i, 2] * tau + 0.5 * xi_ddot * tau * tau,
+        act[i, 1] + act[i, 3] * tau + 0.5 * eta_ddot * tau * tau,
+        act[i, 2] + xi_ddot * tau,
+        act[i, 3] + eta_ddot * tau,
+        xi_ddot,
+        eta_ddot,
+        out,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def advance_row(
+    pv: np.ndarray,
+    z: np.ndarray,
+    act: np.ndarray,
+    i: int,
+    n: int,
+    with_pose: bool,
+    dt: float,
+    substeps: int,
+    preserve_energy: bool,
+    target_energy: np.ndarray,
+    fold_angle: float,
+    folded: np.ndarray,
+    buffers: np.ndarray,
+) -> None:
+    """:func:`advance_block` for the one row ``z[i]`` (``act[i]`` is left unchanged).
+
+    ``buffers`` is scratch of shape (3, width).
+    """
+    row = z[i]
+    width = row.shape[0]
+    total = buffers[0]
+    stage = buffers[1]
+    deriv = buffers[2]
+    target = 0.0
+    if preserve_energy:
+        current = energy_row(pv, row, n, act[i], deriv)
+        wanted = target_energy[i]
+        target = wanted if wanted > 0.0 else current
+    check_fold = fold_angle < math.inf
+    near_fold = fold_angle - _FOLD_MARGIN
+    h = dt / substeps
+    half_h = 0.5 * h
+    sixth_h = h / 6.0
+    for step in range(substeps):
+        t0 = step * h
+        t_mid = t0 + 0.5 * h
+        t1 = t0 + h
+        _field_at(pv, row, n, with_pose, act, i, t0, deriv)
+        for j in range(width):
+            total[j] = deriv[j]
+            stage[j] = row[j] + half_h * deriv[j]
+        _field_at(pv, stage, n, with_pose, act, i, t_mid, deriv)
+        for j in range(width):
+            total[j] = total[j] + 2.0 * deriv[j]
+            stage[j] = row[j] + half_h * deriv[j]
+        _field_at(pv, stage, n, with_pose, act, i, t_mid, deriv)
+        for j in range(width):
+            total[j] = total[j] + 2.0 * deriv[j]
+            stage[j] = row[j] + h * deriv[j]
+        _field_at(pv, stage, n, with_pose, act, i, t1, deriv)
+        for j in range(width):
+            row[j] += sixth_h * (total[j] + deriv[j])
+        if preserve_energy:
+            current = energy_row(pv, row, n, act[i], deriv)
+            if current > 0.0:
+                scale = math.sqrt(target / current)
+                row[0] *= scale
+                row[1] *= scale
+        if check_fold:
+            near = 0.0
+            for k in range(n):
+                near = max(near, abs(row[2 + k]))
+            if near >= near_fold:
+                for k in range(n):
+                    if _wrapped_folded(row[2 + k], fold_angle):
+                        folded[i] = True
 
 
 @njit(cache=True, nogil=True)
@@ -496,7 +597,7 @@ def advance_block(
     reaches it at the end of any substep (a fold between control instants); other
     entries are left as they are. ``target_energy`` is indexed by row, like ``folded``.
     """
-    y, stage, deriv, total, mass0, work, lane_scalars, _ = workspace
+    y, stage, deriv, total, mass0, work, lane_scalars, _, _ = workspace
     width = y.shape[0]
     target = lane_scalars[0]
     current = lane_scalars[1]
@@ -620,8 +721,14 @@ def rk4_ordered_rows(
         j = i + 1
         while j < stop and j - i < LANES and substeps[order[j]] == count:
             j += 1
-        rk4_block(pv, z, act, order[i:j], j - i, n, with_pose, dt, count, preserve_energy,
-                  target_energy, fold_angle, folded, workspace)  # fmt: skip
+        if j - i <= ROW_PATH_MAX_ROWS:
+            for row in order[i:j]:
+                advance_row(pv, z, act, row, n, with_pose, dt, count, preserve_energy,
+                            target_energy, fold_angle, folded, workspace[8])  # fmt: skip
+                advance_mass_row(act, row, dt)
+        else:
+            rk4_block(pv, z, act, order[i:j], j - i, n, with_pose, dt, count, preserve_energy,
+                      target_energy, fold_angle, folded, workspace)  # fmt: skip
         i = j
 
 

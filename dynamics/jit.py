@@ -27,7 +27,10 @@ from numba.core.caching import NullCache
 from dynamics import _kernel
 from dynamics._kernel import (
     LANES,
+    ROW_PATH_MAX_ROWS,
     advance_block,
+    advance_mass_row,
+    advance_row,
     block_order,
     energy_block,
     energy_block_from_trig,
@@ -46,7 +49,10 @@ from dynamics._kernel import (
 
 __all__ = [
     "LANES",
+    "ROW_PATH_MAX_ROWS",
     "advance_block",
+    "advance_mass_row",
+    "advance_row",
     "block_order",
     "cached_njit",
     "energy_block",

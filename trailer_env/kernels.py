@@ -24,7 +24,10 @@ from numba import prange
 
 from dynamics.jit import (
     LANES,
+    ROW_PATH_MAX_ROWS,
     advance_block,
+    advance_mass_row,
+    advance_row,
     block_order,
     cached_njit,
     energy_block_from_trig,
@@ -75,7 +78,7 @@ def observe_block(
     the step kernel's per-substep test has just done it.
     """
     obs, margin, cost, jackknifed, energy, nonfinite, hitch_trig = outputs
-    y, _, deriv, _, mass0, work, lane_scalars, trig = workspace
+    y, _, deriv, _, mass0, work, lane_scalars, trig, _ = workspace
     width = y.shape[0]
     finite = lane_scalars[2]
     for lane in range(nb):
@@ -215,10 +218,16 @@ def _step_chunk(
             last += 1
         block = order[first:last]
         nb = last - first
-        gather_block(z, act, block, nb, workspace)
-        advance_block(pv, block, nb, n, with_pose, dt, count, preserve_energy, target_energy,
-                      fold_angle, jackknifed, workspace)  # fmt: skip
-        scatter_block(z, act, block, nb, dt, workspace)
+        if nb <= ROW_PATH_MAX_ROWS:
+            for i in block:
+                advance_row(pv, z, act, i, n, with_pose, dt, count, preserve_energy,
+                            target_energy, fold_angle, jackknifed, workspace[8])  # fmt: skip
+                advance_mass_row(act, i, dt)
+        else:
+            gather_block(z, act, block, nb, workspace)
+            advance_block(pv, block, nb, n, with_pose, dt, count, preserve_energy,
+                          target_energy, fold_angle, jackknifed, workspace)  # fmt: skip
+            scatter_block(z, act, block, nb, dt, workspace)
         for lane in range(nb):
             clamp_row_to_rail(act, block[lane], b, s_max)
         gather_block(z, act, block, nb, workspace)

@@ -53,7 +53,7 @@ def coast_is_straight(z: np.ndarray, i: int, n: int) -> bool:
     """Every |alpha_k| below SUCCESS_ANGLE and |omega| below SUCCESS_OMEGA."""
     if not abs(z[i, 1]) < SUCCESS_OMEGA:
         return False
-    for k in range(n):
+    for k in range(n):  # noqa: SIM110 - a loop numba compiles, not a generator
         if not abs(z[i, 2 + k]) < SUCCESS_ANGLE:
             return False
     return True
