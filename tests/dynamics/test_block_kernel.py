@@ -109,3 +109,23 @@ def test_a_row_steps_the_same_alone_in_any_batch_and_on_any_thread_count(
         numba.set_num_threads(before)
     for threaded_z in results:
         np.testing.assert_array_equal(threaded_z, batch_z)
+
+
+def test_energy_preserving_rows_step_the_same_alone_and_in_a_block(
+    rng: np.random.Generator,
+) -> None:
+    params = ConvoyParams(n_trailers=3, mu=0.0)
+    count = LANES + 3
+    z = np.zeros((count, 5))
+    z[:, 0] = rng.uniform(-2.0, 2.0, count)
+    z[:, 1] = rng.uniform(-0.5, 0.5, count)
+    z[:, 2:] = rng.uniform(-1.0, 1.0, (count, 3))
+    act = np.zeros((count, 6))
+    act[:, 0] = params.b
+    stepper = Stepper(params, preserve_energy=True)
+    batch_z, batch_act = z.copy(), act.copy()
+    stepper.step(batch_z, batch_act, 0.05, np.full(count, 3))
+    for i in (0, count - 1):
+        alone_z, alone_act = z[i : i + 1].copy(), act[i : i + 1].copy()
+        stepper.step(alone_z, alone_act, 0.05, np.full(1, 3))  # the row path
+        np.testing.assert_array_equal(alone_z[0], batch_z[i])
