@@ -17,6 +17,7 @@ Conventions (private to the package):
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 from numba import njit, prange
@@ -24,6 +25,10 @@ from numba import njit, prange
 from dynamics.params import ConvoyParams
 
 P_M, P_J0, P_A, P_SMALL_M, P_J, P_L, P_MU = range(7)
+
+#: (mtime, size) of this file when it was imported: the disk caches of jitted code
+#: that inlines these kernels are keyed on it (dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 
 def pack_params(params: ConvoyParams) -> np.ndarray:

@@ -71,6 +71,23 @@ __all__ = [
 ]
 
 
+def source_stamp(path: str) -> tuple[float, int]:
+    """(mtime, size) of a source file, as numba stamps its caches."""
+    stat = os.stat(path)
+    return stat.st_mtime, stat.st_size
+
+
+def _import_stamp(module: ModuleType) -> tuple[float, int]:
+    """The module's stamp when it was imported (``SOURCE_STAMP``), else its stamp now.
+
+    A module edited after it was imported but before a dependent module is decorated
+    would otherwise stamp the dependent's cache with the new file while the process
+    compiles the old code: a stale cache that later runs accept.
+    """
+    recorded = getattr(module, "SOURCE_STAMP", None)
+    return recorded if recorded is not None else source_stamp(str(module.__file__))
+
+
 def _key_cache_on(dispatcher: Any, modules: Sequence[ModuleType]) -> None:
     """Extend the cache's source stamp with the modules' stamps (numba private detail).
 
@@ -80,11 +97,7 @@ def _key_cache_on(dispatcher: Any, modules: Sequence[ModuleType]) -> None:
     try:
         dispatcher.enable_caching()
         cache_file = dispatcher._cache._cache_file
-        stamps = tuple(
-            (os.stat(module.__file__).st_mtime, os.stat(module.__file__).st_size)
-            for module in modules
-            if module.__file__
-        )
+        stamps = tuple(_import_stamp(module) for module in modules if module.__file__)
         cache_file._source_stamp = (cache_file._source_stamp, *stamps)
     except Exception:  # pragma: no cover - depends on numba internals
         dispatcher._cache = NullCache()

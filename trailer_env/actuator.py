@@ -34,11 +34,15 @@ demand ``A dt^2 <= s_max``.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 from numba import njit
 
 MODE_CODES = {"servo": 0, "accel": 1, "planar": 2}
+
+#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 
 @njit(cache=True)

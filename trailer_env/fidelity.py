@@ -95,6 +95,7 @@ Integrators (see :func:`register_integrator` to add one):
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -104,6 +105,9 @@ from numba import njit
 
 from dynamics import AdaptiveStepper, ConvoyParams, Stepper
 from dynamics.adaptive import STATUS_OK
+
+#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 #: RK4's usable stability limit of ``dt r`` by number of trailers (linear interpolation
 #: between entries, the last value beyond): the smaller of the default convoy's and a

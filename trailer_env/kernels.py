@@ -19,6 +19,8 @@ operations), so results do not depend on the batch size or the number of threads
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 from numba import prange
 
@@ -40,6 +42,9 @@ from dynamics.jit import (
 from trailer_env import actuator, fidelity
 from trailer_env.actuator import apply_action_row, clamp_row_to_rail, first_non_finite_row
 from trailer_env.fidelity import auto_substeps_row
+
+#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 #: Batches at least this large use the parallel kernels (benchmarks/README.md, "Threads").
 PARALLEL_MIN_ROWS = 1024
