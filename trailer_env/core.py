@@ -16,7 +16,8 @@ default integrators ("rk4", "rk4-energy"; :func:`trailer_env.kernels.step_serial
 Then, in Python: the scene's ``_update_task`` and, for scenes without a scene kernel, the
 hooks ``_advance``, ``_is_success``, ``_is_terminated``, ``_reward``. Other integrators
 ("dopri5", registered ones) take three calls: the actuator and auto rule, the
-integrator, the observations.
+integrator, the observations; their fold test sees the state at control instants only
+(DOPRI5's own steps are not visible from here).
 
 Accuracy: with ``fidelity.substeps="auto"`` the rule's estimate of each step's error
 stays below the tolerance unless a cap binds (``max_substeps`` on the accuracy rule,
@@ -96,6 +97,8 @@ class ConvoyCore:
         singular_margin, cost, jackknifed, energy, energy0: per environment.
         reward, terminated, success: results of the last step.
         substeps: Substeps used by the last step.
+        hitch_trig: sin(alpha_k) then cos(alpha_k) of every row's current state, float64
+            (B, 2n): computed once per step with the observation, read by scene formulas.
         accuracy_exceeded: Rows whose last step's estimated error exceeded the fidelity's
             tolerance because a substep cap bound (auto fidelity only; see the module
             docstring).
