@@ -228,14 +228,21 @@ def _step_chunk(
                 advance_row(pv, z, act, i, n, with_pose, dt, count, preserve_energy,
                             target_energy, fold_angle, jackknifed, workspace[8])  # fmt: skip
                 advance_mass_row(act, i, dt)
+                clamp_row_to_rail(act, i, b, s_max)
+            gather_block(z, act, block, nb, workspace)
         else:
             gather_block(z, act, block, nb, workspace)
             advance_block(pv, block, nb, n, with_pose, dt, count, preserve_energy,
                           target_energy, fold_angle, jackknifed, workspace)  # fmt: skip
             scatter_block(z, act, block, nb, dt, workspace)
-        for lane in range(nb):
-            clamp_row_to_rail(act, block[lane], b, s_max)
-        gather_block(z, act, block, nb, workspace)
+            # The block holds the new state; only the mass's new position and velocity
+            # (after the rail guard) are to be read back for the observations.
+            mass0 = workspace[4]
+            for lane in range(nb):
+                i = block[lane]
+                clamp_row_to_rail(act, i, b, s_max)
+                for j in range(4):
+                    mass0[j, lane] = act[i, j]
         bad += observe_block(z, block, nb, n, planar, obs_settings, pv, outputs, workspace,
                              fold_angle < np.inf)  # fmt: skip
         first = last
