@@ -114,12 +114,17 @@ class ConvoyCore:
     fold_penalty: ClassVar[float] = 10.0
     #: Reward per step spent in the singular band (subtracted).
     band_penalty: ClassVar[float] = 0.5
-    #: A jitted ``f(parallel, action, rows, prepare, config, state, outputs, scene)`` that
-    #: calls :func:`trailer_env.kernels.step_serial` or ``step_parallel`` with the first
-    #: seven arguments, then writes ``reward``, ``terminated`` and ``success`` of ``rows``
-    #: from ``scene`` (:meth:`_scene_arguments`), returning the step kernel's result.
-    #: None: the Python hooks compute them. Assign it as ``staticmethod(kernel)``.
+    #: A jitted ``outcome(rows, outputs, scene)`` that writes ``reward``, ``terminated``
+    #: and ``success`` of ``rows`` after a step from ``scene`` (:meth:`_scene_arguments`)
+    #: and the step kernel's ``outputs``; and a jitted ``kernel(action, rows, prepare,
+    #: config, state, outputs, scene)`` that calls :func:`trailer_env.kernels.step_serial`
+    #: with its first six arguments, then ``outcome`` if no action was refused, and
+    #: returns the step's result: one call per step. Batches of PARALLEL_MIN_ROWS rows or
+    #: more call ``step_parallel`` and then ``outcome`` (two calls: a cached function that
+    #: calls a parallel one can crash numba when loaded from its disk cache). None: the
+    #: Python hooks compute them. Assign both as ``staticmethod(function)``.
     scene_kernel: ClassVar[Any] = None
+    scene_outcome: ClassVar[Any] = None
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         if (
@@ -178,7 +183,6 @@ class ConvoyCore:
         )
         # Kernel arguments fixed for the core's life, packed once (a single env's step is a
         # few microseconds).
-        self._parallel = size >= PARALLEL_MIN_ROWS
         self._config = (
             self._mode, float(self._b), float(self._s_max), float(settings.rail_accel_max),
             float(settings.dt), float(settings.servo_frequency), bool(fidelity.auto),
@@ -196,7 +200,6 @@ class ConvoyCore:
             self._nonfinite, self.hitch_trig,
         )  # fmt: skip
         self._observe_args = (n, self.planar, observe_settings, self._packed, self._outputs)
-        self._step_kernel = step_parallel if self._parallel else step_serial
         self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
 
     def _scene_arguments(self) -> tuple:
@@ -308,14 +311,21 @@ class ConvoyCore:
         """One control step of ``rows``: ``(bad action row or -1, non-finite rows, over tol.)``."""
         if not self._fused:
             return self._unfused_step(action, rows, prepare)
+        parallel = rows.size >= PARALLEL_MIN_ROWS
         if self.scene_kernel is not None:
             if self._scene is None:
                 self._scene = self._scene_arguments()
-            return self.scene_kernel(
-                self._parallel, action, rows, prepare, self._config, self._state,
-                self._outputs, self._scene,
-            )  # fmt: skip
-        kernel = self._step_kernel if rows.size >= PARALLEL_MIN_ROWS else step_serial
+            if not parallel:
+                return self.scene_kernel(
+                    action, rows, prepare, self._config, self._state, self._outputs,
+                    self._scene,
+                )  # fmt: skip
+            result = step_parallel(action, rows, prepare, self._config, self._state,
+                                   self._outputs)  # fmt: skip
+            if result[0] < 0:
+                self.scene_outcome(rows, self._outputs, self._scene)
+            return result
+        kernel = step_parallel if parallel else step_serial
         return kernel(action, rows, prepare, self._config, self._state, self._outputs)
 
     def _unfused_step(self, action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:

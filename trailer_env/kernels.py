@@ -7,8 +7,10 @@ the package's one implementation of the equations) with a fold test after every 
 the rail guard, and the observation, singular margin, cost, jackknife flag and energy of
 every row, computed on the block while it is still held as structure of arrays. A scene
 whose reward and termination are array formulas adds them in its own small kernel that
-calls :func:`step_serial` / :func:`step_parallel` first (see
-:mod:`trailer_env.scenes.reverse`), so its whole step stays one call.
+calls :func:`step_serial` first (see :mod:`trailer_env.scenes.reverse`), so its whole
+step stays one call; batches large enough for :func:`step_parallel` call the scene's
+formulas in a second call (numba can crash loading from its disk cache a function that
+calls a parallel one).
 
 Scalar settings are packed once into tuples (see :class:`trailer_env.core.ConvoyCore`), so
 a call for one environment costs about a microsecond. Large batches

@@ -8,7 +8,7 @@ from dynamics.jit import cached_njit
 from trailer_env import actuator, fidelity, kernels
 from trailer_env.core import ShapedCore
 from trailer_env.env import ConvoyEnv
-from trailer_env.kernels import step_parallel, step_serial
+from trailer_env.kernels import step_serial
 
 SPEED_RANGE = (0.5, 1.5)
 #: Half-widths of the starting hitch angles and turning rate, forwards and backwards.
@@ -67,23 +67,8 @@ def coast_straight_rows(z: np.ndarray, n: int, out: np.ndarray) -> None:
 
 
 @cached_njit(depends_on=(actuator, fidelity, kernels))
-def coast_step(
-    parallel: bool,
-    action: np.ndarray,
-    rows: np.ndarray,
-    prepare: bool,
-    config: tuple,
-    state: tuple,
-    outputs: tuple,
-    scene: tuple,
-) -> tuple:
-    """The control step of Coast-v0 in one call: physics, then ShapedCore's reward."""
-    if parallel:
-        result = step_parallel(action, rows, prepare, config, state, outputs)
-    else:
-        result = step_serial(action, rows, prepare, config, state, outputs)
-    if result[0] >= 0:
-        return result
+def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
+    """ShapedCore's reward, termination and success of ``rows`` after a step."""
     (z, n, previous, failed, reward, terminated, success, time_penalty, band_penalty,
      success_bonus, fold_penalty) = scene  # fmt: skip
     cost = outputs[2]
@@ -104,6 +89,22 @@ def coast_step(
             - fold_penalty * jackknifed[i]
         )
         previous[i] = potential
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def coast_step(
+    action: np.ndarray,
+    rows: np.ndarray,
+    prepare: bool,
+    config: tuple,
+    state: tuple,
+    outputs: tuple,
+    scene: tuple,
+) -> tuple:
+    """The control step of Coast-v0 in one call: physics, then :func:`coast_outcome`."""
+    result = step_serial(action, rows, prepare, config, state, outputs)
+    if result[0] < 0:
+        coast_outcome(rows, outputs, scene)
     return result
 
 
@@ -116,6 +117,7 @@ class CoastCore(ShapedCore):
 
     max_episode_steps = 300
     scene_kernel = staticmethod(coast_step)
+    scene_outcome = staticmethod(coast_outcome)
 
     def _scene_arguments(self) -> tuple:
         return (

@@ -11,7 +11,7 @@ from dynamics.jit import cached_njit
 from trailer_env import actuator, fidelity, kernels
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
-from trailer_env.kernels import step_parallel, step_serial
+from trailer_env.kernels import step_serial
 
 #: Starting speed range (reversing), m/s, and the half-widths of the starting perturbations.
 SPEED_RANGE = (0.8, 1.2)
@@ -84,8 +84,15 @@ def reverse_rows(
 
 
 @cached_njit(depends_on=(actuator, fidelity, kernels))
+def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
+    """Reward, termination and success of ``rows`` after a step (:func:`reverse_rows`)."""
+    z, n, band_penalty, fold_penalty, reward, terminated, success = scene
+    reverse_rows(z, outputs[6], rows, n, outputs[2], outputs[3], band_penalty, fold_penalty,
+                 reward, terminated, success)  # fmt: skip
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
 def reverse_step(
-    parallel: bool,
     action: np.ndarray,
     rows: np.ndarray,
     prepare: bool,
@@ -94,15 +101,10 @@ def reverse_step(
     outputs: tuple,
     scene: tuple,
 ) -> tuple:
-    """The control step of Reverse-v0 in one call: physics, then :func:`reverse_rows`."""
-    if parallel:
-        result = step_parallel(action, rows, prepare, config, state, outputs)
-    else:
-        result = step_serial(action, rows, prepare, config, state, outputs)
+    """The control step of Reverse-v0 in one call: physics, then :func:`reverse_outcome`."""
+    result = step_serial(action, rows, prepare, config, state, outputs)
     if result[0] < 0:
-        z, n, band_penalty, fold_penalty, reward, terminated, success = scene
-        reverse_rows(z, outputs[6], rows, n, outputs[2], outputs[3], band_penalty, fold_penalty,
-                     reward, terminated, success)  # fmt: skip
+        reverse_outcome(rows, outputs, scene)
     return result
 
 
@@ -111,6 +113,7 @@ class ReverseCore(ConvoyCore):
 
     max_episode_steps = 400
     scene_kernel = staticmethod(reverse_step)
+    scene_outcome = staticmethod(reverse_outcome)
 
     def _scene_arguments(self) -> tuple:
         return (self.z, self.n, float(self.band_penalty), float(self.fold_penalty), self.reward,
