@@ -201,6 +201,20 @@ def _energy(
 
 
 @njit(cache=True, nogil=True)
+def _hitch_terms(pv: np.ndarray, row: np.ndarray, n: int, A: np.ndarray) -> tuple:
+    """R(alpha) - M, dR/dalpha_1 and sum_k A_k dR/dalpha_k of one row in one O(n) pass.
+
+    Writes A_k into ``A[k - 1]``. The recurrences are :func:`_hitch_step`'s.
+    """
+    acc = _hitch_start()
+    for k in range(n):
+        s, c = sincos(row[2 + k])
+        a_k, acc = _hitch_step(k, s, c, pv[P_L], acc)
+        A[k] = a_k
+    return _hitch_totals(pv, acc)
+
+
+@njit(cache=True, nogil=True)
 def field_row(
     pv: np.ndarray,
     row: np.ndarray,
@@ -217,14 +231,11 @@ def field_row(
     """d(row)/dt for the planar moving mass (physics.md sections 3, 4 and 10)."""
     u = row[0]
     w = row[1]
-    acc = _hitch_start()
+    r_trailers, dr_dalpha1, sum_a_dr = _hitch_terms(pv, row, n, out[2:])
     for k in range(n):
-        s, c = sincos(row[2 + k])
-        a_k, acc = _hitch_step(k, s, c, pv[P_L], acc)
-        out[2 + k] = a_k * u
+        out[2 + k] *= u
     if n > 0:
         out[2] += w
-    r_trailers, dr_dalpha1, sum_a_dr = _hitch_totals(pv, acc)
     out[0], out[1] = _accelerations(
         pv, r_trailers, dr_dalpha1, sum_a_dr, u, w, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot
     )
@@ -239,12 +250,8 @@ def field_row(
 def energy_row(
     pv: np.ndarray, row: np.ndarray, n: int, act: np.ndarray, scratch: np.ndarray
 ) -> float:
-    """Energy of one row with the mass state ``act`` (``scratch`` is unused, kept for callers)."""
-    acc = _hitch_start()
-    for k in range(n):
-        s, c = sincos(row[2 + k])
-        _, acc = _hitch_step(k, s, c, pv[P_L], acc)
-    r_trailers, _, _ = _hitch_totals(pv, acc)
+    """Energy of one row with the mass state ``act``; ``scratch`` (>= n) receives the A_k."""
+    r_trailers, _, _ = _hitch_terms(pv, row, n, scratch)
     return _energy(pv, r_trailers, row[0], row[1], act[1], act[2], act[3], act[0])
 
 
