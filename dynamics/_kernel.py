@@ -17,6 +17,7 @@ Conventions (private to the package):
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 from numba import njit, prange
@@ -24,6 +25,10 @@ from numba import njit, prange
 from dynamics.params import ConvoyParams
 
 P_M, P_J0, P_A, P_SMALL_M, P_J, P_L, P_MU = range(7)
+
+#: (mtime, size) of this file when it was imported: the disk caches of jitted code
+#: that inlines these kernels are keyed on it (dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 
 def pack_params(params: ConvoyParams) -> np.ndarray:
@@ -34,56 +39,179 @@ def pack_params(params: ConvoyParams) -> np.ndarray:
     )
 
 
+# ---------------------------------------------------------------------------
+# sin and cos without branches, so that loops over a block of rows vectorise.
+#
+# numba's math.sin is a call into libm (no SVML here), which stops LLVM from
+# vectorising a loop. Cody-Waite reduction by pi/2 in three parts (fdlibm's
+# 33-bit splits: k * PIO2_1 and k * PIO2_2 are exact for |k| < 2^20) and fdlibm's
+# minimax kernels on [-pi/4, pi/4] give results within about 1 ulp of libm's.
+# Beyond SINCOS_MAX_ARG the reduction loses its exactness and callers fall back
+# to math.sin / math.cos (never seen at physical states).
+
+SINCOS_MAX_ARG = 1e5
+_TWO_OVER_PI = 6.36619772367581382433e-01
+_ROUND_MAGIC = 6755399441055744.0  # 1.5 * 2^52: (x + M) - M rounds x to an integer
+_PIO2_1 = 1.57079632673412561417e00
+_PIO2_2 = 6.07710050630396597660e-11
+_PIO2_3 = 2.02226624871116645580e-21
+_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+
+
 @njit(cache=True, nogil=True)
-def _hitch_terms(row: np.ndarray, n: int, m: float, J: float, l: float, A: np.ndarray) -> tuple:
-    """R(alpha) - M, dR/dalpha_1 and sum_k A_k dR/dalpha_k in one O(n) forward pass.
+def sincos_reduced(x: float) -> tuple:
+    """(sin x, cos x) without branches, accurate for |x| <= SINCOS_MAX_ARG."""
+    k = (x * _TWO_OVER_PI + _ROUND_MAGIC) - _ROUND_MAGIC
+    r = ((x - k * _PIO2_1) - k * _PIO2_2) - k * _PIO2_3
+    z = r * r
+    sin_r = r + z * r * (_S1 + z * (_S2 + z * (_S3 + z * (_S4 + z * (_S5 + z * _S6)))))
+    half_z = 0.5 * z
+    w = 1.0 - half_z
+    tail = z * z * (_C1 + z * (_C2 + z * (_C3 + z * (_C4 + z * (_C5 + z * _C6)))))
+    cos_r = w + (((1.0 - w) - half_z) + tail)
+    quadrant = np.int64(k)
+    odd = (quadrant & 1) == 1
+    sin_sign = 1.0 - float(quadrant & 2)
+    cos_sign = 1.0 - float((quadrant + 1) & 2)
+    sin_x = sin_sign * (cos_r if odd else sin_r)
+    cos_x = cos_sign * (sin_r if odd else cos_r)
+    return sin_x, cos_x
 
-    Writes A_k into ``A[k-1]``.
 
-    dR/dalpha_k = -2 s_k c_k P_(k-1) (m S_k - (J/l^2) T_k) with the suffix sums
+@njit(cache=True, nogil=True)
+def sincos(x: float) -> tuple:
+    """(sin x, cos x): :func:`sincos_reduced`, or libm beyond its range (same values as blocks)."""
+    if abs(x) > SINCOS_MAX_ARG:
+        return math.sin(x), math.cos(x)
+    return sincos_reduced(x)
+
+
+# ---------------------------------------------------------------------------
+# The equations, lane by lane. Each helper is the arithmetic of ONE row; the row
+# kernels call them on scalars, the block kernels on every lane of a block held as
+# structure of arrays. Same helpers, same operations: a row's result does not depend
+# on which path, block or lane it went through.
+
+#: Hitch accumulators of one row (see :func:`_hitch_step`).
+(
+    H_PREFIX_C2, H_PREFIX_C, H_SUM_PREFIX_C2, H_G_S, H_SUM_G_S, H_G_T, H_TAIL_C2,
+    H_SUM_TAIL_C2, H_C_PREV, H_S_PREV, H_C1S1,
+) = range(11)  # fmt: skip
+N_HITCH = 11
+
+
+@njit(cache=True, nogil=True)
+def _hitch_step(k: int, s: float, c: float, l: float, acc: tuple) -> tuple:
+    """One step of the forward pass over the hitches: (A_k, new accumulators).
+
+    R(alpha) - M, dR/dalpha_1 and sum_k A_k dR/dalpha_k in one O(n) pass, with
+    dR/dalpha_k = -2 s_k c_k P_(k-1) (m S_k - (J/l^2) T_k), the suffix sums
     S_k = sum_(j>=k) prod_(i=k+1..j) c_i^2 and suffix products T_k = prod_(i>k) c_i^2.
     Suffix quantities would need a backward pass; instead the weighted sums
     sum_k g_k S_k and sum_k g_k T_k are accumulated forwards by Horner-like
-    recurrences (G_j = c_j^2 G_(j-1) + g_j), so no scratch arrays are needed.
+    recurrences (G_j = c_j^2 G_(j-1) + g_j). Accumulators: P_(k-1) = prod_(j<k) c_j^2,
+    prod_(j<=k-2) c_j, sum_(j<=k) P_j, G_j, sum_j G_j, H_j, prod_(i=2..j) c_i^2
+    (for S_1 and T_1), its running sum, c_(k-1), s_(k-1) and c_1 s_1.
     """
-    J_l2 = J / (l * l)
-    prefix_c2 = 1.0  # P_(k-1) = prod_(j<k) c_j^2
-    prefix_c = 1.0  # prod_(j<=k-2) c_j
-    sum_prefix_c2 = 0.0  # sum_(j<=k) P_j
-    g_weighted_S = 0.0  # running G_j
-    sum_g_S = 0.0  # sum_j G_j = sum_k g_k S_k
-    g_weighted_T = 0.0  # H_j; H_n = sum_k g_k T_k
-    tail_c2 = 1.0  # prod_(i=2..j) c_i^2, for S_1 and T_1
-    sum_tail_c2 = 0.0
-    c_prev = 1.0
-    s_prev = 0.0
-    c1s1 = 0.0
+    (prefix_c2, prefix_c, sum_prefix_c2, g_weighted_s, sum_g_s, g_weighted_t, tail_c2,
+     sum_tail_c2, c_prev, s_prev, c1s1) = acc  # fmt: skip
+    c2 = c * c
+    if k == 0:
+        a_k = -s / l
+        c1s1 = c * s
+    else:
+        a_k = prefix_c * (s_prev - c_prev * s) / l
+        prefix_c *= c_prev
+        tail_c2 *= c2
+    sum_tail_c2 += tail_c2
+    g = a_k * (-2.0 * s * c * prefix_c2)
+    g_weighted_s = c2 * g_weighted_s + g
+    sum_g_s += g_weighted_s
+    g_weighted_t = c2 * g_weighted_t + g
+    prefix_c2 *= c2
+    sum_prefix_c2 += prefix_c2
+    return a_k, (prefix_c2, prefix_c, sum_prefix_c2, g_weighted_s, sum_g_s, g_weighted_t,
+                 tail_c2, sum_tail_c2, c, s, c1s1)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _hitch_start() -> tuple:
+    return (1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0)
+
+
+@njit(cache=True, nogil=True)
+def _hitch_totals(pv: np.ndarray, acc: tuple) -> tuple:
+    """(R(alpha) - M, dR/dalpha_1, sum_k A_k dR/dalpha_k) from the final accumulators."""
+    m = pv[P_SMALL_M]
+    l = pv[P_L]
+    J_l2 = pv[P_J] / (l * l)
+    r_trailers = m * acc[H_SUM_PREFIX_C2] + J_l2 * (1.0 - acc[H_PREFIX_C2])
+    dr_dalpha1 = -2.0 * acc[H_C1S1] * (m * acc[H_SUM_TAIL_C2] - J_l2 * acc[H_TAIL_C2])
+    sum_a_dr = m * acc[H_SUM_G_S] - J_l2 * acc[H_G_T]
+    return r_trailers, dr_dalpha1, sum_a_dr
+
+
+@njit(cache=True, nogil=True)
+def _accelerations(
+    pv: np.ndarray, r_trailers: float, dr_dalpha1: float, sum_a_dr: float, u: float, w: float,
+    xi: float, eta: float, xi_dot: float, eta_dot: float, xi_ddot: float, eta_ddot: float,
+) -> tuple:  # fmt: skip
+    """(u_dot, omega_dot) for the planar moving mass (physics.md sections 3, 4 and 10)."""
+    M = pv[P_M]
+    a = pv[P_A]
+    mu = pv[P_MU]
+    I0 = pv[P_J0] + M * a * a
+    R = M + r_trailers
+    # Phi_u with Q / l^2 = -dR/dalpha_1 / 2.
+    phi_u = -0.5 * sum_a_dr * u * u - 0.5 * dr_dalpha1 * u * w + M * a * w * w
+    phi_w = -M * a * u * w
+    # Body-frame acceleration of the mass without the u_dot, omega_dot parts.
+    ax_rest = -2.0 * w * eta_dot + xi_ddot - w * w * xi
+    ay_rest = eta_ddot + 2.0 * w * xi_dot + w * u - w * w * eta
+    # 2x2 system: [[R + mu, -mu eta], [-mu eta, I0 + mu (xi^2 + eta^2)]] (u_dot, w_dot) = rhs.
+    b0 = phi_u - mu * ax_rest
+    b1 = phi_w - mu * (xi * ay_rest - eta * ax_rest)
+    m00 = R + mu
+    m01 = -mu * eta
+    m11 = I0 + mu * (xi * xi + eta * eta)
+    det = m00 * m11 - m01 * m01
+    return (m11 * b0 - m01 * b1) / det, (m00 * b1 - m01 * b0) / det
+
+
+@njit(cache=True, nogil=True)
+def _energy(
+    pv: np.ndarray, r_trailers: float, u: float, w: float, eta: float, xi_dot: float,
+    eta_dot: float, xi: float,
+) -> float:  # fmt: skip
+    """Kinetic energy, the mass included (physics.md section 10)."""
+    M = pv[P_M]
+    a = pv[P_A]
+    mu = pv[P_MU]
+    I0 = pv[P_J0] + M * a * a
+    vx = u - w * eta + xi_dot
+    vy = w * xi + eta_dot
+    return 0.5 * ((M + r_trailers) * u * u + I0 * w * w + mu * (vx * vx + vy * vy))
+
+
+# ---------------------------------------------------------------------------
+# Row kernels (single states, DOPRI5, rhs and energy of arbitrary rows).
+
+
+@njit(cache=True, nogil=True)
+def _hitch_terms(pv: np.ndarray, row: np.ndarray, n: int, A: np.ndarray) -> tuple:
+    """R(alpha) - M, dR/dalpha_1 and sum_k A_k dR/dalpha_k of one row in one O(n) pass.
+
+    Writes A_k into ``A[k - 1]``. The recurrences are :func:`_hitch_step`'s.
+    """
+    acc = _hitch_start()
     for k in range(n):
-        alpha = row[2 + k]
-        c = math.cos(alpha)
-        s = math.sin(alpha)
-        c2 = c * c
-        if k == 0:
-            A_k = -s / l
-            c1s1 = c * s
-        else:
-            A_k = prefix_c * (s_prev - c_prev * s) / l
-            prefix_c *= c_prev
-            tail_c2 *= c2
-        A[k] = A_k
-        sum_tail_c2 += tail_c2
-        g = A_k * (-2.0 * s * c * prefix_c2)
-        g_weighted_S = c2 * g_weighted_S + g
-        sum_g_S += g_weighted_S
-        g_weighted_T = c2 * g_weighted_T + g
-        prefix_c2 *= c2
-        sum_prefix_c2 += prefix_c2
-        c_prev = c
-        s_prev = s
-    R_trailers = m * sum_prefix_c2 + J_l2 * (1.0 - prefix_c2)
-    dR_dalpha1 = -2.0 * c1s1 * (m * sum_tail_c2 - J_l2 * tail_c2)
-    sum_A_dR = m * sum_g_S - J_l2 * g_weighted_T
-    return R_trailers, dR_dalpha1, sum_A_dR
+        s, c = sincos(row[2 + k])
+        a_k, acc = _hitch_step(k, s, c, pv[P_L], acc)
+        A[k] = a_k
+    return _hitch_totals(pv, acc)
 
 
 @njit(cache=True, nogil=True)
@@ -101,39 +229,20 @@ def field_row(
     out: np.ndarray,
 ) -> None:
     """d(row)/dt for the planar moving mass (physics.md sections 3, 4 and 10)."""
-    M = pv[P_M]
-    a = pv[P_A]
-    mu = pv[P_MU]
-    I0 = pv[P_J0] + M * a * a
     u = row[0]
     w = row[1]
-    R_trailers, dR_dalpha1, sum_A_dR = _hitch_terms(
-        row, n, pv[P_SMALL_M], pv[P_J], pv[P_L], out[2:]
-    )
-    R = M + R_trailers
+    r_trailers, dr_dalpha1, sum_a_dr = _hitch_terms(pv, row, n, out[2:])
     for k in range(n):
         out[2 + k] *= u
     if n > 0:
         out[2] += w
-    # Phi_u with Q / l^2 = -dR/dalpha_1 / 2.
-    phi_u = -0.5 * sum_A_dR * u * u - 0.5 * dR_dalpha1 * u * w + M * a * w * w
-    phi_w = -M * a * u * w
-    # Body-frame acceleration of the mass without the u_dot, omega_dot parts.
-    ax_rest = -2.0 * w * eta_dot + xi_ddot - w * w * xi
-    ay_rest = eta_ddot + 2.0 * w * xi_dot + w * u - w * w * eta
-    # 2x2 system: [[R + mu, -mu eta], [-mu eta, I0 + mu (xi^2 + eta^2)]] (u_dot, w_dot) = rhs.
-    b0 = phi_u - mu * ax_rest
-    b1 = phi_w - mu * (xi * ay_rest - eta * ax_rest)
-    m00 = R + mu
-    m01 = -mu * eta
-    m11 = I0 + mu * (xi * xi + eta * eta)
-    det = m00 * m11 - m01 * m01
-    out[0] = (m11 * b0 - m01 * b1) / det
-    out[1] = (m00 * b1 - m01 * b0) / det
+    out[0], out[1] = _accelerations(
+        pv, r_trailers, dr_dalpha1, sum_a_dr, u, w, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot
+    )
     if with_pose:
-        theta = row[n + 4]
-        out[n + 2] = u * math.cos(theta)
-        out[n + 3] = u * math.sin(theta)
+        s_theta, c_theta = sincos(row[n + 4])
+        out[n + 2] = u * c_theta
+        out[n + 3] = u * s_theta
         out[n + 4] = w
 
 
@@ -141,17 +250,9 @@ def field_row(
 def energy_row(
     pv: np.ndarray, row: np.ndarray, n: int, act: np.ndarray, scratch: np.ndarray
 ) -> float:
-    M = pv[P_M]
-    a = pv[P_A]
-    mu = pv[P_MU]
-    I0 = pv[P_J0] + M * a * a
-    R_trailers, _, _ = _hitch_terms(row, n, pv[P_SMALL_M], pv[P_J], pv[P_L], scratch)
-    u = row[0]
-    w = row[1]
-    xi, eta, xi_dot, eta_dot = act[0], act[1], act[2], act[3]
-    vx = u - w * eta + xi_dot
-    vy = w * xi + eta_dot
-    return 0.5 * ((M + R_trailers) * u * u + I0 * w * w + mu * (vx * vx + vy * vy))
+    """Energy of one row with the mass state ``act``; ``scratch`` (>= n) receives the A_k."""
+    r_trailers, _, _ = _hitch_terms(pv, row, n, scratch)
+    return _energy(pv, r_trailers, row[0], row[1], act[1], act[2], act[3], act[0])
 
 
 @njit(cache=True)
@@ -162,18 +263,9 @@ def rhs_batch(
     out = np.empty_like(z)
     for i in range(z.shape[0]):
         field_row(
-            pv,
-            z[i],
-            n,
-            with_pose,
-            act[i, 0],
-            act[i, 1],
-            act[i, 2],
-            act[i, 3],
-            act[i, 4],
-            act[i, 5],
-            out[i],
-        )
+            pv, z[i], n, with_pose, act[i, 0], act[i, 1], act[i, 2], act[i, 3], act[i, 4],
+            act[i, 5], out[i],
+        )  # fmt: skip
     return out
 
 
@@ -187,119 +279,476 @@ def energy_batch(pv: np.ndarray, z: np.ndarray, act: np.ndarray, n: int) -> np.n
     return out
 
 
+# ---------------------------------------------------------------------------
+# Block kernels: LANES rows at a time, structure of arrays (quantity, lane), so that
+# every loop over lanes is branch-free and LLVM vectorises it (AVX-512: 8 lanes).
+
+#: Rows per block.
+LANES = 64
+# Rows of the block workspace beyond the state's: hitch accumulators, sin, cos.
+_W_SIN = N_HITCH
+_W_COS = N_HITCH + 1
+_W_ROWS = N_HITCH + 2
+
+
 @njit(cache=True, nogil=True)
-def _rk4_row(
+def sincos_block(x: np.ndarray, sin_out: np.ndarray, cos_out: np.ndarray, nb: int) -> None:
+    """sin and cos of ``x[:nb]``: the branch-free loop, then libm for any huge argument."""
+    huge = False
+    for lane in range(nb):
+        s, c = sincos_reduced(x[lane])
+        sin_out[lane] = s
+        cos_out[lane] = c
+        huge |= abs(x[lane]) > SINCOS_MAX_ARG
+    if huge:
+        for lane in range(nb):
+            if abs(x[lane]) > SINCOS_MAX_ARG:
+                sin_out[lane] = math.sin(x[lane])
+                cos_out[lane] = math.cos(x[lane])
+
+
+@njit(cache=True, nogil=True)
+def _accumulators(work: np.ndarray, lane: int) -> tuple:
+    return (work[0, lane], work[1, lane], work[2, lane], work[3, lane], work[4, lane],
+            work[5, lane], work[6, lane], work[7, lane], work[8, lane], work[9, lane],
+            work[10, lane])  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _hitch_start_block(work: np.ndarray, nb: int) -> None:
+    start = _hitch_start()
+    for j in range(N_HITCH):
+        for lane in range(nb):
+            work[j, lane] = start[j]
+
+
+@njit(cache=True, nogil=True)
+def _hitch_accumulate(pv: np.ndarray, k: int, sin_k: np.ndarray, cos_k: np.ndarray,
+                      deriv: np.ndarray, work: np.ndarray, nb: int) -> None:  # fmt: skip
+    """Hitch k of every lane (:func:`_hitch_step` on ``work``); A_k into ``deriv[2 + k]``."""
+    l = pv[P_L]
+    for lane in range(nb):
+        a_k, acc = _hitch_step(k, sin_k[lane], cos_k[lane], l, _accumulators(work, lane))
+        deriv[2 + k, lane] = a_k
+        for j in range(N_HITCH):
+            work[j, lane] = acc[j]
+
+
+@njit(cache=True, nogil=True)
+def _hitch_block(pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work: np.ndarray,
+                 nb: int) -> None:  # fmt: skip
+    """Hitch accumulators of every lane into ``work[:N_HITCH]``; A_k into ``deriv[2 + k]``."""
+    _hitch_start_block(work, nb)
+    sin_k = work[_W_SIN]
+    cos_k = work[_W_COS]
+    for k in range(n):
+        sincos_block(y[2 + k], sin_k, cos_k, nb)
+        _hitch_accumulate(pv, k, sin_k, cos_k, deriv, work, nb)
+
+
+@njit(cache=True, nogil=True)
+def field_block(
     pv: np.ndarray,
-    row: np.ndarray,
+    y: np.ndarray,
+    n: int,
+    with_pose: bool,
+    mass0: np.ndarray,
+    tau: float,
+    deriv: np.ndarray,
+    work: np.ndarray,
+    nb: int,
+) -> None:
+    """d(y)/dt of the first ``nb`` lanes of the block ``y`` (width, LANES) into ``deriv``.
+
+    ``mass0`` (6, LANES) holds each lane's mass state at the start of the call; the
+    field is taken at time ``tau`` into it (the mass's motion is an exact quadratic).
+    ``work`` is scratch of shape (_W_ROWS, LANES). Per lane, the arithmetic is
+    :func:`field_row`'s.
+    """
+    _hitch_block(pv, y, n, deriv, work, nb)
+    for lane in range(nb):
+        u = y[0, lane]
+        w = y[1, lane]
+        xi_ddot = mass0[4, lane]
+        eta_ddot = mass0[5, lane]
+        r_trailers, dr_dalpha1, sum_a_dr = _hitch_totals(pv, _accumulators(work, lane))
+        deriv[0, lane], deriv[1, lane] = _accelerations(
+            pv, r_trailers, dr_dalpha1, sum_a_dr, u, w,
+            mass0[0, lane] + mass0[2, lane] * tau + 0.5 * xi_ddot * tau * tau,
+            mass0[1, lane] + mass0[3, lane] * tau + 0.5 * eta_ddot * tau * tau,
+            mass0[2, lane] + xi_ddot * tau,
+            mass0[3, lane] + eta_ddot * tau,
+            xi_ddot,
+            eta_ddot,
+        )  # fmt: skip
+    for k in range(n):
+        for lane in range(nb):
+            deriv[2 + k, lane] *= y[0, lane]
+    if n > 0:
+        for lane in range(nb):
+            deriv[2, lane] += y[1, lane]
+    if with_pose:
+        sin_t = work[_W_SIN]
+        cos_t = work[_W_COS]
+        sincos_block(y[n + 4], sin_t, cos_t, nb)
+        for lane in range(nb):
+            deriv[n + 2, lane] = y[0, lane] * cos_t[lane]
+            deriv[n + 3, lane] = y[0, lane] * sin_t[lane]
+            deriv[n + 4, lane] = y[1, lane]
+
+
+@njit(cache=True, nogil=True)
+def energy_block(
+    pv: np.ndarray, y: np.ndarray, n: int, mass0: np.ndarray, deriv: np.ndarray,
+    work: np.ndarray, out: np.ndarray, nb: int,
+) -> None:  # fmt: skip
+    """Energy of the first ``nb`` lanes, the mass as in ``mass0`` (``deriv`` is overwritten)."""
+    _hitch_block(pv, y, n, deriv, work, nb)
+    for lane in range(nb):
+        r_trailers, _, _ = _hitch_totals(pv, _accumulators(work, lane))
+        out[lane] = _energy(pv, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
+                            mass0[2, lane], mass0[3, lane], mass0[0, lane])  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def energy_block_from_trig(
+    pv: np.ndarray, y: np.ndarray, n: int, mass0: np.ndarray, trig: np.ndarray,
+    deriv: np.ndarray, work: np.ndarray, out: np.ndarray, nb: int,
+) -> None:  # fmt: skip
+    """:func:`energy_block` given sin(alpha_k) in ``trig[k]``, cos(alpha_k) in ``trig[n + k]``."""
+    _hitch_start_block(work, nb)
+    for k in range(n):
+        _hitch_accumulate(pv, k, trig[k], trig[n + k], deriv, work, nb)
+    for lane in range(nb):
+        r_trailers, _, _ = _hitch_totals(pv, _accumulators(work, lane))
+        out[lane] = _energy(pv, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
+                            mass0[2, lane], mass0[3, lane], mass0[0, lane])  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def new_workspace(width: int) -> tuple:
+    """Scratch of one thread for the block kernels: state, stage, two derivative buffers,
+    mass state, hitch workspace, per-lane scalars (energy targets, energies, flags) and
+    room for the sines and cosines of the row's angles (observations), and the row
+    path's buffers (:func:`advance_row`)."""
+    return (
+        np.empty((width, LANES)),
+        np.empty((width, LANES)),
+        np.empty((width, LANES)),
+        np.empty((width, LANES)),
+        np.empty((6, LANES)),
+        np.empty((_W_ROWS, LANES)),
+        np.empty((3, LANES)),
+        np.empty((2 * width, LANES)),
+        np.empty((3, width)),
+    )
+
+
+#: Raw angles this far inside the fold angle cannot wrap onto it (rounding moves ~1e-15).
+_FOLD_MARGIN = 1e-12
+
+
+@njit(cache=True, nogil=True)
+def _wrapped_folded(alpha: float, fold_angle: float) -> bool:
+    return abs(math.atan2(math.sin(alpha), math.cos(alpha))) >= fold_angle
+
+
+@njit(cache=True, nogil=True)
+def gather_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int,
+                 workspace: tuple) -> None:  # fmt: skip
+    """Copy rows ``rows[:nb]`` of ``z`` and ``act`` into the workspace (structure of arrays)."""
+    y = workspace[0]
+    mass0 = workspace[4]
+    for j in range(z.shape[1]):
+        for lane in range(nb):
+            y[j, lane] = z[rows[lane], j]
+    for j in range(6):
+        for lane in range(nb):
+            mass0[j, lane] = act[rows[lane], j]
+
+
+@njit(cache=True, nogil=True)
+def scatter_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int, dt: float,
+                  workspace: tuple) -> None:  # fmt: skip
+    """Write the block back into ``z``; advance the mass state in ``act`` by ``dt`` exactly."""
+    y = workspace[0]
+    for j in range(z.shape[1]):
+        for lane in range(nb):
+            z[rows[lane], j] = y[j, lane]
+    for lane in range(nb):
+        advance_mass_row(act, rows[lane], dt)
+
+
+@njit(cache=True, nogil=True)
+def advance_mass_row(act: np.ndarray, i: int, dt: float) -> None:
+    """The mass state of row ``i`` after ``dt`` under its held acceleration (exact)."""
+    xi_ddot = act[i, 4]
+    eta_ddot = act[i, 5]
+    xi_dot0 = act[i, 2]
+    eta_dot0 = act[i, 3]
+    act[i, 0] = act[i, 0] + xi_dot0 * dt + 0.5 * xi_ddot * dt * dt
+    act[i, 1] = act[i, 1] + eta_dot0 * dt + 0.5 * eta_ddot * dt * dt
+    act[i, 2] = xi_dot0 + xi_ddot * dt
+    act[i, 3] = eta_dot0 + eta_ddot * dt
+
+
+#: Blocks of at most this many rows take the row path (:func:`advance_row`): the block
+#: loops' fixed cost outweighs their vectorisation there. Same helpers, same order of
+#: operations, same results to the bit (tests/dynamics/test_block_kernel.py).
+ROW_PATH_MAX_ROWS = 4
+
+
+@njit(cache=True, nogil=True)
+def _field_at(pv: np.ndarray, row: np.ndarray, n: int, with_pose: bool, act: np.ndarray,
+              i: int, tau: float, out: np.ndarray) -> None:  # fmt: skip
+    """:func:`field_row` at time ``tau`` into the call (the mass's exact quadratic motion)."""
+    xi_ddot = act[i, 4]
+    eta_ddot = act[i, 5]
+    field_row(
+        pv, row, n, with_pose,
+        act[i, 0] + act[i, 2] * tau + 0.5 * xi_ddot * tau * tau,
+        act[i, 1] + act[i, 3] * tau + 0.5 * eta_ddot * tau * tau,
+        act[i, 2] + xi_ddot * tau,
+        act[i, 3] + eta_ddot * tau,
+        xi_ddot,
+        eta_ddot,
+        out,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def advance_row(
+    pv: np.ndarray,
+    z: np.ndarray,
     act: np.ndarray,
+    i: int,
     n: int,
     with_pose: bool,
     dt: float,
     substeps: int,
     preserve_energy: bool,
-    target_energy: float,
-    k1: np.ndarray,
-    k2: np.ndarray,
-    k3: np.ndarray,
-    k4: np.ndarray,
-    stage: np.ndarray,
-    scratch: np.ndarray,
+    target_energy: np.ndarray,
+    fold_angle: float,
+    folded: np.ndarray,
+    buffers: np.ndarray,
 ) -> None:
+    """:func:`advance_block` for the one row ``z[i]`` (``act[i]`` is left unchanged).
+
+    ``buffers`` is scratch of shape (3, width).
+    """
+    row = z[i]
     width = row.shape[0]
+    total = buffers[0]
+    stage = buffers[1]
+    deriv = buffers[2]
+    target = 0.0
+    if preserve_energy:
+        current = energy_row(pv, row, n, act[i], deriv)
+        wanted = target_energy[i]
+        target = wanted if wanted > 0.0 else current
+    check_fold = fold_angle < math.inf
+    near_fold = fold_angle - _FOLD_MARGIN
     h = dt / substeps
-    xi0, eta0, xi_dot0, eta_dot0, xi_ddot, eta_ddot = act[0], act[1], act[2], act[3], act[4], act[5]
-    if preserve_energy and not target_energy > 0.0:
-        target_energy = energy_row(pv, row, n, act, scratch)
+    half_h = 0.5 * h
+    sixth_h = h / 6.0
     for step in range(substeps):
         t0 = step * h
         t_mid = t0 + 0.5 * h
         t1 = t0 + h
-        # The mass's motion is a known quadratic in time: evaluate it exactly at each stage.
-        field_row(
-            pv,
-            row,
-            n,
-            with_pose,
-            xi0 + xi_dot0 * t0 + 0.5 * xi_ddot * t0 * t0,
-            eta0 + eta_dot0 * t0 + 0.5 * eta_ddot * t0 * t0,
-            xi_dot0 + xi_ddot * t0,
-            eta_dot0 + eta_ddot * t0,
-            xi_ddot,
-            eta_ddot,
-            k1,
-        )
-        xi_mid = xi0 + xi_dot0 * t_mid + 0.5 * xi_ddot * t_mid * t_mid
-        eta_mid = eta0 + eta_dot0 * t_mid + 0.5 * eta_ddot * t_mid * t_mid
-        xi_dot_mid = xi_dot0 + xi_ddot * t_mid
-        eta_dot_mid = eta_dot0 + eta_ddot * t_mid
+        _field_at(pv, row, n, with_pose, act, i, t0, deriv)
         for j in range(width):
-            stage[j] = row[j] + 0.5 * h * k1[j]
-        field_row(
-            pv, stage, n, with_pose, xi_mid, eta_mid, xi_dot_mid, eta_dot_mid, xi_ddot, eta_ddot, k2
-        )
+            total[j] = deriv[j]
+            stage[j] = row[j] + half_h * deriv[j]
+        _field_at(pv, stage, n, with_pose, act, i, t_mid, deriv)
         for j in range(width):
-            stage[j] = row[j] + 0.5 * h * k2[j]
-        field_row(
-            pv, stage, n, with_pose, xi_mid, eta_mid, xi_dot_mid, eta_dot_mid, xi_ddot, eta_ddot, k3
-        )
+            total[j] = total[j] + 2.0 * deriv[j]
+            stage[j] = row[j] + half_h * deriv[j]
+        _field_at(pv, stage, n, with_pose, act, i, t_mid, deriv)
         for j in range(width):
-            stage[j] = row[j] + h * k3[j]
-        field_row(
-            pv,
-            stage,
-            n,
-            with_pose,
-            xi0 + xi_dot0 * t1 + 0.5 * xi_ddot * t1 * t1,
-            eta0 + eta_dot0 * t1 + 0.5 * eta_ddot * t1 * t1,
-            xi_dot0 + xi_ddot * t1,
-            eta_dot0 + eta_ddot * t1,
-            xi_ddot,
-            eta_ddot,
-            k4,
-        )
+            total[j] = total[j] + 2.0 * deriv[j]
+            stage[j] = row[j] + h * deriv[j]
+        _field_at(pv, stage, n, with_pose, act, i, t1, deriv)
         for j in range(width):
-            row[j] += h / 6.0 * (k1[j] + 2.0 * k2[j] + 2.0 * k3[j] + k4[j])
+            row[j] += sixth_h * (total[j] + deriv[j])
         if preserve_energy:
-            # At fixed alpha and a mass at rest on the cart, E is a quadratic form in
-            # (u, omega): one scale factor restores it exactly.
-            current = energy_row(pv, row, n, act, scratch)
+            current = energy_row(pv, row, n, act[i], deriv)
             if current > 0.0:
-                scale = math.sqrt(target_energy / current)
+                scale = math.sqrt(target / current)
                 row[0] *= scale
                 row[1] *= scale
-    act[0] = xi0 + xi_dot0 * dt + 0.5 * xi_ddot * dt * dt
-    act[1] = eta0 + eta_dot0 * dt + 0.5 * eta_ddot * dt * dt
-    act[2] = xi_dot0 + xi_ddot * dt
-    act[3] = eta_dot0 + eta_ddot * dt
-
-
-#: Below this many rows the serial loop wins: waking worker threads costs more
-#: than a small batch's arithmetic (milliseconds on a loaded machine).
-PARALLEL_MIN_ROWS = 256
-_ROWS_PER_CHUNK = 64
+        if check_fold:
+            near = 0.0
+            for k in range(n):
+                near = max(near, abs(row[2 + k]))
+            if near >= near_fold:
+                for k in range(n):
+                    if _wrapped_folded(row[2 + k], fold_angle):
+                        folded[i] = True
 
 
 @njit(cache=True, nogil=True)
-def _rk4_rows(
+def advance_block(
+    pv: np.ndarray,
+    rows: np.ndarray,
+    nb: int,
+    n: int,
+    with_pose: bool,
+    dt: float,
+    substeps: int,
+    preserve_energy: bool,
+    target_energy: np.ndarray,
+    fold_angle: float,
+    folded: np.ndarray,
+    workspace: tuple,
+) -> None:
+    """Classical RK4 on the gathered block (see :func:`gather_block`), ``substeps`` equal substeps.
+
+    Per row the arithmetic is that of RK4 on :func:`field_row` (the same helpers, the
+    same order of operations); the rows of a block share only the loops. With a
+    finite ``fold_angle``, ``folded[rows[lane]]`` is set True if any wrapped |alpha_k|
+    reaches it at the end of any substep (a fold between control instants); other
+    entries are left as they are. ``target_energy`` is indexed by row, like ``folded``.
+    """
+    y, stage, deriv, total, mass0, work, lane_scalars, _, _ = workspace
+    width = y.shape[0]
+    target = lane_scalars[0]
+    current = lane_scalars[1]
+    if preserve_energy:
+        energy_block(pv, y, n, mass0, deriv, work, current, nb)
+        for lane in range(nb):
+            wanted = target_energy[rows[lane]]
+            target[lane] = wanted if wanted > 0.0 else current[lane]
+    check_fold = fold_angle < math.inf
+    near_fold = fold_angle - _FOLD_MARGIN
+    h = dt / substeps
+    half_h = 0.5 * h
+    sixth_h = h / 6.0
+    for step in range(substeps):
+        t0 = step * h
+        t_mid = t0 + 0.5 * h
+        t1 = t0 + h
+        field_block(pv, y, n, with_pose, mass0, t0, deriv, work, nb)
+        for j in range(width):
+            for lane in range(nb):
+                total[j, lane] = deriv[j, lane]
+                stage[j, lane] = y[j, lane] + half_h * deriv[j, lane]
+        field_block(pv, stage, n, with_pose, mass0, t_mid, deriv, work, nb)
+        for j in range(width):
+            for lane in range(nb):
+                total[j, lane] = total[j, lane] + 2.0 * deriv[j, lane]
+                stage[j, lane] = y[j, lane] + half_h * deriv[j, lane]
+        field_block(pv, stage, n, with_pose, mass0, t_mid, deriv, work, nb)
+        for j in range(width):
+            for lane in range(nb):
+                total[j, lane] = total[j, lane] + 2.0 * deriv[j, lane]
+                stage[j, lane] = y[j, lane] + h * deriv[j, lane]
+        field_block(pv, stage, n, with_pose, mass0, t1, deriv, work, nb)
+        for j in range(width):
+            for lane in range(nb):
+                y[j, lane] += sixth_h * (total[j, lane] + deriv[j, lane])
+        if preserve_energy:
+            # At fixed alpha and a mass at rest on the cart, E is a quadratic form in
+            # (u, omega): one scale factor restores it exactly.
+            energy_block(pv, y, n, mass0, deriv, work, current, nb)
+            for lane in range(nb):
+                if current[lane] > 0.0:
+                    scale = math.sqrt(target[lane] / current[lane])
+                    y[0, lane] *= scale
+                    y[1, lane] *= scale
+        if check_fold:
+            near = work[_W_SIN]
+            for lane in range(nb):
+                near[lane] = 0.0
+            for k in range(n):
+                for lane in range(nb):
+                    near[lane] = max(near[lane], abs(y[2 + k, lane]))
+            for lane in range(nb):
+                if near[lane] >= near_fold:  # rare: the exact wrapped test
+                    for k in range(n):
+                        if _wrapped_folded(y[2 + k, lane], fold_angle):
+                            folded[rows[lane]] = True
+
+
+@njit(cache=True, nogil=True)
+def rk4_block(
     pv: np.ndarray,
     z: np.ndarray,
     act: np.ndarray,
+    rows: np.ndarray,
+    nb: int,
+    n: int,
+    with_pose: bool,
+    dt: float,
+    substeps: int,
+    preserve_energy: bool,
+    target_energy: np.ndarray,
+    fold_angle: float,
+    folded: np.ndarray,
+    workspace: tuple,
+) -> None:
+    """Classical RK4 on the ``nb`` rows ``rows[:nb]`` of ``z`` and ``act``, in place
+    (:func:`gather_block`, :func:`advance_block`, :func:`scatter_block`)."""
+    gather_block(z, act, rows, nb, workspace)
+    advance_block(pv, rows, nb, n, with_pose, dt, substeps, preserve_energy, target_energy,
+                  fold_angle, folded, workspace)  # fmt: skip
+    scatter_block(z, act, rows, nb, dt, workspace)
+
+
+@njit(cache=True, nogil=True)
+def block_order(substeps: np.ndarray) -> np.ndarray:
+    """Row order in which runs of equal substep counts are contiguous (identity if all equal)."""
+    count = substeps.shape[0]
+    uniform = True
+    for i in range(1, count):
+        if substeps[i] != substeps[0]:
+            uniform = False
+            break
+    if uniform:
+        return np.arange(count)
+    return np.argsort(substeps, kind="mergesort")
+
+
+@njit(cache=True, nogil=True)
+def rk4_ordered_rows(
+    pv: np.ndarray,
+    z: np.ndarray,
+    act: np.ndarray,
+    order: np.ndarray,
+    start: int,
+    stop: int,
     n: int,
     with_pose: bool,
     dt: float,
     substeps: np.ndarray,
     preserve_energy: bool,
     target_energy: np.ndarray,
-    start: int,
-    stop: int,
+    fold_angle: float,
+    folded: np.ndarray,
+    workspace: tuple,
 ) -> None:
-    """RK4 on rows ``start:stop`` with one set of scratch buffers."""
-    buffers = np.empty((5, z.shape[1]))
-    scratch = np.empty(max(n, 1))
-    for i in range(start, stop):
-        _rk4_row(pv, z[i], act[i], n, with_pose, dt, substeps[i], preserve_energy,
-                 target_energy[i], buffers[0], buffers[1], buffers[2], buffers[3], buffers[4],
-                 scratch)  # fmt: skip
+    """RK4 on rows ``order[start:stop]``, in blocks of up to LANES rows of equal substeps."""
+    i = start
+    while i < stop:
+        count = substeps[order[i]]
+        j = i + 1
+        while j < stop and j - i < LANES and substeps[order[j]] == count:
+            j += 1
+        if j - i <= ROW_PATH_MAX_ROWS:
+            for row in order[i:j]:
+                advance_row(pv, z, act, row, n, with_pose, dt, count, preserve_energy,
+                            target_energy, fold_angle, folded, workspace[8])  # fmt: skip
+                advance_mass_row(act, row, dt)
+        else:
+            rk4_block(pv, z, act, order[i:j], j - i, n, with_pose, dt, count, preserve_energy,
+                      target_energy, fold_angle, folded, workspace)  # fmt: skip
+        i = j
+
+
+#: Below this many rows the serial loop wins: waking worker threads costs more
+#: than a small batch's arithmetic (see benchmarks/README.md, "Threads").
+PARALLEL_MIN_ROWS = 1024
+#: Rows per parallel chunk (a multiple of LANES).
+ROWS_PER_CHUNK = 4 * LANES
 
 
 @njit(cache=True)
@@ -315,7 +764,11 @@ def rk4_batch_serial(
     target_energy: np.ndarray,
 ) -> None:
     """Same as :func:`rk4_batch` on the calling thread (single envs, small batches)."""
-    _rk4_rows(pv, z, act, n, with_pose, dt, substeps, preserve_energy, target_energy, 0, z.shape[0])
+    order = block_order(substeps)
+    folded = np.zeros(0, dtype=np.bool_)
+    rk4_ordered_rows(pv, z, act, order, 0, z.shape[0], n, with_pose, dt, substeps,
+                     preserve_energy, target_energy, math.inf, folded,
+                     new_workspace(z.shape[1]))  # fmt: skip
 
 
 @njit(cache=True, parallel=True)
@@ -337,14 +790,17 @@ def rk4_batch(
     that is NaN or <= 0, to its energy at the start of the call): a target held
     across calls keeps rounding errors from accumulating over long runs.
     Rows are independent, so chunks of rows run on all cores; each row's
-    arithmetic is the same whatever the chunking, so results do not depend on
-    the number of threads.
+    arithmetic is the same whatever the chunking or the block it shares, so
+    results do not depend on the number of threads.
     """
+    order = block_order(substeps)
+    folded = np.zeros(0, dtype=np.bool_)
     n_rows = z.shape[0]
-    for chunk in prange((n_rows + _ROWS_PER_CHUNK - 1) // _ROWS_PER_CHUNK):
-        stop = min(n_rows, (chunk + 1) * _ROWS_PER_CHUNK)
-        _rk4_rows(pv, z, act, n, with_pose, dt, substeps, preserve_energy, target_energy,
-                  chunk * _ROWS_PER_CHUNK, stop)  # fmt: skip
+    for chunk in prange((n_rows + ROWS_PER_CHUNK - 1) // ROWS_PER_CHUNK):
+        stop = min(n_rows, (chunk + 1) * ROWS_PER_CHUNK)
+        rk4_ordered_rows(pv, z, act, order, chunk * ROWS_PER_CHUNK, stop, n, with_pose, dt,
+                         substeps, preserve_energy, target_energy, math.inf, folded,
+                         new_workspace(z.shape[1]))  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -354,10 +810,6 @@ def singular_margin_row(row: np.ndarray, offset: int, n: int) -> float:
     for k in range(n - 1):
         margin = min(margin, abs(math.cos(row[offset + k])))
     return margin
-
-
-#: Raw angles this far inside the fold angle cannot wrap onto it (rounding moves ~1e-15).
-_FOLD_MARGIN = 1e-12
 
 
 @njit(cache=True, nogil=True)

@@ -165,7 +165,11 @@ class Stepper:
     """In-place batched RK4 stepper for hot loops (environments, benchmarks).
 
     The parameters are validated and packed once; each :meth:`step` is one call
-    into the jitted kernel, whatever the batch size.
+    into the jitted kernel, whatever the batch size. The kernel advances blocks of
+    up to 64 rows of equal substep counts held as structure of arrays, so that the
+    field vectorises across rows (``dynamics._kernel``); a row's result does not
+    depend on the batch it is in, nor on the number of numba threads (batches of
+    ``_kernel.PARALLEL_MIN_ROWS`` rows or more run on all of them).
 
     Args:
         params: Convoy parameters.

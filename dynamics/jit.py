@@ -1,7 +1,10 @@
 """Numba-level building blocks, for jitted code outside :mod:`dynamics` (environments).
 
 Call these from ``@njit`` functions: they are the package's one implementation of
-the field, the energy and the singular tests, row by row. Row and parameter
+the field, the energy and the singular tests, row by row (``*_row``) and on blocks of
+up to :data:`LANES` rows held as structure of arrays (``*_block``: gather a block with
+:func:`gather_block` into a :func:`new_workspace`, advance it with :func:`advance_block`,
+read what you need from the block, write it back with :func:`scatter_block`). Row and parameter
 conventions are those of :mod:`dynamics._kernel` (``pv`` from :func:`pack_params`;
 a row is ``(u, omega, alpha_1..alpha_n[, x, y, theta])``; ``act`` is the mass's
 ``(xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)``).
@@ -23,21 +26,66 @@ from numba.core.caching import NullCache
 
 from dynamics import _kernel
 from dynamics._kernel import (
+    LANES,
+    ROW_PATH_MAX_ROWS,
+    advance_block,
+    advance_mass_row,
+    advance_row,
+    block_order,
+    energy_block,
+    energy_block_from_trig,
     energy_row,
+    field_block,
     field_row,
+    gather_block,
     is_folded_row,
+    new_workspace,
     pack_params,
+    scatter_block,
+    sincos,
+    sincos_block,
     singular_margin_row,
 )
 
 __all__ = [
+    "LANES",
+    "ROW_PATH_MAX_ROWS",
+    "advance_block",
+    "advance_mass_row",
+    "advance_row",
+    "block_order",
     "cached_njit",
+    "energy_block",
+    "energy_block_from_trig",
     "energy_row",
+    "field_block",
     "field_row",
+    "gather_block",
     "is_folded_row",
+    "new_workspace",
     "pack_params",
+    "scatter_block",
+    "sincos",
+    "sincos_block",
     "singular_margin_row",
 ]
+
+
+def source_stamp(path: str) -> tuple[float, int]:
+    """(mtime, size) of a source file, as numba stamps its caches."""
+    stat = os.stat(path)
+    return stat.st_mtime, stat.st_size
+
+
+def _import_stamp(module: ModuleType) -> tuple[float, int]:
+    """The module's stamp when it was imported (``SOURCE_STAMP``), else its stamp now.
+
+    A module edited after it was imported but before a dependent module is decorated
+    would otherwise stamp the dependent's cache with the new file while the process
+    compiles the old code: a stale cache that later runs accept.
+    """
+    recorded = getattr(module, "SOURCE_STAMP", None)
+    return recorded if recorded is not None else source_stamp(str(module.__file__))
 
 
 def _key_cache_on(dispatcher: Any, modules: Sequence[ModuleType]) -> None:
@@ -49,11 +97,7 @@ def _key_cache_on(dispatcher: Any, modules: Sequence[ModuleType]) -> None:
     try:
         dispatcher.enable_caching()
         cache_file = dispatcher._cache._cache_file
-        stamps = tuple(
-            (os.stat(module.__file__).st_mtime, os.stat(module.__file__).st_size)
-            for module in modules
-            if module.__file__
-        )
+        stamps = tuple(_import_stamp(module) for module in modules if module.__file__)
         cache_file._source_stamp = (cache_file._source_stamp, *stamps)
     except Exception:  # pragma: no cover - depends on numba internals
         dispatcher._cache = NullCache()

@@ -34,11 +34,15 @@ demand ``A dt^2 <= s_max``.
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 from numba import njit
 
 MODE_CODES = {"servo": 0, "accel": 1, "planar": 2}
+
+#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 
 @njit(cache=True)
@@ -90,6 +94,45 @@ def servo_accel(
     return guard_accel(4.0 * frequency * (desired - v), s, v, s_max, accel_max, dt)
 
 
+@njit(cache=True, nogil=True)
+def apply_action_row(
+    action: np.ndarray,
+    i: int,
+    act: np.ndarray,
+    mode: int,
+    b: float,
+    s_max: float,
+    accel_max: float,
+    dt: float,
+    frequency: float,
+) -> None:
+    """Write the guarded accelerations for the finite ``action[i]`` into ``act[i, 4:6]``."""
+    command = min(max(action[i, 0], -1.0), 1.0)
+    s = act[i, 1]
+    v = act[i, 3]
+    if mode == 0:
+        act[i, 5] = servo_accel(command * s_max, s, v, s_max, accel_max, dt, frequency)
+    elif mode == 1:
+        act[i, 5] = guard_accel(command * accel_max, s, v, s_max, accel_max, dt)
+    else:
+        # Planar: axis 0 is xi about b, axis 1 is eta.
+        act[i, 4] = servo_accel(
+            command * s_max, act[i, 0] - b, act[i, 2], s_max, accel_max, dt, frequency
+        )
+        lateral = min(max(action[i, 1], -1.0), 1.0)
+        act[i, 5] = servo_accel(lateral * s_max, s, v, s_max, accel_max, dt, frequency)
+
+
+@njit(cache=True, nogil=True)
+def first_non_finite_row(action: np.ndarray, rows: np.ndarray) -> int:
+    """The first of ``rows`` whose action holds NaN or inf, or -1."""
+    for i in rows:
+        for j in range(action.shape[1]):
+            if not math.isfinite(action[i, j]):
+                return i
+    return -1
+
+
 @njit(cache=True)
 def apply_actions(
     action: np.ndarray,
@@ -105,32 +148,25 @@ def apply_actions(
 
     ``act`` rows are (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot). Actions are
     clipped to [-1, 1]. Returns -1, or the index of the first row holding a
-    non-finite action (nothing is written from that row on).
+    non-finite action (then nothing is written).
     """
+    bad = first_non_finite_row(action, np.arange(action.shape[0]))
+    if bad >= 0:
+        return bad
     for i in range(action.shape[0]):
-        for j in range(action.shape[1]):
-            if not math.isfinite(action[i, j]):
-                return i
-        command = min(max(action[i, 0], -1.0), 1.0)
-        s = act[i, 1]
-        v = act[i, 3]
-        if mode == 0:
-            act[i, 5] = servo_accel(command * s_max, s, v, s_max, accel_max, dt, frequency)
-        elif mode == 1:
-            act[i, 5] = guard_accel(command * accel_max, s, v, s_max, accel_max, dt)
-        else:
-            # Planar: axis 0 is xi about b, axis 1 is eta.
-            act[i, 4] = servo_accel(
-                command * s_max, act[i, 0] - b, act[i, 2], s_max, accel_max, dt, frequency
-            )
-            lateral = min(max(action[i, 1], -1.0), 1.0)
-            act[i, 5] = servo_accel(lateral * s_max, s, v, s_max, accel_max, dt, frequency)
+        apply_action_row(action, i, act, mode, b, s_max, accel_max, dt, frequency)
     return -1
+
+
+@njit(cache=True, nogil=True)
+def clamp_row_to_rail(act: np.ndarray, i: int, b: float, s_max: float) -> None:
+    """Remove rounding-level excursions past the rail's ends (the guard keeps them below 1e-15)."""
+    act[i, 1] = min(max(act[i, 1], -s_max), s_max)
+    act[i, 0] = min(max(act[i, 0], b - s_max), b + s_max)
 
 
 @njit(cache=True)
 def clamp_to_rail(act: np.ndarray, b: float, s_max: float) -> None:
-    """Remove rounding-level excursions past the rail's ends (the guard keeps them below 1e-15)."""
+    """:func:`clamp_row_to_rail` for every row."""
     for i in range(act.shape[0]):
-        act[i, 1] = min(max(act[i, 1], -s_max), s_max)
-        act[i, 0] = min(max(act[i, 0], b - s_max), b + s_max)
+        clamp_row_to_rail(act, i, b, s_max)

@@ -2,14 +2,28 @@
 
 Every environment, single or vectorised, is a :class:`ConvoyCore` subclass (a
 scene) with a batch size: the Gymnasium env uses B = 1, the vector env B = N.
-One control step is a fixed pipeline over the whole batch:
+One control step is a fixed pipeline over the whole batch, in ONE compiled call with the
+default integrators ("rk4", "rk4-energy"; :func:`trailer_env.kernels.step_serial`):
 
-1. :func:`trailer_env.kernels.prepare_step`: action -> guarded mass acceleration
-   (:mod:`trailer_env.actuator`), the fidelity's substep counts, a backup of the state;
-2. ONE integrator call (``dynamics.Stepper.step`` by default) for the whole batch;
-3. :meth:`ConvoyCore.refresh`: observations, singular margin, cost, jackknife flags and
-   energy (:func:`trailer_env.kernels.observe`), then the scene's ``_update_task``;
-4. the scene's hooks ``_advance``, ``_is_success``, ``_is_terminated``, ``_reward``.
+1. action -> guarded mass acceleration (:mod:`trailer_env.actuator`), the fidelity's
+   substep counts, a backup of the state;
+2. RK4 on blocks of rows, with the fold test after every substep (a fold between two
+   control instants is not missed);
+3. the rail guard; observations, singular margin, cost, jackknife flags and energy;
+4. where the scene provides :attr:`ConvoyCore.scene_kernel` (a jitted function that
+   calls the step kernel, then its reward and termination formulas), those too.
+
+Then, in Python: the scene's ``_update_task`` and, for scenes without a scene kernel, the
+hooks ``_advance``, ``_is_success``, ``_is_terminated``, ``_reward``. Other integrators
+("dopri5", registered ones) take three calls: the actuator and auto rule, the
+integrator, the observations; their fold test sees the state at control instants only
+(DOPRI5's own steps are not visible from here).
+
+Accuracy: with ``fidelity.substeps="auto"`` the rule's estimate of each step's error
+stays below the tolerance unless a cap binds (``max_substeps`` on the accuracy rule,
+only at speeds far beyond the scenes', e.g. ``|u| = 1000`` m/s). Such a step is never
+silent: :attr:`ConvoyCore.accuracy_exceeded` flags its rows and an
+:class:`~trailer_env.fidelity.AccuracyWarning` is issued (once per core).
 
 Scenes override the hooks (``_reset_row``, ``_update_task``, ``_advance``,
 ``_is_success``, ``_is_terminated``, ``_reward``, ``_after_reset``,
@@ -38,14 +52,23 @@ eta / s_max, xi_dot / v_max, eta_dot / v_max, and task features start at 2n+6.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import numpy as np
 
 from dynamics.jit import pack_params
-from trailer_env.actuator import MODE_CODES, clamp_to_rail
-from trailer_env.kernels import PARALLEL_MIN_ROWS, observe, observe_parallel, prepare_step
+from trailer_env.actuator import MODE_CODES
+from trailer_env.fidelity import AccuracyWarning, RK4Integrator
+from trailer_env.kernels import (
+    PARALLEL_MIN_ROWS,
+    clamp_rows_to_rail,
+    observe,
+    prepare_step,
+    step_parallel,
+    step_serial,
+)
 from trailer_env.settings import EnvSettings
 
 
@@ -74,6 +97,11 @@ class ConvoyCore:
         singular_margin, cost, jackknifed, energy, energy0: per environment.
         reward, terminated, success: results of the last step.
         substeps: Substeps used by the last step.
+        hitch_trig: sin(alpha_k) then cos(alpha_k) of every row's current state, float64
+            (B, 2n): computed once per step with the observation, read by scene formulas.
+        accuracy_exceeded: Rows whose last step's estimated error exceeded the fidelity's
+            tolerance because a substep cap bound (auto fidelity only; see the module
+            docstring).
     """
 
     #: The scene's name and version: it is registered as ``trailer_env/{scene}-v{version}``.
@@ -95,6 +123,17 @@ class ConvoyCore:
     band_penalty: ClassVar[float] = 0.5
     #: Task values :meth:`set_task` accepts (``reset(options=...)`` keys beyond the state).
     task_keys: ClassVar[tuple[str, ...]] = ()
+    #: A jitted ``outcome(rows, outputs, scene)`` that writes ``reward``, ``terminated``
+    #: and ``success`` of ``rows`` after a step from ``scene`` (:meth:`_scene_arguments`)
+    #: and the step kernel's ``outputs``; and a jitted ``kernel(action, rows, prepare,
+    #: config, state, outputs, scene)`` that calls :func:`trailer_env.kernels.step_serial`
+    #: with its first six arguments, then ``outcome`` if no action was refused, and
+    #: returns the step's result: one call per step. Batches of PARALLEL_MIN_ROWS rows or
+    #: more call ``step_parallel`` and then ``outcome`` (two calls: a cached function that
+    #: calls a parallel one can crash numba when loaded from its disk cache). None: the
+    #: Python hooks compute them. Assign both as ``staticmethod(function)``.
+    scene_kernel: ClassVar[Any] = None
+    scene_outcome: ClassVar[Any] = None
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         if (
@@ -126,22 +165,22 @@ class ConvoyCore:
         self.reward = np.zeros(size)
         self.terminated = np.zeros(size, dtype=bool)
         self.success = np.zeros(size, dtype=bool)
+        self.accuracy_exceeded = np.zeros(size, dtype=bool)
+        self._nonfinite = np.zeros(size, dtype=bool)
         self._integrator = fidelity.make_integrator(self.params, self.with_pose)
-        self._packed = pack_params(self.params)  # the energy kernel's parameters
+        # The built-in RK4 runs inside the step kernel; other integrators are called from here.
+        integrator = self._integrator
+        self._fused = type(integrator) is RK4Integrator
+        preserve_energy = isinstance(integrator, RK4Integrator) and integrator.preserve_energy
+        self._packed = pack_params(self.params)
         self._mode = MODE_CODES[settings.action_mode]
         self._all_rows = np.arange(size, dtype=np.int64)
         self._z_backup = np.empty_like(self.z)
         self._act_backup = np.empty_like(self.act)
-        # Kernel arguments fixed for the core's life, packed once (the single env's step is ~10 us).
         self._dt = settings.dt
         self._b = self.params.b
         self._s_max = self.params.s_max
-        self._prepare_args = (
-            self._mode, self._b, self._s_max, settings.rail_accel_max, settings.dt,
-            settings.servo_frequency, fidelity.auto,
-            fidelity.auto_settings(self.params, settings.dt, self.planar), self.substeps,
-            self._z_backup, self._act_backup,
-        )  # fmt: skip
+        self._warned_accuracy = False
         observe_settings = np.array(
             [
                 self._b,
@@ -151,11 +190,30 @@ class ConvoyCore:
                 settings.fold_angle,
             ]
         )
-        self._observe_all = observe_parallel if size >= PARALLEL_MIN_ROWS else observe
-        self._observe_args = (
-            n, self.planar, observe_settings, self._packed, self.obs, self.singular_margin,
-            self.cost, self.jackknifed, self.energy,
+        # Kernel arguments fixed for the core's life, packed once (a single env's step is a
+        # few microseconds).
+        self._config = (
+            self._mode, float(self._b), float(self._s_max), float(settings.rail_accel_max),
+            float(settings.dt), float(settings.servo_frequency), bool(fidelity.auto),
+            fidelity.auto_settings(self.params, settings.dt, self.planar), self._packed, n,
+            self.with_pose, preserve_energy, self.planar, observe_settings,
         )  # fmt: skip
+        self._state = (
+            self.z, self.act, self.substeps, self._z_backup, self._act_backup,
+            np.full(size, np.nan), self.accuracy_exceeded,
+        )  # fmt: skip
+        #: sin(alpha_k), then cos(alpha_k), of every row's current state (float64, (B, 2n)).
+        self.hitch_trig = np.zeros((size, 2 * n))
+        self._outputs = (
+            self.obs, self.singular_margin, self.cost, self.jackknifed, self.energy,
+            self._nonfinite, self.hitch_trig,
+        )  # fmt: skip
+        self._observe_args = (n, self.planar, observe_settings, self._packed, self._outputs)
+        self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
+
+    def _scene_arguments(self) -> tuple:
+        """The scene kernel's last argument (arrays it reads and writes), built once."""
+        return ()
 
     # ----------------------------------------------------------------- hooks
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:
@@ -300,55 +358,106 @@ class ConvoyCore:
 
         Call it after changing ``z`` or ``act`` by hand.
         """
-        if rows is None or rows.size == self.batch_size:
-            if self._observe_all(self.z, self.act, self._all_rows, *self._observe_args):
-                raise NonFiniteStateError("the state contains non-finite values (NaN or inf)")
-            self._update_task(slice(None))
-            return
-        indices = np.asarray(rows, dtype=np.int64)
-        kernel = observe_parallel if indices.size >= PARALLEL_MIN_ROWS else observe
-        if kernel(self.z, self.act, indices, *self._observe_args):
+        indices = self._all_rows if rows is None else np.asarray(rows, dtype=np.int64)
+        if observe(self.z, self.act, indices, *self._observe_args):
             raise NonFiniteStateError("the state contains non-finite values (NaN or inf)")
-        self._update_task(indices)
+        self._update_task(slice(None) if rows is None else indices)
+
+    def _physics_step(self, action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:
+        """One control step of ``rows``: ``(bad action row or -1, non-finite rows, over tol.)``."""
+        if not self._fused:
+            return self._unfused_step(action, rows, prepare)
+        parallel = rows.size >= PARALLEL_MIN_ROWS
+        if self.scene_kernel is not None:
+            if self._scene is None:
+                self._scene = self._scene_arguments()
+            if not parallel:
+                return self.scene_kernel(
+                    action, rows, prepare, self._config, self._state, self._outputs,
+                    self._scene,
+                )  # fmt: skip
+            result = step_parallel(action, rows, prepare, self._config, self._state,
+                                   self._outputs)  # fmt: skip
+            if result[0] < 0:
+                self.scene_outcome(rows, self._outputs, self._scene)
+            return result
+        kernel = step_parallel if parallel else step_serial
+        return kernel(action, rows, prepare, self._config, self._state, self._outputs)
+
+    def _unfused_step(self, action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:
+        over = 0
+        if prepare:
+            bad, over = prepare_step(action, rows, self._config, self._state)
+            if bad >= 0:
+                return bad, 0, 0
+        if rows.size == self.batch_size:
+            self._integrator.step(self.z, self.act, self._dt, self.substeps)
+        else:
+            z, act = self.z[rows], self.act[rows]
+            self._integrator.step(z, act, self._dt, self.substeps[rows])
+            self.z[rows], self.act[rows] = z, act
+        clamp_rows_to_rail(self.act, rows, self._b, self._s_max)
+        return -1, observe(self.z, self.act, rows, *self._observe_args), over
 
     def step(self, action: np.ndarray) -> None:
         """Advance every environment by ``dt`` under ``action`` (B, action_dim), float64.
 
         Raises:
             ValueError: If an action is NaN or infinite (nothing is stepped).
+            FloatingPointError: If a step diverged even with more substeps (the state
+                is left at the previous step).
         """
-        bad = prepare_step(action, self.z, self.act, *self._prepare_args)
+        bad, nonfinite, over = self._physics_step(action, self._all_rows, True)
         if bad >= 0:
             raise ValueError(
                 f"action contains non-finite values (NaN or inf), environment {bad}: {action[bad]}"
             )
-        self._integrator.step(self.z, self.act, self._dt, self.substeps)
-        clamp_to_rail(self.act, self._b, self._s_max)
-        try:
-            self.refresh()
-        except NonFiniteStateError:
-            self._retry_finer()
-        self._advance()
-        self.success[:] = self._is_success()
-        self.terminated[:] = self._is_terminated()
-        self.reward[:] = self._reward()
+        if nonfinite:
+            self._retry_finer(action)
+        if over and not self._warned_accuracy:
+            self._warned_accuracy = True
+            warnings.warn(
+                f"{over} environment(s) took a step whose estimated error exceeds the "
+                f"fidelity's tolerance: fidelity.max_substeps = "
+                f"{self.settings.fidelity.max_substeps} caps the substeps (see "
+                "core.accuracy_exceeded; raise max_substeps, or use fidelity='dopri5'). "
+                "Warned once per environment batch.",
+                AccuracyWarning,
+                stacklevel=3,
+            )
+        self._update_task(slice(None))
+        if self.scene_kernel is None:
+            self._advance()
+            self.success[:] = self._is_success()
+            self.terminated[:] = self._is_terminated()
+            self.reward[:] = self._reward()
 
-    def _retry_finer(self) -> None:
-        """Redo a step that produced non-finite values with more substeps, or give up cleanly."""
-        np.copyto(self.z, self._z_backup)
-        np.copyto(self.act, self._act_backup)
-        self.substeps *= _RETRY_FACTOR
-        self._integrator.step(self.z, self.act, self._dt, self.substeps)
-        clamp_to_rail(self.act, self._b, self._s_max)
-        if not np.all(np.isfinite(self.z)):
+    def _retry_finer(self, action: np.ndarray) -> None:
+        """Redo the rows whose step produced non-finite values with more substeps, or give up.
+
+        Only the failed rows are redone; their substep counts are restored afterwards with
+        fixed substeps (the auto rule recomputes them at every step anyway).
+        """
+        rows = np.flatnonzero(self._nonfinite).astype(np.int64)
+        self.z[rows] = self._z_backup[rows]
+        self.act[rows] = self._act_backup[rows]
+        used = self.substeps[rows].copy()
+        self.substeps[rows] = used * _RETRY_FACTOR
+        try:
+            _, nonfinite, _ = self._physics_step(action, rows, False)
+        finally:
+            if not self.settings.fidelity.auto:
+                self.substeps[rows] = used
+        if nonfinite:
+            failed = rows[self._nonfinite[rows]]
             np.copyto(self.z, self._z_backup)
             np.copyto(self.act, self._act_backup)
             self.refresh()
             raise FloatingPointError(
-                "the integration diverged even with more substeps; the state was left at the "
-                "previous step (use fidelity='auto' or more substeps)"
+                "the integration diverged even with more substeps in environment(s) "
+                f"{failed.tolist()}; the state was left at the previous step "
+                "(use fidelity='auto' or more substeps)"
             )
-        self.refresh()
 
     def info_row(self, i: int) -> dict[str, Any]:
         """The ``info`` dict of environment ``i`` (Python scalars)."""

@@ -49,6 +49,15 @@ The auto rule. With ``n`` trailers, at the start of a step (rates in 1/s):
 * ``k = max(min(k_acc, max_substeps), k_stab, 1)``: stability always wins over
   ``max_substeps`` (up to :data:`HARD_MAX_SUBSTEPS`, speeds no scene reaches).
 
+When a cap binds (``k_acc > max_substeps`` and stability does not ask for as many, or
+anything above :data:`HARD_MAX_SUBSTEPS`), the step's estimated error exceeds the
+tolerance: at ``|u| = 1000`` m/s (n = 2, dt = 0.05) one step with zero action loses
+12 % of the energy, at ``|u| = 1e8`` 91 %. Such a step is never silent: the
+environments flag its rows (``core.accuracy_exceeded``) and issue an
+:class:`AccuracyWarning` once per batch (:mod:`trailer_env.core`). Raise
+``max_substeps`` to hold the tolerance there, or use ``"dopri5"``. The scenes' own
+speeds never reach the cap (tests/trailer_env/test_extreme_states.py).
+
 How the constants were measured (default parameters, dt = 0.05 unless stated):
 states from all four scenes under random held servo and planar actions, n = 0..32,
 their speeds scaled by 0.03 .. 30 (by homogeneity, ``dt |u| / l`` from 0.002 to 1.5);
@@ -86,6 +95,7 @@ Integrators (see :func:`register_integrator` to add one):
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -96,6 +106,9 @@ from numba import njit
 from dynamics import AdaptiveStepper, ConvoyParams, Stepper
 from dynamics.adaptive import STATUS_OK
 from dynamics.params import bounded_integer, bounded_real
+
+#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 #: RK4's usable stability limit of ``dt r`` by number of trailers (linear interpolation
 #: between entries, the last value beyond): the smaller of the default convoy's and a
@@ -137,6 +150,10 @@ MAX_FIXED_SUBSTEPS = 10_000
     AUTO_INV_X_SAFE,
     AUTO_MAX_SUBSTEPS,
 ) = range(9)
+
+
+class AccuracyWarning(UserWarning):
+    """A step's estimated error exceeded the fidelity's tolerance (a substep cap bound)."""
 
 
 class BatchIntegrator(Protocol):
@@ -418,6 +435,33 @@ class Fidelity:
         return settings
 
 
+@njit(cache=True, nogil=True)
+def auto_substeps_row(z: np.ndarray, act: np.ndarray, settings: np.ndarray, i: int) -> tuple:
+    """The auto rule of the module docstring for row ``i``: (substeps, within tolerance).
+
+    The second value is False when a cap (``max_substeps`` on the accuracy rule, or
+    :data:`HARD_MAX_SUBSTEPS` on everything) keeps the count below what the error
+    estimate asks for: the step's estimated error then exceeds the tolerance.
+    """
+    speed_rate = settings[AUTO_SPEED_RATE]
+    dt = settings[AUTO_DT]
+    x_plain = dt * max(abs(z[i, 0]) * speed_rate, abs(z[i, 1]))
+    mass = settings[AUTO_MASS_SPEED] * (abs(act[i, 2]) + abs(act[i, 3])) + settings[
+        AUTO_MASS_ACCEL
+    ] * math.sqrt(abs(act[i, 4]) + abs(act[i, 5]))
+    x = max(settings[AUTO_CHAIN] * x_plain, dt * mass)
+    inv_x_safe = settings[AUTO_INV_X_SAFE]
+    if x <= settings[AUTO_X_ONE] and x_plain * inv_x_safe <= 1.0:
+        return 1, True  # the common case: no powers needed
+    if not math.isfinite(x):
+        return 1, True  # the environment reports the non-finite state
+    wanted = np.ceil(settings[AUTO_SCALE] * x**1.25)
+    accurate = min(wanted, settings[AUTO_MAX_SUBSTEPS])
+    stable = np.ceil(x_plain * inv_x_safe)
+    chosen = min(max(accurate, stable, 1.0), HARD_MAX_SUBSTEPS)
+    return int(chosen), chosen >= wanted
+
+
 @njit(cache=True)
 def auto_substeps(z: np.ndarray, act: np.ndarray, settings: np.ndarray, out: np.ndarray) -> None:
     """The auto rule of the module docstring for every row: substep counts into ``out``.
@@ -425,27 +469,5 @@ def auto_substeps(z: np.ndarray, act: np.ndarray, settings: np.ndarray, out: np.
     ``act`` must hold the accelerations of the step about to be taken; ``settings``
     comes from :meth:`Fidelity.auto_settings`.
     """
-    speed_rate = settings[AUTO_SPEED_RATE]
-    chain = settings[AUTO_CHAIN]
-    mass_speed = settings[AUTO_MASS_SPEED]
-    mass_accel = settings[AUTO_MASS_ACCEL]
-    dt = settings[AUTO_DT]
-    x_one = settings[AUTO_X_ONE]
-    scale = settings[AUTO_SCALE]
-    inv_x_safe = settings[AUTO_INV_X_SAFE]
-    max_substeps = settings[AUTO_MAX_SUBSTEPS]
     for i in range(z.shape[0]):
-        x_plain = dt * max(abs(z[i, 0]) * speed_rate, abs(z[i, 1]))
-        mass = mass_speed * (abs(act[i, 2]) + abs(act[i, 3])) + mass_accel * math.sqrt(
-            abs(act[i, 4]) + abs(act[i, 5])
-        )
-        x = max(chain * x_plain, dt * mass)
-        if x <= x_one and x_plain * inv_x_safe <= 1.0:
-            out[i] = 1  # the common case: no powers needed
-            continue
-        if not math.isfinite(x):
-            out[i] = 1  # the environment reports the non-finite state
-            continue
-        accurate = min(np.ceil(scale * x**1.25), max_substeps)
-        stable = np.ceil(x_plain * inv_x_safe)
-        out[i] = int(min(max(accurate, stable, 1.0), HARD_MAX_SUBSTEPS))
+        out[i], _ = auto_substeps_row(z, act, settings, i)

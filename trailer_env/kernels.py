@@ -1,138 +1,163 @@
-"""Numba kernels of the batch core: one call per control step for the whole batch.
+"""Numba kernels of the batch core: ONE compiled call per control step for the whole batch.
 
-Scalar settings are packed into float64 vectors once (see :class:`trailer_env.core.ConvoyCore`)
-so that a call for one environment costs well under a microsecond. Large batches
-(:data:`PARALLEL_MIN_ROWS` rows or more) use the parallel variants, which split the rows
-into chunks; every row's arithmetic is the same either way, so results do not depend on
-the batch size or the number of threads.
+:func:`step_serial` and :func:`step_parallel` run the whole physics pipeline of a control
+step: the actuator (action -> guarded mass acceleration), the fidelity's auto substep
+rule, a backup of the state, RK4 on blocks of rows (:mod:`dynamics.jit`'s block kernels,
+the package's one implementation of the equations) with a fold test after every substep,
+the rail guard, and the observation, singular margin, cost, jackknife flag and energy of
+every row, computed on the block while it is still held as structure of arrays. A scene
+whose reward and termination are array formulas adds them in its own small kernel that
+calls :func:`step_serial` first (see :mod:`trailer_env.scenes.reverse`), so its whole
+step stays one call; batches large enough for :func:`step_parallel` call the scene's
+formulas in a second call (numba can crash loading from its disk cache a function that
+calls a parallel one).
+
+Scalar settings are packed once into tuples (see :class:`trailer_env.core.ConvoyCore`), so
+a call for one environment costs about a microsecond. Large batches
+(:data:`PARALLEL_MIN_ROWS` rows or more) use the parallel variant, which splits the rows
+into chunks; every row's arithmetic is the same either way (the blocks share loops, not
+operations), so results do not depend on the batch size or the number of threads.
 """
 
 from __future__ import annotations
 
-import math
+import os
 
 import numpy as np
 from numba import prange
 
-from dynamics.jit import cached_njit, energy_row, is_folded_row, singular_margin_row
+from dynamics.jit import (
+    LANES,
+    ROW_PATH_MAX_ROWS,
+    advance_block,
+    advance_mass_row,
+    advance_row,
+    block_order,
+    cached_njit,
+    energy_block_from_trig,
+    gather_block,
+    is_folded_row,
+    new_workspace,
+    scatter_block,
+    sincos_block,
+)
 from trailer_env import actuator, fidelity
-from trailer_env.actuator import apply_actions
-from trailer_env.fidelity import auto_substeps
+from trailer_env.actuator import apply_action_row, clamp_row_to_rail, first_non_finite_row
+from trailer_env.fidelity import auto_substeps_row
 
-#: Batches at least this large use the parallel kernels.
-PARALLEL_MIN_ROWS = 256
-_CHUNK = 64
+#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
+
+#: Batches at least this large use the parallel kernels (benchmarks/README.md, "Threads").
+PARALLEL_MIN_ROWS = 1024
+#: Rows per parallel chunk (a multiple of the block size).
+_CHUNK = 4 * LANES
 
 # Indices into the packed observation settings.
 OBS_B, OBS_S_MAX, OBS_SPEED_MAX, OBS_BAND, OBS_FOLD = range(5)
+_DEPENDS = (actuator, fidelity)
 
 
-@cached_njit(depends_on=(actuator, fidelity))
-def prepare_step(
-    action: np.ndarray,
+@cached_njit(depends_on=_DEPENDS)
+def observe_block(
     z: np.ndarray,
-    act: np.ndarray,
-    mode: int,
-    b: float,
-    s_max: float,
-    accel_max: float,
-    dt: float,
-    frequency: float,
-    auto: bool,
-    auto_settings: np.ndarray,
-    substeps: np.ndarray,
-    z_backup: np.ndarray,
-    act_backup: np.ndarray,
-) -> int:
-    """Actions -> guarded accelerations, substep counts, and a backup of the state.
-
-    With ``auto``, the substeps of every row follow the fidelity's auto rule
-    (:func:`trailer_env.fidelity.auto_substeps`, settings from
-    :meth:`~trailer_env.fidelity.Fidelity.auto_settings`) given the new accelerations.
-    Returns -1, or the first row with a non-finite action (then nothing is changed
-    beyond the accelerations of the rows before it).
-    """
-    bad = apply_actions(action, act, mode, b, s_max, accel_max, dt, frequency)
-    if bad >= 0:
-        return bad
-    if auto:
-        auto_substeps(z, act, auto_settings, substeps)
-    z_backup[:, :] = z
-    act_backup[:, :] = act
-    return -1
-
-
-@cached_njit(depends_on=(actuator, fidelity))
-def _observe_row(
-    i: int,
-    z: np.ndarray,
-    act: np.ndarray,
-    n: int,
-    planar: bool,
-    settings: np.ndarray,
-    pv: np.ndarray,
-    obs: np.ndarray,
-    margin: np.ndarray,
-    cost: np.ndarray,
-    jackknifed: np.ndarray,
-    energy: np.ndarray,
-    scratch: np.ndarray,
-) -> bool:
-    for j in range(z.shape[1]):
-        if not math.isfinite(z[i, j]):
-            return False
-    b = settings[OBS_B]
-    s_max = settings[OBS_S_MAX]
-    speed_max = settings[OBS_SPEED_MAX]
-    obs[i, 0] = z[i, 0]
-    obs[i, 1] = z[i, 1]
-    for k in range(n):
-        obs[i, 2 + k] = math.sin(z[i, 2 + k])
-        obs[i, 2 + n + k] = math.cos(z[i, 2 + k])
-    row_margin = singular_margin_row(z[i], 2, n)
-    folded = is_folded_row(z[i], 2, n, settings[OBS_FOLD])
-    base = 2 + 2 * n
-    if planar:
-        obs[i, base] = (act[i, 0] - b) / s_max
-        obs[i, base + 1] = act[i, 1] / s_max
-        obs[i, base + 2] = min(max(act[i, 2] / speed_max, -1.0), 1.0)
-        obs[i, base + 3] = min(max(act[i, 3] / speed_max, -1.0), 1.0)
-    else:
-        obs[i, base] = act[i, 1] / s_max
-        obs[i, base + 1] = min(max(act[i, 3] / speed_max, -1.0), 1.0)
-    margin[i] = row_margin
-    cost[i] = 1.0 if row_margin < settings[OBS_BAND] else 0.0
-    jackknifed[i] = folded
-    energy[i] = energy_row(pv, z[i], n, act[i], scratch)
-    return True
-
-
-@cached_njit(depends_on=(actuator, fidelity))
-def _observe_rows(
-    z: np.ndarray,
-    act: np.ndarray,
     rows: np.ndarray,
+    nb: int,
     n: int,
     planar: bool,
     settings: np.ndarray,
     pv: np.ndarray,
     outputs: tuple,
-    start: int,
-    stop: int,
+    workspace: tuple,
+    fold_checked: bool,
 ) -> int:
-    """:func:`_observe_row` on ``rows[start:stop]``; returns how many were not finite."""
-    obs, margin, cost, jackknifed, energy = outputs
-    scratch = np.empty(max(n, 1))
+    """Observation, margin, cost, jackknife flag and energy of the gathered block ``rows[:nb]``.
+
+    The workspace must hold ``z`` and ``act`` of those rows
+    (:func:`dynamics.jit.gather_block`). ``jackknifed`` is OR-ed with the fold test at
+    the current state (the step kernel clears it and latches folds between control
+    instants before). The margin and the fold test are :func:`dynamics.singular_margin`'s
+    and :func:`dynamics.is_jackknifed`'s; so is the energy. Rows holding a non-finite
+    value are left untouched and flagged in ``nonfinite``; returns their number.
+    ``outputs`` is ``(obs, margin, cost, jackknifed, energy, nonfinite, hitch_trig)``,
+    ``hitch_trig`` (B, 2n) receiving sin(alpha_k) then cos(alpha_k) in float64 (for the
+    scenes' formulas). With ``fold_checked`` the current state's fold test is skipped:
+    the step kernel's per-substep test has just done it.
+    """
+    obs, margin, cost, jackknifed, energy, nonfinite, hitch_trig = outputs
+    y, _, deriv, _, mass0, work, lane_scalars, trig, _ = workspace
+    width = y.shape[0]
+    finite = lane_scalars[2]
+    for lane in range(nb):
+        finite[lane] = 0.0
+    for j in range(width):
+        for lane in range(nb):
+            finite[lane] += y[j, lane] * 0.0  # stays 0 unless a value is NaN or infinite
+    for k in range(n):
+        sincos_block(y[2 + k], trig[k], trig[n + k], nb)
+    energies = lane_scalars[0]
+    energy_block_from_trig(pv, y, n, mass0, trig, deriv, work, energies, nb)
+    b = settings[OBS_B]
+    s_max = settings[OBS_S_MAX]
+    speed_max = settings[OBS_SPEED_MAX]
+    band = settings[OBS_BAND]
+    fold_angle = settings[OBS_FOLD]
     bad = 0
-    for j in range(start, stop):
-        if not _observe_row(
-            rows[j], z, act, n, planar, settings, pv, obs, margin, cost, jackknifed, energy, scratch
-        ):
+    base = 2 + 2 * n
+    for lane in range(nb):
+        i = rows[lane]
+        if finite[lane] != 0.0:
+            nonfinite[i] = True
             bad += 1
+            continue
+        nonfinite[i] = False
+        obs[i, 0] = y[0, lane]
+        obs[i, 1] = y[1, lane]
+        row_margin = 1.0
+        for k in range(n):
+            sin_k = trig[k, lane]
+            cos_k = trig[n + k, lane]
+            hitch_trig[i, k] = sin_k
+            hitch_trig[i, n + k] = cos_k
+            obs[i, 2 + k] = sin_k
+            obs[i, 2 + n + k] = cos_k
+            if k < n - 1:
+                row_margin = min(row_margin, abs(cos_k))
+        if planar:
+            obs[i, base] = (mass0[0, lane] - b) / s_max
+            obs[i, base + 1] = mass0[1, lane] / s_max
+            obs[i, base + 2] = min(max(mass0[2, lane] / speed_max, -1.0), 1.0)
+            obs[i, base + 3] = min(max(mass0[3, lane] / speed_max, -1.0), 1.0)
+        else:
+            obs[i, base] = mass0[1, lane] / s_max
+            obs[i, base + 1] = min(max(mass0[3, lane] / speed_max, -1.0), 1.0)
+        margin[i] = row_margin
+        cost[i] = 1.0 if row_margin < band else 0.0
+        if not fold_checked:
+            jackknifed[i] = jackknifed[i] or is_folded_row(z[i], 2, n, fold_angle)
+        energy[i] = energies[lane]
     return bad
 
 
-@cached_njit(depends_on=(actuator, fidelity))
+@cached_njit(depends_on=_DEPENDS)
+def _observe_rows(
+    z: np.ndarray, act: np.ndarray, rows: np.ndarray, start: int, stop: int, n: int,
+    planar: bool, settings: np.ndarray, pv: np.ndarray, outputs: tuple,
+) -> int:  # fmt: skip
+    workspace = new_workspace(z.shape[1])
+    jackknifed = outputs[3]
+    bad = 0
+    for first in range(start, stop, LANES):
+        block = rows[first : min(stop, first + LANES)]
+        nb = block.shape[0]
+        for lane in range(nb):
+            jackknifed[block[lane]] = False
+        gather_block(z, act, block, nb, workspace)
+        bad += observe_block(z, block, nb, n, planar, settings, pv, outputs, workspace, False)
+    return bad
+
+
+@cached_njit(depends_on=_DEPENDS)
 def observe(
     z: np.ndarray,
     act: np.ndarray,
@@ -141,43 +166,164 @@ def observe(
     planar: bool,
     settings: np.ndarray,
     pv: np.ndarray,
-    obs: np.ndarray,
-    margin: np.ndarray,
-    cost: np.ndarray,
-    jackknifed: np.ndarray,
-    energy: np.ndarray,
+    outputs: tuple,
 ) -> int:
-    """Common observation, singular margin, cost, jackknife flag and energy of ``rows``.
+    """:func:`observe_block` on ``rows`` (the state as it is: resets, states set by hand).
 
-    The margin and the jackknife test are :mod:`dynamics.jit`'s (as
-    :func:`dynamics.singular_margin` and :func:`dynamics.is_jackknifed` define them);
-    so is the energy. Returns the number of rows holding a non-finite value (they are
-    left untouched).
+    ``outputs`` is that of :func:`observe_block`. Returns the
+    number of rows holding a non-finite value (they are left untouched).
     """
-    outputs = (obs, margin, cost, jackknifed, energy)
-    return _observe_rows(z, act, rows, n, planar, settings, pv, outputs, 0, rows.shape[0])
+    return _observe_rows(z, act, rows, 0, rows.shape[0], n, planar, settings, pv, outputs)
 
 
-@cached_njit(depends_on=(actuator, fidelity), parallel=True)
-def observe_parallel(
-    z: np.ndarray,
-    act: np.ndarray,
+@cached_njit(depends_on=_DEPENDS)
+def _step_chunk(
+    action: np.ndarray,
     rows: np.ndarray,
-    n: int,
-    planar: bool,
-    settings: np.ndarray,
-    pv: np.ndarray,
-    obs: np.ndarray,
-    margin: np.ndarray,
-    cost: np.ndarray,
-    jackknifed: np.ndarray,
-    energy: np.ndarray,
-) -> int:
-    """:func:`observe` over chunks of rows on all cores."""
-    count = rows.shape[0]
-    outputs = (obs, margin, cost, jackknifed, energy)
+    start: int,
+    stop: int,
+    prepare: bool,
+    config: tuple,
+    state: tuple,
+    outputs: tuple,
+) -> tuple:
+    """The control step of ``rows[start:stop]``: (non-finite rows, rows over the tolerance)."""
+    (mode, b, s_max, accel_max, dt, frequency, auto, auto_settings, pv, n, with_pose,
+     preserve_energy, planar, obs_settings) = config  # fmt: skip
+    z, act, substeps, z_backup, act_backup, target_energy, exceeded = state
+    jackknifed = outputs[3]
+    fold_angle = obs_settings[OBS_FOLD]
+    over_tolerance = 0
+    for j in range(start, stop):
+        i = rows[j]
+        if prepare:
+            apply_action_row(action, i, act, mode, b, s_max, accel_max, dt, frequency)
+            if auto:
+                count, within = auto_substeps_row(z, act, auto_settings, i)
+                substeps[i] = count
+                exceeded[i] = not within
+                over_tolerance += not within
+            for k in range(z.shape[1]):
+                z_backup[i, k] = z[i, k]
+            for k in range(6):
+                act_backup[i, k] = act[i, k]
+        jackknifed[i] = False
+    # Blocks of equal substep counts, in a chunk-local order: per-row results do not
+    # depend on the chunking.
+    local = rows[start:stop]
+    counts = np.empty(stop - start, dtype=np.int64)
+    for j in range(stop - start):
+        counts[j] = substeps[local[j]]
+    order = local[block_order(counts)]
+    workspace = new_workspace(z.shape[1])
     bad = 0
-    for chunk in prange((count + _CHUNK - 1) // _CHUNK):
+    first = 0
+    while first < order.shape[0]:
+        count = substeps[order[first]]
+        last = first + 1
+        while last < order.shape[0] and last - first < LANES and substeps[order[last]] == count:
+            last += 1
+        block = order[first:last]
+        nb = last - first
+        if nb <= ROW_PATH_MAX_ROWS:
+            for i in block:
+                advance_row(pv, z, act, i, n, with_pose, dt, count, preserve_energy,
+                            target_energy, fold_angle, jackknifed, workspace[8])  # fmt: skip
+                advance_mass_row(act, i, dt)
+                clamp_row_to_rail(act, i, b, s_max)
+            gather_block(z, act, block, nb, workspace)
+        else:
+            gather_block(z, act, block, nb, workspace)
+            advance_block(pv, block, nb, n, with_pose, dt, count, preserve_energy,
+                          target_energy, fold_angle, jackknifed, workspace)  # fmt: skip
+            scatter_block(z, act, block, nb, dt, workspace)
+            # The block holds the new state; only the mass's new position and velocity
+            # (after the rail guard) are to be read back for the observations.
+            mass0 = workspace[4]
+            for lane in range(nb):
+                i = block[lane]
+                clamp_row_to_rail(act, i, b, s_max)
+                for j in range(4):
+                    mass0[j, lane] = act[i, j]
+        bad += observe_block(z, block, nb, n, planar, obs_settings, pv, outputs, workspace,
+                             fold_angle < np.inf)  # fmt: skip
+        first = last
+    return bad, over_tolerance
+
+
+@cached_njit(depends_on=_DEPENDS)
+def step_serial(
+    action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
+    outputs: tuple,
+) -> tuple:  # fmt: skip
+    """One control step of ``rows`` on the calling thread.
+
+    With ``prepare``: actions -> guarded accelerations (clipped to [-1, 1]), the auto
+    substep rule (``exceeded[i]`` set where a cap keeps the estimated error above the
+    tolerance), a backup of the state; without (a retry): the accelerations and
+    ``substeps`` as they are. Then RK4 with a fold test after every substep, the rail
+    guard and the observations. Returns ``(bad action row or -1, non-finite rows, rows
+    over the tolerance)``; on a bad action nothing is changed.
+    """
+    if prepare:
+        bad_action = first_non_finite_row(action, rows)
+        if bad_action >= 0:
+            return bad_action, 0, 0
+    bad, over = _step_chunk(action, rows, 0, rows.shape[0], prepare, config, state, outputs)
+    return -1, bad, over
+
+
+@cached_njit(depends_on=_DEPENDS, parallel=True)
+def step_parallel(
+    action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
+    outputs: tuple,
+) -> tuple:  # fmt: skip
+    """:func:`step_serial` over chunks of rows on numba's threads."""
+    if prepare:
+        bad_action = first_non_finite_row(action, rows)
+        if bad_action >= 0:
+            return bad_action, 0, 0
+    count = rows.shape[0]
+    n_chunks = (count + _CHUNK - 1) // _CHUNK
+    bad = np.zeros(n_chunks, dtype=np.int64)
+    over = np.zeros(n_chunks, dtype=np.int64)
+    for chunk in prange(n_chunks):
         stop = min(count, (chunk + 1) * _CHUNK)
-        bad += _observe_rows(z, act, rows, n, planar, settings, pv, outputs, chunk * _CHUNK, stop)
-    return bad
+        bad[chunk], over[chunk] = _step_chunk(
+            action, rows, chunk * _CHUNK, stop, prepare, config, state, outputs
+        )
+    return -1, bad.sum(), over.sum()
+
+
+@cached_njit(depends_on=_DEPENDS)
+def prepare_step(
+    action: np.ndarray, rows: np.ndarray, config: tuple, state: tuple
+) -> tuple:  # fmt: skip
+    """The actuator, the auto rule and the backup alone (integrators outside this module).
+
+    Returns ``(bad action row or -1, rows over the tolerance)``.
+    """
+    (mode, b, s_max, accel_max, dt, frequency, auto, auto_settings, _, _, _, _, _,
+     _) = config  # fmt: skip
+    z, act, substeps, z_backup, act_backup, _, exceeded = state
+    bad_action = first_non_finite_row(action, rows)
+    if bad_action >= 0:
+        return bad_action, 0
+    over = 0
+    for i in rows:
+        apply_action_row(action, i, act, mode, b, s_max, accel_max, dt, frequency)
+        if auto:
+            count, within = auto_substeps_row(z, act, auto_settings, i)
+            substeps[i] = count
+            exceeded[i] = not within
+            over += not within
+        z_backup[i] = z[i]
+        act_backup[i] = act[i]
+    return -1, over
+
+
+@cached_njit(depends_on=_DEPENDS)
+def clamp_rows_to_rail(act: np.ndarray, rows: np.ndarray, b: float, s_max: float) -> None:
+    """:func:`trailer_env.actuator.clamp_row_to_rail` for ``rows``."""
+    for i in rows:
+        clamp_row_to_rail(act, i, b, s_max)

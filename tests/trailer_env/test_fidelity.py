@@ -166,6 +166,8 @@ def test_substeps_grow_with_speed_shrink_with_hitch_length_and_count_the_mass() 
     assert substeps_for(fidelity, long_convoy, reversing, rail_act(long_convoy, 1))[0] > 1
 
 
+# At h |u| / l = 100 the max_substeps cap binds by design (stability decides): warned.
+@pytest.mark.filterwarnings("ignore::trailer_env.fidelity.AccuracyWarning")
 @pytest.mark.parametrize("n", [1, 3, 8])
 def test_no_non_finite_state_across_a_sweep_of_dimensionless_speeds(n: int) -> None:
     """h |u| / l from 0.01 to 100 (initial speeds scaled), random actions, default fidelity."""

@@ -126,15 +126,15 @@ def test_large_batches_use_the_parallel_kernels_with_identical_results(
     rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import trailer_env.core
-    from trailer_env.kernels import PARALLEL_MIN_ROWS, observe_parallel
+    from trailer_env.kernels import PARALLEL_MIN_ROWS, step_parallel
 
     calls = []
 
-    def counting(*args: object) -> int:
+    def counting(*args: object) -> tuple:
         calls.append(1)
-        return int(observe_parallel(*args))
+        return step_parallel(*args)  # type: ignore[no-any-return]
 
-    monkeypatch.setattr(trailer_env.core, "observe_parallel", counting)
+    monkeypatch.setattr(trailer_env.core, "step_parallel", counting)
     count = PARALLEL_MIN_ROWS + 3  # an odd-sized last chunk
     envs = make_vec("trailer_env/Heading-v0", count)
     checked = [0, count // 2, count - 1]
@@ -149,4 +149,4 @@ def test_large_batches_use_the_parallel_kernels_with_identical_results(
             single_obs, reward, *_ = env.step(actions[i])
             np.testing.assert_array_equal(obs[i], single_obs)
             assert reward == rewards[i]
-    assert len(calls) >= 16  # the reset and every step went through the parallel kernel
+    assert len(calls) == 15  # every step went through the parallel kernel

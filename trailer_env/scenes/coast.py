@@ -4,8 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from dynamics.jit import cached_njit
+from trailer_env import actuator, fidelity, kernels
 from trailer_env.core import ShapedCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.kernels import step_serial
 
 SPEED_RANGE = (0.5, 1.5)
 #: Half-widths of the starting hitch angles and turning rate, forwards and backwards.
@@ -22,11 +25,107 @@ ANGLE_WEIGHT = 10.0
 OMEGA_WEIGHT = 1.0
 
 
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def coast_potential(z: np.ndarray, hitch_trig: np.ndarray, i: int, n: int) -> float:
+    """Potential of row ``i``: -10 mean_k (1 - cos alpha_k) - min(|omega|, 1).
+
+    ``hitch_trig`` holds cos(alpha_k) in columns n .. 2n-1
+    (:attr:`trailer_env.core.ConvoyCore.hitch_trig`).
+    """
+    omega_term = OMEGA_WEIGHT * min(abs(z[i, 1]), 1.0)
+    if n == 0:
+        return -omega_term
+    total = 0.0
+    for k in range(n):
+        total += 1.0 - hitch_trig[i, n + k]
+    return -ANGLE_WEIGHT * (total / n) - omega_term
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def coast_potentials(z: np.ndarray, hitch_trig: np.ndarray, n: int, out: np.ndarray) -> None:
+    """:func:`coast_potential` of every row into ``out``."""
+    for i in range(z.shape[0]):
+        out[i] = coast_potential(z, hitch_trig, i, n)
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def coast_is_straight(z: np.ndarray, i: int, n: int) -> bool:
+    """Every |alpha_k| below SUCCESS_ANGLE and |omega| below SUCCESS_OMEGA."""
+    if not abs(z[i, 1]) < SUCCESS_OMEGA:
+        return False
+    for k in range(n):  # noqa: SIM110 - a loop numba compiles, not a generator
+        if not abs(z[i, 2 + k]) < SUCCESS_ANGLE:
+            return False
+    return True
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def coast_straight_rows(z: np.ndarray, n: int, out: np.ndarray) -> None:
+    """:func:`coast_is_straight` of every row into ``out``."""
+    for i in range(z.shape[0]):
+        out[i] = coast_is_straight(z, i, n)
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
+    """ShapedCore's reward, termination and success of ``rows`` after a step."""
+    (z, n, previous, failed, reward, terminated, success, time_penalty, band_penalty,
+     success_bonus, fold_penalty) = scene  # fmt: skip
+    cost = outputs[2]
+    jackknifed = outputs[3]
+    hitch_trig = outputs[6]
+    for i in rows:
+        straight = coast_is_straight(z, i, n)
+        potential = coast_potential(z, hitch_trig, i, n)
+        success[i] = straight
+        failed[i] = False
+        terminated[i] = jackknifed[i] or straight
+        reward[i] = (
+            potential
+            - previous[i]
+            - time_penalty
+            - band_penalty * cost[i]
+            + success_bonus * straight
+            - fold_penalty * jackknifed[i]
+        )
+        previous[i] = potential
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def coast_step(
+    action: np.ndarray,
+    rows: np.ndarray,
+    prepare: bool,
+    config: tuple,
+    state: tuple,
+    outputs: tuple,
+    scene: tuple,
+) -> tuple:
+    """The control step of Coast-v0 in one call: physics, then :func:`coast_outcome`."""
+    result = step_serial(action, rows, prepare, config, state, outputs)
+    if result[0] < 0:
+        coast_outcome(rows, outputs, scene)
+    return result
+
+
 class CoastCore(ShapedCore):
-    """Batched task logic of Coast-v0 (no task features, no pose)."""
+    """Batched task logic of Coast-v0 (no task features, no pose).
+
+    The step's reward and termination run inside the step kernel (:func:`coast_step`),
+    with the formulas of :class:`~trailer_env.core.ShapedCore` and the hooks below.
+    """
 
     scene = "Coast"
     max_episode_steps = 300
+    scene_kernel = staticmethod(coast_step)
+    scene_outcome = staticmethod(coast_outcome)
+
+    def _scene_arguments(self) -> tuple:
+        return (
+            self.z, self.n, self.previous_potential, self.failed, self.reward, self.terminated,
+            self.success, float(self.time_penalty), float(self.band_penalty),
+            float(self.success_bonus), float(self.fold_penalty),
+        )  # fmt: skip
 
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:
         z = self.z[i]
@@ -41,20 +140,17 @@ class CoastCore(ShapedCore):
                 return
 
     def _potential(self) -> np.ndarray:
-        z = self.z
-        omega_term = OMEGA_WEIGHT * np.minimum(np.abs(z[:, 1]), 1.0)
-        if self.n == 0:
-            return -omega_term
-        return -ANGLE_WEIGHT * np.mean(1.0 - np.cos(z[:, 2 : 2 + self.n]), axis=1) - omega_term
+        out = np.empty(self.batch_size)
+        coast_potentials(self.z, self.hitch_trig, self.n, out)
+        return out
 
     def _is_success(self) -> np.ndarray:
         return _is_straight(self.z, self.n)
 
 
 def _is_straight(z: np.ndarray, n: int) -> np.ndarray:
-    straight = np.abs(z[:, 1]) < SUCCESS_OMEGA
-    if n > 0:
-        straight &= np.max(np.abs(z[:, 2 : 2 + n]), axis=1) < SUCCESS_ANGLE
+    straight = np.empty(z.shape[0], dtype=bool)
+    coast_straight_rows(z, n, straight)
     return straight
 
 

@@ -7,8 +7,11 @@ import math
 import numpy as np
 from numba import njit
 
+from dynamics.jit import cached_njit
+from trailer_env import actuator, fidelity, kernels
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.kernels import step_serial
 
 #: Starting speed range (reversing), m/s, and the half-widths of the starting perturbations.
 SPEED_RANGE = (0.8, 1.2)
@@ -42,12 +45,81 @@ def reverse_reward(
         out[i] = reward
 
 
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def reverse_rows(
+    z: np.ndarray,
+    hitch_trig: np.ndarray,
+    rows: np.ndarray,
+    n: int,
+    cost: np.ndarray,
+    jackknifed: np.ndarray,
+    band_penalty: float,
+    fold_penalty: float,
+    reward: np.ndarray,
+    terminated: np.ndarray,
+    success: np.ndarray,
+) -> None:
+    """Reward, termination and success of ``rows`` (the hooks of ReverseCore, row by row).
+
+    ``hitch_trig`` holds the cosines of the hitch angles in columns n .. 2n-1
+    (:attr:`trailer_env.core.ConvoyCore.hitch_trig`), equal to
+    :func:`reverse_reward`'s ``math.cos`` to 1 ulp.
+    """
+    for i in rows:
+        stopped = z[i, 0] >= 0.0
+        failed = jackknifed[i] or stopped
+        straightness = 1.0
+        if n > 0:
+            total = 0.0
+            for k in range(n):
+                total += hitch_trig[i, n + k]
+            straightness = total / n
+        omega = z[i, 1]
+        value = straightness - TURN_WEIGHT * min(omega * omega, 1.0) - band_penalty * cost[i]
+        if failed:
+            value -= fold_penalty
+        reward[i] = value
+        terminated[i] = failed
+        success[i] = not failed
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
+    """Reward, termination and success of ``rows`` after a step (:func:`reverse_rows`)."""
+    z, n, band_penalty, fold_penalty, reward, terminated, success = scene
+    reverse_rows(z, outputs[6], rows, n, outputs[2], outputs[3], band_penalty, fold_penalty,
+                 reward, terminated, success)  # fmt: skip
+
+
+@cached_njit(depends_on=(actuator, fidelity, kernels))
+def reverse_step(
+    action: np.ndarray,
+    rows: np.ndarray,
+    prepare: bool,
+    config: tuple,
+    state: tuple,
+    outputs: tuple,
+    scene: tuple,
+) -> tuple:
+    """The control step of Reverse-v0 in one call: physics, then :func:`reverse_outcome`."""
+    result = step_serial(action, rows, prepare, config, state, outputs)
+    if result[0] < 0:
+        reverse_outcome(rows, outputs, scene)
+    return result
+
+
 class ReverseCore(ConvoyCore):
     """Batched task logic of Reverse-v0 (no task features, no pose)."""
 
     scene = "Reverse"
     max_episode_steps = 400
     headline_metric = "safe_rate"
+    scene_kernel = staticmethod(reverse_step)
+    scene_outcome = staticmethod(reverse_outcome)
+
+    def _scene_arguments(self) -> tuple:
+        return (self.z, self.n, float(self.band_penalty), float(self.fold_penalty), self.reward,
+                self.terminated, self.success)  # fmt: skip
 
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:
         z = self.z[i]
