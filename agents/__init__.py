@@ -8,7 +8,6 @@ Modules (one concept each):
 * :mod:`agents.metrics`: seeded batched rollouts and the safety metrics;
 * :mod:`agents.config`: rl-zoo3 hyperparameter files (``agents/hyperparams/*.yml``);
 * :mod:`agents.callbacks`: periodic evaluation during training (learning curves);
-* :mod:`agents.wrappers`: training-time reward wrappers;
 * :mod:`agents.plots`: learning curves, margin histograms, rendered frames, episode videos;
 * :mod:`agents.model_files`: model files without pickles (JSON statistics, safe SB3 loads);
 * :mod:`agents.rllib_backend`: distributed PPO on Ray RLlib (``train --backend rllib``);

@@ -83,8 +83,6 @@ def curve_panel(
         curve = Path(evaluation.spec).with_suffix(".csv")
         if evaluation.card and curve.is_file():
             name = str(evaluation.card.get("algo", evaluation.label)).upper()
-            if evaluation.card.get("forward_penalty"):
-                name += " + forward penalty"
             curves[name] = curve
     levels = {
         evaluation.label: evaluation.summary[metric]

@@ -70,7 +70,6 @@ from agents.policies import (
     pickled_stats_path,
     stats_path,
 )
-from agents.wrappers import ForwardPenalty
 
 
 def default_run_dir(env_id: str, algo: str, n_trailers: int, seed: int) -> Path:
@@ -198,12 +197,6 @@ def build_parser() -> argparse.ArgumentParser:
         "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
     )
     parser.add_argument(
-        "--forward-penalty",
-        type=float,
-        default=0.0,
-        help="extra training penalty per step moving forwards (agents.wrappers; default 0)",
-    )
-    parser.add_argument(
         "--torch-threads", type=_positive_int, default=1, help="torch CPU threads (default 1)"
     )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -276,7 +269,6 @@ def train(
     eval_freq: int | None = None,
     eval_episodes: int = 50,
     checkpoint_freq: int | None = None,
-    forward_penalty: float = 0.0,
     progress_bar: bool = True,
     verbose: int = 1,
     command: list[str] | None = None,
@@ -295,8 +287,6 @@ def train(
         n_envs: Batch size override.
         resume: Checkpoint to continue from.
         eval_freq, eval_episodes, checkpoint_freq: Evaluation and checkpoint schedule.
-        forward_penalty: Extra training reward charged per step of forward motion
-            (:class:`agents.wrappers.ForwardPenalty`); 0 trains on the scene's reward.
         progress_bar: Show SB3's progress bar (needs tqdm and rich).
         verbose: 1 prints one line per evaluation.
         command: The command line, recorded in the config and the model cards.
@@ -321,8 +311,6 @@ def train(
     run_dir.mkdir(parents=True, exist_ok=True)
     start_steps = 0
     venv = make_sb3_env(env_id, batch, env_kwargs, seed=seed)
-    if forward_penalty > 0.0:
-        venv = ForwardPenalty(venv, forward_penalty)
     if hp.normalize is not None:
         normalize = {"gamma": hp.algo_kwargs.get("gamma", 0.99), **hp.normalize}
         venv = VecNormalize(venv, **normalize)
@@ -371,7 +359,6 @@ def train(
         "policy": hp.policy,
         "hyperparams": _jsonable(hp.algo_kwargs),
         "normalize": hp.normalize,
-        "forward_penalty": forward_penalty,
         "command": command or [],
     }
     (run_dir / "config.json").write_text(json.dumps(config, indent=2, sort_keys=True) + "\n")
@@ -538,13 +525,10 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2, with a message)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if not args.forward_penalty >= 0.0:
-        parser.error(f"argument --forward-penalty: must be >= 0, got {args.forward_penalty}")
     if args.backend == "rllib":
         for name, unsupported in (
             ("--resume", args.resume is not None),
             ("--export", args.export is not None),
-            ("--forward-penalty", args.forward_penalty > 0.0),
         ):
             if unsupported:
                 parser.error(f"argument {name}: not supported with --backend rllib")
@@ -614,7 +598,6 @@ def main(argv: list[str] | None = None) -> int:
         eval_freq=args.eval_freq,
         eval_episodes=args.eval_episodes,
         checkpoint_freq=args.checkpoint_freq,
-        forward_penalty=args.forward_penalty,
         progress_bar=not args.no_progress,
         verbose=0 if args.quiet else 1,
         command=command,
