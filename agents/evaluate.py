@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.baselines import BASELINES, Policy
-from agents.envs import ENV_IDS, check_env_id, env_settings
+from agents.envs import ENV_IDS, check_env_id, env_settings, headline_metric, scene_baselines
 from agents.metrics import EpisodeResults, rollout, summarize
 from agents.policies import (
     MODELS_DIR,
@@ -68,14 +68,13 @@ class Evaluation:
 
 
 def curve_metric(env_id: str) -> str:
-    """The headline rate of a scene: safety for Reverse-v0, task success elsewhere."""
-    return "safe_rate" if "Reverse" in env_id else "success_rate"
+    """The headline rate of a scene, as its core declares it (``headline_metric``)."""
+    return headline_metric(env_id)
 
 
 def default_baselines(env_id: str) -> list[str]:
-    """The baselines that fit ``env_id`` (heading-p only for Heading-v0)."""
-    names = ["zero", "random", "lqr"]
-    return [*names, "heading-p"] if "Heading" in env_id else names
+    """The baselines that fit ``env_id``, as its core declares them (``baselines``)."""
+    return list(scene_baselines(env_id))
 
 
 def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[Path]:
@@ -224,6 +223,27 @@ def results_document(
     }
 
 
+def learning_curve(evaluation: Evaluation) -> Path | None:
+    """The learning curve (``evaluations.csv`` exported as ``<model>.csv``) of a model, if any."""
+    if not is_model_spec(evaluation.spec):
+        return None
+    curve = Path(evaluation.spec).with_suffix(".csv")
+    return curve if curve.is_file() else None
+
+
+def baseline_levels(evaluations: Sequence[Evaluation], metric: str) -> dict[str, float]:
+    """The baselines' ``metric``, drawn as levels over the learning curves.
+
+    The random baseline is left out: it marks no level a trained agent is measured
+    against (zero and the controllers do).
+    """
+    return {
+        e.label: e.summary[metric]
+        for e in evaluations
+        if not is_model_spec(e.spec) and e.label != "random"
+    }
+
+
 def write_pictures(
     evaluations: Sequence[Evaluation],
     env_id: str,
@@ -254,22 +274,17 @@ def write_pictures(
         rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
     if rows:
         written.append(plots.plot_frames(rows, out / f"{prefix}frames.png"))
-    curves = {
-        e.label: Path(e.spec).with_suffix(".csv")
-        for e in evaluations
-        if is_model_spec(e.spec) and Path(e.spec).with_suffix(".csv").is_file()
-    }
+    curves = {e.label: curve for e in evaluations if (curve := learning_curve(e)) is not None}
     if curves:
         metric = curve_metric(env_id)
-        baselines = {
-            e.label: e.summary[metric]
-            for e in evaluations
-            if e.label in ("zero", "lqr", "heading-p")
-        }
         title = f"{env_id}, n = {n}: validation episodes during training"
         written.append(
             plots.plot_learning_curves(
-                curves, out / f"{prefix}curves.png", baselines, title, metric
+                curves,
+                out / f"{prefix}curves.png",
+                baseline_levels(evaluations, metric),
+                title,
+                metric,
             )
         )
     return written

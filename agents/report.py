@@ -2,8 +2,9 @@
 
 Run with ``python -m agents.report [--img docs/img] [--out out/report] [--episodes 100]``.
 
-For Reverse-v0 with n = 1, 2, 3 and Heading-v0 with n = 2 it evaluates the
-baselines and every committed model (``agents/models/``) on the same seeded
+For every scene and number of trailers that a committed model was trained on
+(Reverse-v0 with n = 1, 2, 3 and Heading-v0 with n = 2 today) it evaluates the
+scene's baselines and every committed model (``agents/models/``) on the same seeded
 episodes (seeds 1000 ..), prints one Markdown table per scene (also written to
 ``<out>/tables.md`` with the JSON results), and writes the pictures
 ``agents_curves.png`` (learning curves of all committed agents),
@@ -20,26 +21,37 @@ import time
 from pathlib import Path
 
 from agents import plots
+from agents.envs import ENV_IDS
 from agents.evaluate import (
     TEST_SEED,
     Evaluation,
+    baseline_levels,
     committed_models,
     curve_metric,
     default_baselines,
     evaluate_policies,
+    learning_curve,
     markdown_table,
     results_document,
     write_pictures,
 )
-from agents.policies import limit_torch_threads
+from agents.policies import MODELS_DIR, limit_torch_threads, read_card
+
+
+def committed_scenarios(directory: Path = MODELS_DIR) -> tuple[tuple[str, int], ...]:
+    """(environment id, number of trailers) of every committed model's card, in the scene
+    table's order, then by n: the scenarios the README reports."""
+    found = set()
+    for path in directory.glob("*.zip"):
+        card = read_card(path)
+        env_id, n = card.get("env_id"), card.get("env_kwargs", {}).get("n_trailers")
+        if env_id in ENV_IDS and isinstance(n, int):
+            found.add((env_id, n))
+    return tuple(sorted(found, key=lambda scenario: (ENV_IDS.index(scenario[0]), scenario[1])))
+
 
 #: (environment id, number of trailers) of the README's results.
-SCENARIOS: tuple[tuple[str, int], ...] = (
-    ("trailer_env/Reverse-v0", 1),
-    ("trailer_env/Reverse-v0", 2),
-    ("trailer_env/Reverse-v0", 3),
-    ("trailer_env/Heading-v0", 2),
-)
+SCENARIOS: tuple[tuple[str, int], ...] = committed_scenarios()
 #: The scenario whose margins and frames are drawn.
 HEADLINE = ("trailer_env/Reverse-v0", 2)
 #: Actuator settings of the authority sweep (ConvoyParams / EnvSettings overrides).
@@ -80,15 +92,10 @@ def curve_panel(
     metric = curve_metric(env_id)
     curves = {}
     for evaluation in evaluations:
-        curve = Path(evaluation.spec).with_suffix(".csv")
-        if evaluation.card and curve.is_file():
-            name = str(evaluation.card.get("algo", evaluation.label)).upper()
-            curves[name] = curve
-    levels = {
-        evaluation.label: evaluation.summary[metric]
-        for evaluation in evaluations
-        if evaluation.label in ("zero", "lqr", "heading-p")
-    }
+        curve = learning_curve(evaluation)
+        if evaluation.card and curve is not None:
+            curves[str(evaluation.card.get("algo", evaluation.label)).upper()] = curve
+    levels = baseline_levels(evaluations, metric)
     return f"{env_id.split('/')[1]}, n = {n}", curves, levels, metric
 
 
