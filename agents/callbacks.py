@@ -12,7 +12,6 @@ model does not peek at the reported numbers.
 from __future__ import annotations
 
 import csv
-import json
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -21,8 +20,8 @@ from typing import Any
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
 from agents.metrics import rollout, summarize
-from agents.model_files import save_stats
-from agents.policies import ModelPolicy, card_path, read_card, stats_path
+from agents.model_files import card_path, read_card, save_stats, stats_path, write_card
+from agents.policies import ModelPolicy
 
 #: First seed of the validation episodes (evaluation/test episodes start at 1000).
 VALIDATION_SEED = 50_000
@@ -190,8 +189,7 @@ class SafetyEvalCallback(BaseCallback):
             self.model.save(self.best_path)
             if stats is not None:
                 save_stats(stats, stats_path(self.best_path))
-            card = {"selected_at_timesteps": steps, "validation": row}
-            card_path(self.best_path).write_text(json.dumps(card, indent=2) + "\n")
+            write_card(self.best_path, {"selected_at_timesteps": steps, "validation": row})
         if self.verbose:
             print(
                 f"[eval] {steps:>9d} steps  return {summary['mean_return']:8.1f}  "

@@ -34,8 +34,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from agents import cli
 from agents.baselines import BASELINES, Policy
-from agents.envs import ENV_IDS, check_env_id, env_settings, headline_metric, scene_baselines
+from agents.envs import check_env_id, env_settings, headline_metric, scene_baselines
 from agents.metrics import EpisodeResults, rollout, summarize
 from agents.policies import (
     MODELS_DIR,
@@ -296,14 +297,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m agents.evaluate",
         description="Evaluate baselines and saved agents over seeded episodes.",
     )
-    parser.add_argument(
-        "--env",
-        default="trailer_env/Reverse-v0",
-        choices=ENV_IDS,
-        metavar="ENV_ID",
-        help=f"one of {', '.join(ENV_IDS)}",
-    )
-    parser.add_argument("--n-trailers", type=int, default=2, help="number of trailers (default 2)")
+    cli.add_env(parser, default="trailer_env/Reverse-v0")
+    cli.add_n_trailers(parser)
     parser.add_argument(
         "--policy",
         nargs="+",
@@ -313,13 +308,8 @@ def build_parser() -> argparse.ArgumentParser:
         "(e.g. ppo_reverse_n2), model paths (.zip) and/or RLlib checkpoint folders; "
         "default: the scene's baselines and its committed models",
     )
-    parser.add_argument("--episodes", type=int, default=100, help="episodes (default 100)")
-    parser.add_argument(
-        "--seed",
-        type=_non_negative_int,
-        default=TEST_SEED,
-        help=f"episode i is seeded seed + i (default {TEST_SEED})",
-    )
+    cli.add_episodes(parser, 100, "episodes (default 100)")
+    cli.add_seed(parser, TEST_SEED, f"episode i is seeded seed + i (default {TEST_SEED})")
     parser.add_argument(
         "--out", type=Path, default=Path("out/eval"), help="output folder (default out/eval)"
     )
@@ -333,49 +323,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--video-steps",
-        type=_non_negative_int,
+        type=cli.non_negative_int,
         default=None,
         help="cut the video after this many steps (default: the whole episode)",
     )
-    parser.add_argument(
-        "--trust-pickle",
-        action="store_true",
-        help="allow unpickling parts of the model files (only for files you trust)",
-    )
+    cli.add_trust_pickle(parser, "parts of the model files")
     parser.add_argument(
         "--force",
         action="store_true",
         help="evaluate models whose card names another environment or n_trailers",
     )
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing --video file")
+    cli.add_overwrite(parser, "replace an existing --video file")
     return parser
-
-
-def _non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
-
-
-def check_out_folder(parser: argparse.ArgumentParser, out: Path, name: str = "--out") -> None:
-    """Exit 2 naming the argument when ``out`` exists and is not a folder."""
-    if out.exists() and not out.is_dir():
-        parser.error(f"argument {name}: {out} exists and is not a folder")
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.n_trailers < 0:
-        parser.error(f"argument --n-trailers: must be >= 0, got {args.n_trailers}")
-    if args.episodes < 1:
-        parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
-    check_out_folder(parser, args.out)
+    cli.check_out_folder(parser, args.out)
     if args.video is not None:
         from agents.plots import VIDEO_SUFFIXES
 

@@ -20,7 +20,7 @@ import json
 import time
 from pathlib import Path
 
-from agents import plots
+from agents import cli, plots
 from agents.envs import ENV_IDS
 from agents.evaluate import (
     TEST_SEED,
@@ -106,10 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--img", type=Path, default=Path("docs/img"), help="picture folder")
     parser.add_argument("--out", type=Path, default=Path("out/report"), help="tables and JSON")
-    parser.add_argument("--episodes", type=int, default=100, help="episodes per policy")
+    cli.add_episodes(parser, 100, "episodes per policy (default 100)")
     args = parser.parse_args(argv)
-    if args.episodes < 1:
-        parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
     limit_torch_threads()
     started = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)

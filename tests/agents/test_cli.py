@@ -18,6 +18,7 @@ from agents.baselines import make_baseline
 from agents.envs import env_settings, make_sb3_env
 from agents.metrics import rollout
 from agents.policies import MODELS_DIR, resolve_model
+from agents.run_folder import run_dir_of_checkpoint
 
 REVERSE = "trailer_env/Reverse-v0"
 ROOT = Path(__file__).resolve().parents[2]
@@ -266,7 +267,7 @@ def test_resuming_a_model_outside_a_run_starts_a_fresh_run_folder(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A shipped model's folder never becomes a run folder."""
-    assert train.run_dir_of_checkpoint(MODELS_DIR / "ppo_reverse_n2.zip") is None
+    assert run_dir_of_checkpoint(MODELS_DIR / "ppo_reverse_n2.zip") is None
     model = _model_copy(tmp_path / "downloads", "ppo_reverse_n1")
     monkeypatch.chdir(tmp_path)
     argv = ["--env", REVERSE, "--algo", "ppo", "--n-trailers", "1", "--resume", str(model),

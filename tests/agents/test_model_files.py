@@ -22,8 +22,9 @@ from agents.model_files import (
     restore_stats,
     safe_custom_objects,
     save_stats,
+    stats_path,
 )
-from agents.policies import MODELS_DIR, load_model, load_policy, load_stats, stats_path
+from agents.policies import MODELS_DIR, load_model, load_policy, load_stats
 
 REVERSE = "trailer_env/Reverse-v0"
 

@@ -12,6 +12,7 @@ from agents import train
 from agents.callbacks import read_curve
 from agents.envs import env_settings
 from agents.metrics import rollout, summarize
+from agents.model_files import export_model
 from agents.policies import load_model, load_policy, make_baseline
 
 REVERSE = "trailer_env/Reverse-v0"
@@ -159,6 +160,6 @@ def test_off_policy_resume_restores_the_replay_buffer(
     model = load_model(run / "final_model.zip")
     assert model.num_timesteps == 400
     export = tmp_path / "models" / "sac_reverse_n1.zip"
-    train.export_model(run, export)
+    export_model(run, export)
     assert export.is_file() and export.with_suffix(".json").is_file()
     assert export.with_suffix(".csv").is_file()
