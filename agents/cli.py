@@ -16,26 +16,26 @@ from pathlib import Path
 from agents.envs import ENV_IDS
 
 
+def _integer(text: str, minimum: int, expected: str, *, float_text: bool = False) -> int:
+    """``text`` as an integer >= ``minimum``; ``float_text`` also takes "1e6" (not "1.5")."""
+    try:
+        value = int(float(text)) if float_text else int(text)
+        valid = value >= minimum and (not float_text or value == float(text))
+    except (ValueError, OverflowError):  # "abc", "nan"; "inf"
+        valid = False
+    if not valid:
+        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
+    return value
+
+
 def positive_int(text: str) -> int:
     """An integer >= 1, also written as a float with an integral value ("1e6")."""
-    try:
-        value = int(float(text))
-    except (ValueError, OverflowError):  # "abc", "nan"; "inf"
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if value < 1 or value != float(text):
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return value
+    return _integer(text, 1, "a positive integer", float_text=True)
 
 
 def non_negative_int(text: str) -> int:
     """An integer >= 0 (a seed, a step count that may be zero)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
+    return _integer(text, 0, "an integer >= 0")
 
 
 def positive_float(text: str) -> float:
