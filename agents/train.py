@@ -72,6 +72,11 @@ from agents.policies import ALGOS, algo_class, detect_algo, limit_torch_threads,
 from agents.run_folder import RunFolderError, choose_run_dir, default_run_dir, write_config
 
 
+def _optional_positive(parser: argparse.ArgumentParser, flag: str, help: str) -> None:
+    """An optional count >= 1 whose default (None) is worked out from the other settings."""
+    parser.add_argument(flag, type=cli.positive_int, default=None, help=help)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
@@ -88,19 +93,17 @@ def build_parser() -> argparse.ArgumentParser:
     cli.add_env(parser)
     parser.add_argument("--algo", required=True, choices=sorted(ALGOS), help="algorithm")
     cli.add_n_trailers(parser)
-    parser.add_argument(
+    _optional_positive(
+        parser,
         "--timesteps",
-        type=cli.positive_int,
-        default=None,
-        help="total training budget in environment steps "
+        "total training budget in environment steps "
         "(default: n_timesteps of the hyperparameter file)",
     )
     cli.add_seed(parser, 0, "random seed (default 0)")
-    parser.add_argument(
+    _optional_positive(
+        parser,
         "--n-envs",
-        type=cli.positive_int,
-        default=None,
-        help="environments per batch (default: from the hyperparameters); "
+        "environments per batch (default: from the hyperparameters); "
         "with --backend rllib: per env runner",
     )
     parser.add_argument(
@@ -139,23 +142,15 @@ def build_parser() -> argparse.ArgumentParser:
         "parts of --resume's files (SB3 serialized entries, SAC/TD3 replay buffers, "
         "legacy .pkl statistics)",
     )
-    parser.add_argument(
-        "--eval-freq",
-        type=cli.positive_int,
-        default=None,
-        help="steps between evaluations (default: budget / 20)",
-    )
+    _optional_positive(parser, "--eval-freq", "steps between evaluations (default: budget / 20)")
     parser.add_argument(
         "--eval-episodes",
         type=cli.positive_int,
         default=50,
         help="episodes per evaluation (default 50)",
     )
-    parser.add_argument(
-        "--checkpoint-freq",
-        type=cli.positive_int,
-        default=None,
-        help="steps between checkpoints (default: budget / 5)",
+    _optional_positive(
+        parser, "--checkpoint-freq", "steps between checkpoints (default: budget / 5)"
     )
     parser.add_argument(
         "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
