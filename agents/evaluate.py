@@ -38,6 +38,7 @@ from agents import cli
 from agents.baselines import BASELINES, Policy
 from agents.envs import check_env_id, env_settings, headline_metric, scene_baselines
 from agents.metrics import EpisodeResults, rollout, summarize
+from agents.model_files import curve_path
 from agents.policies import (
     MODELS_DIR,
     is_model_spec,
@@ -228,7 +229,7 @@ def learning_curve(evaluation: Evaluation) -> Path | None:
     """The learning curve (``evaluations.csv`` exported as ``<model>.csv``) of a model, if any."""
     if not is_model_spec(evaluation.spec):
         return None
-    curve = Path(evaluation.spec).with_suffix(".csv")
+    curve = curve_path(Path(evaluation.spec))
     return curve if curve.is_file() else None
 
 

@@ -34,8 +34,9 @@ from agents.evaluate import (
     results_document,
     write_pictures,
 )
-from agents.model_files import export_files, export_model, model_stem
+from agents.model_files import export_files, model_stem
 from agents.policies import limit_torch_threads
+from agents.run_folder import export_model
 
 ENV_ID = "trailer_env/Reverse-v0"
 N_TRAILERS = 2

@@ -2,7 +2,8 @@
 
 Names: a model ``x.zip`` has its card ``x.json`` (:func:`card_path`), its observation
 statistics ``x_vecnormalize.json`` (:func:`stats_path`) and, once exported, its learning
-curve ``x.csv``; a shipped model is named ``<algo>_<scene>_n<n>`` (:func:`model_stem`).
+curve ``x.csv`` (:func:`curve_path`); a shipped model is named ``<algo>_<scene>_n<n>``
+(:func:`model_stem`).
 
 What is safe to load, and what is not:
 
@@ -29,7 +30,6 @@ from __future__ import annotations
 import json
 import math
 import re
-import shutil
 import zipfile
 from pathlib import Path
 from typing import Any
@@ -141,35 +141,16 @@ def write_card(model_path: Path, card: dict[str, Any]) -> Path:
     return write_json(card_path(model_path), card)
 
 
+def curve_path(model_path: Path) -> Path:
+    """Where an exported model's learning curve lives (``x.zip`` -> ``x.csv``)."""
+    return model_path.with_suffix(".csv")
+
+
 def export_files(destination: Path) -> list[Path]:
-    """The files :func:`export_model` writes for ``destination``: model, card, statistics, curve."""
+    """The files of a model exported to ``destination``: model, card, statistics, curve
+    (:func:`agents.run_folder.export_model`)."""
     model = destination.with_suffix(".zip")
-    return [model, card_path(model), stats_path(model), model.with_suffix(".csv")]
-
-
-def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> Path:
-    """Copy ``best_model.zip``, its card, statistics and ``evaluations.csv`` to ``destination``.
-
-    Raises:
-        FileNotFoundError: If the run has no best model.
-        FileExistsError: If one of the destination files exists and ``overwrite`` is false.
-    """
-    source = run_dir / "best_model.zip"
-    if not source.is_file():
-        raise FileNotFoundError(f"{run_dir} has no best_model.zip to export")
-    existing = [path for path in export_files(destination) if path.exists()]
-    if existing and not overwrite:
-        raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
-    destination = destination.with_suffix(".zip")
-    destination.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(source, destination)
-    for sidecar in (card_path, stats_path):
-        if sidecar(source).is_file():
-            shutil.copyfile(sidecar(source), sidecar(destination))
-    curve = run_dir / "evaluations.csv"
-    if curve.is_file():
-        shutil.copyfile(curve, destination.with_suffix(".csv"))
-    return destination
+    return [model, card_path(model), stats_path(model), curve_path(model)]
 
 
 def stats_document(vecnormalize: Any) -> dict[str, Any]:

@@ -27,6 +27,7 @@ from agents.model_files import (
     read_stats,
     stats_path,
 )
+from agents.run_folder import RLLIB_CHECKPOINT
 
 #: Algorithm name (as on the command line) -> stable-baselines3 class name.
 ALGOS: dict[str, str] = {"ppo": "PPO", "sac": "SAC", "td3": "TD3"}
@@ -204,7 +205,7 @@ def policy_label(spec: str) -> str:
     if not is_model_spec(spec):
         return spec
     path = Path(resolve_model(spec))
-    if path.is_dir() and path.name == "checkpoint":
+    if path.is_dir() and path.name == RLLIB_CHECKPOINT:
         return path.resolve().parent.name  # an RLlib run's checkpoint: the run's name
     return path.stem
 

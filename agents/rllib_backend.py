@@ -52,7 +52,7 @@ import numpy as np
 from agents.baselines import Policy
 from agents.config import Hyperparams, TrainConfig
 from agents.model_files import write_json
-from agents.run_folder import write_config
+from agents.run_folder import PROGRESS_FILE, RLLIB_CHECKPOINT, write_config
 
 #: The name under which :func:`register_trailer_env` registers the env creator.
 RLLIB_ENV_NAME = "trailer_env_rllib"
@@ -306,11 +306,11 @@ def train_rllib(
                     flush=True,
                 )
         wall = time.perf_counter() - started
-        with (run_dir / "progress.csv").open("w", newline="") as handle:
+        with (run_dir / PROGRESS_FILE).open("w", newline="") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows(rows)
-        checkpoint = run_dir / "checkpoint"
+        checkpoint = run_dir / RLLIB_CHECKPOINT
         algorithm.save_to_path(str(checkpoint.resolve()))
         record.update(
             {

@@ -13,22 +13,32 @@ from pathlib import Path
 from typing import Any
 
 from agents.envs import scene_of
-from agents.model_files import write_json
+from agents.model_files import card_path, curve_path, export_files, stats_path, write_json
 
 #: The run's record (:meth:`agents.config.TrainConfig.document`).
 CONFIG_FILE = "config.json"
+#: The learning curve (:class:`agents.callbacks.SafetyEvalCallback`).
+CURVE_FILE = "evaluations.csv"
+#: RLlib's per-iteration statistics (:mod:`agents.rllib_backend`).
+PROGRESS_FILE = "progress.csv"
+#: The best model so far (by validation) and the model at the end of the budget.
+BEST_MODEL = "best_model.zip"
+FINAL_MODEL = "final_model.zip"
+#: SB3's periodic checkpoints; RLlib's checkpoint.
+CHECKPOINTS = "checkpoints"
+RLLIB_CHECKPOINT = "checkpoint"
 #: Files of an earlier run that a fresh start in its folder removes (with ``--overwrite``).
 STALE_FILES = (
-    "evaluations.csv",
+    CURVE_FILE,
     CONFIG_FILE,
-    "progress.csv",
-    "best_model.zip",
-    "best_model.json",
-    "best_model_vecnormalize.json",
-    "best_model_vecnormalize.pkl",
+    PROGRESS_FILE,
+    BEST_MODEL,
+    card_path(Path(BEST_MODEL)).name,
+    stats_path(Path(BEST_MODEL)).name,
+    stats_path(Path(BEST_MODEL)).with_suffix(".pkl").name,
 )
-#: Folders of an earlier run removed likewise (SB3 checkpoints, the RLlib checkpoint).
-STALE_FOLDERS = ("checkpoints", "checkpoint")
+#: Folders of an earlier run removed likewise.
+STALE_FOLDERS = (CHECKPOINTS, RLLIB_CHECKPOINT)
 
 
 class RunFolderError(ValueError):
@@ -42,7 +52,7 @@ def default_run_dir(env_id: str, algo: str, n_trailers: int, seed: int) -> Path:
 
 def holds_run(folder: Path) -> bool:
     """Whether ``folder`` already holds a run (its record or its learning curve)."""
-    return (folder / "evaluations.csv").exists() or (folder / CONFIG_FILE).exists()
+    return (folder / CURVE_FILE).exists() or (folder / CONFIG_FILE).exists()
 
 
 def run_dir_of_checkpoint(checkpoint: Path) -> Path | None:
@@ -55,7 +65,7 @@ def run_dir_of_checkpoint(checkpoint: Path) -> Path | None:
     into one.
     """
     parent = checkpoint.resolve().parent
-    folder = parent.parent if parent.name == "checkpoints" else parent
+    folder = parent.parent if parent.name == CHECKPOINTS else parent
     return folder if (folder / CONFIG_FILE).is_file() else None
 
 
@@ -92,3 +102,28 @@ def choose_run_dir(
 def write_config(run_dir: Path, record: dict[str, Any]) -> Path:
     """Write the run's ``config.json``."""
     return write_json(run_dir / CONFIG_FILE, record)
+
+
+def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> Path:
+    """Copy the run's best model, its card, statistics and learning curve to ``destination``.
+
+    Raises:
+        FileNotFoundError: If the run has no best model.
+        FileExistsError: If one of the destination files exists and ``overwrite`` is false.
+    """
+    source = run_dir / BEST_MODEL
+    if not source.is_file():
+        raise FileNotFoundError(f"{run_dir} has no {BEST_MODEL} to export")
+    existing = [path for path in export_files(destination) if path.exists()]
+    if existing and not overwrite:
+        raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
+    destination = destination.with_suffix(".zip")
+    destination.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(source, destination)
+    for sidecar in (card_path, stats_path):
+        if sidecar(source).is_file():
+            shutil.copyfile(sidecar(source), sidecar(destination))
+    curve = run_dir / CURVE_FILE
+    if curve.is_file():
+        shutil.copyfile(curve, curve_path(destination))
+    return destination

@@ -56,7 +56,6 @@ from agents.envs import env_settings, make_sb3_env
 from agents.model_files import (
     UnsafeFileError,
     export_files,
-    export_model,
     load_pickled_stats,
     load_sb3,
     pickled_stats_path,
@@ -69,7 +68,17 @@ from agents.model_files import (
     write_card,
 )
 from agents.policies import ALGOS, algo_class, detect_algo, limit_torch_threads, load_model
-from agents.run_folder import RunFolderError, choose_run_dir, default_run_dir, write_config
+from agents.run_folder import (
+    BEST_MODEL,
+    CHECKPOINTS,
+    FINAL_MODEL,
+    RLLIB_CHECKPOINT,
+    RunFolderError,
+    choose_run_dir,
+    default_run_dir,
+    export_model,
+    write_config,
+)
 
 
 def _optional_positive(parser: argparse.ArgumentParser, flag: str, help: str) -> None:
@@ -264,7 +273,7 @@ def train(
     )
     checkpoints = StatsCheckpointCallback(
         save_freq=max((checkpoint_freq or max(budget // 5, batch)) // batch, 1),
-        save_path=str(run_dir / "checkpoints"),
+        save_path=str(run_dir / CHECKPOINTS),
         name_prefix=algo,
         save_replay_buffer=algo in ("sac", "td3"),
     )
@@ -276,13 +285,13 @@ def train(
     )
     wall = round(evaluator.wall_seconds, 1)
     record.update({"timesteps": int(model.num_timesteps), "wall_time_s": wall})
-    final = run_dir / "final_model.zip"
+    final = run_dir / FINAL_MODEL
     model.save(final)
     stats = model.get_vec_normalize_env()
     if stats is not None:
         save_stats(stats, stats_path(final))
     write_card(final, record)
-    best = run_dir / "best_model.zip"
+    best = run_dir / BEST_MODEL
     if best.is_file():
         write_card(best, {**record, **read_card(best)})
     return model
@@ -436,7 +445,7 @@ def main(argv: list[str] | None = None) -> int:
             f"trained ppo on {args.env} (n = {args.n_trailers}) with RLlib to "
             f"{record['timesteps']} steps in {time.perf_counter() - started:.0f} s "
             f"({record['env_steps_per_s']:.0f} env steps/s, {args.num_env_runners} runners); "
-            f"checkpoint {run_dir / 'checkpoint'}"
+            f"checkpoint {run_dir / RLLIB_CHECKPOINT}"
         )
         return 0
     model = train(

@@ -118,3 +118,18 @@ def test_the_agents_read_the_scene_table() -> None:
     assert model_stem("ppo", REVERSE, 2) == "ppo_reverse_n2"
     with pytest.raises(ValueError, match="heading-p baseline is for trailer_env/Heading-v0"):
         make_baseline("heading-p", env_settings({"action_mode": "servo"}), REVERSE)
+
+
+def test_report_scenarios_come_from_the_committed_cards(tmp_path: Path) -> None:
+    from agents.report import SCENARIOS, committed_scenarios
+
+    assert SCENARIOS == (
+        (REVERSE, 1), (REVERSE, 2), (REVERSE, 3), ("trailer_env/Heading-v0", 2),
+    )  # fmt: skip
+    for stem, env_id, n in (("b", "trailer_env/Dock-v0", 1), ("a", REVERSE, 4), ("c", "x", 1)):
+        (tmp_path / f"{stem}.zip").write_bytes(b"")
+        write_config(tmp_path, {})  # a stray config.json is no card
+        (tmp_path / f"{stem}.json").write_text(
+            json.dumps({"env_id": env_id, "env_kwargs": {"n_trailers": n}})
+        )
+    assert committed_scenarios(tmp_path) == ((REVERSE, 4), ("trailer_env/Dock-v0", 1))

@@ -12,8 +12,8 @@ from agents import train
 from agents.callbacks import read_curve
 from agents.envs import env_settings
 from agents.metrics import rollout, summarize
-from agents.model_files import export_model
 from agents.policies import load_model, load_policy, make_baseline
+from agents.run_folder import export_model
 from tests.agents.helpers import Touch
 
 REVERSE = "trailer_env/Reverse-v0"
