@@ -128,7 +128,6 @@ def test_report_scenarios_come_from_the_committed_cards(tmp_path: Path) -> None:
     )  # fmt: skip
     for stem, env_id, n in (("b", "trailer_env/Dock-v0", 1), ("a", REVERSE, 4), ("c", "x", 1)):
         (tmp_path / f"{stem}.zip").write_bytes(b"")
-        write_config(tmp_path, {})  # a stray config.json is no card
         (tmp_path / f"{stem}.json").write_text(
             json.dumps({"env_id": env_id, "env_kwargs": {"n_trailers": n}})
         )
