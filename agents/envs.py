@@ -30,6 +30,12 @@ def scene_of(env_id: str) -> str:
     return core_class_of(env_id).scene.lower()
 
 
+def scene_title(env_id: str) -> str:
+    """The id without its namespace, for titles: "Reverse-v0"."""
+    core = core_class_of(env_id)
+    return f"{core.scene}-v{core.version}"
+
+
 def headline_metric(env_id: str) -> str:
     """The rate reported first for the scene (a key of :func:`agents.metrics.summarize`)."""
     return core_class_of(env_id).headline_metric

@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from agents import cli, plots
-from agents.envs import ENV_IDS
+from agents.envs import ENV_IDS, scene_title
 from agents.evaluate import (
     TEST_SEED,
     Evaluation,
@@ -96,7 +96,7 @@ def curve_panel(
         if evaluation.card and curve is not None:
             curves[str(evaluation.card.get("algo", evaluation.label)).upper()] = curve
     levels = baseline_levels(evaluations, metric)
-    return f"{env_id.split('/')[1]}, n = {n}", curves, levels, metric
+    return f"{scene_title(env_id)}, n = {n}", curves, levels, metric
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -12,7 +12,7 @@ import pytest
 from agents import cli
 from agents.baselines import make_baseline
 from agents.config import TrainConfig, load_hyperparams
-from agents.envs import ENV_IDS, env_settings, scene_of
+from agents.envs import ENV_IDS, env_settings, scene_of, scene_title
 from agents.evaluate import curve_metric, default_baselines
 from agents.model_files import model_stem
 from agents.run_folder import RunFolderError, choose_run_dir, default_run_dir, write_config
@@ -112,6 +112,7 @@ def test_the_agents_read_the_scene_table() -> None:
         assert curve_metric(env_id) == core.headline_metric
         assert default_baselines(env_id) == list(core.baselines)
         assert scene_of(env_id) == core.scene.lower()
+        assert f"trailer_env/{scene_title(env_id)}" == env_id
     assert curve_metric(REVERSE) == "safe_rate"
     assert curve_metric("trailer_env/Heading-v0") == "success_rate"
     assert default_baselines("trailer_env/Heading-v0")[-1] == "heading-p"
