@@ -22,6 +22,7 @@ from collections.abc import Callable
 
 import numpy as np
 
+from agents.envs import ENV_IDS, scene_baselines
 from trailer_env.controllers import LQRController, heading_policy
 from trailer_env.settings import EnvSettings
 
@@ -92,12 +93,16 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
     Args:
         name: One of :data:`BASELINES`.
         settings: The environment's settings (``env.unwrapped.settings``).
-        env_id: The environment id (``heading-p`` exists for Heading-v0 only).
+        env_id: The environment id: its scene declares which baselines apply
+            (:func:`agents.envs.scene_baselines`).
         seed: Seed of the random baseline.
 
     Raises:
         ValueError: On an unknown name or a baseline that does not fit the environment.
     """
+    if name in BASELINES and name not in scene_baselines(env_id):
+        fitting = [other for other in ENV_IDS if name in scene_baselines(other)]
+        raise ValueError(f"the {name} baseline is for {', '.join(fitting)}, not {env_id}")
     if name == "zero":
         return ZeroPolicy(settings.action_dim)
     if name == "random":
@@ -105,7 +110,5 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
     if name == "lqr":
         return LQRPolicy(settings)
     if name == "heading-p":
-        if "Heading" not in env_id:
-            raise ValueError(f"the heading-p baseline is for trailer_env/Heading-v0, not {env_id}")
         return HeadingProportionalPolicy(settings)
     raise ValueError(f"unknown baseline {name!r}; choose from {sorted(BASELINES)}")

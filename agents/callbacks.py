@@ -12,7 +12,6 @@ model does not peek at the reported numbers.
 from __future__ import annotations
 
 import csv
-import json
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -21,8 +20,9 @@ from typing import Any
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
 from agents.metrics import rollout, summarize
-from agents.model_files import save_stats
-from agents.policies import ModelPolicy, card_path, read_card, stats_path
+from agents.model_files import card_path, read_card, save_stats, stats_path, write_card
+from agents.policies import ModelPolicy
+from agents.run_folder import BEST_MODEL, CURVE_FILE
 
 #: First seed of the validation episodes (evaluation/test episodes start at 1000).
 VALIDATION_SEED = 50_000
@@ -78,7 +78,7 @@ class StatsCheckpointCallback(CheckpointCallback):
         result = super()._on_step()
         stats = self.model.get_vec_normalize_env()
         if saving and stats is not None:
-            save_stats(stats, Path(self._checkpoint_path("vecnormalize_", extension="json")))
+            save_stats(stats, stats_path(Path(self._checkpoint_path(extension="zip"))))
         return result
 
 
@@ -116,8 +116,8 @@ class SafetyEvalCallback(BaseCallback):
         self.eval_freq = max(1, int(eval_freq))
         self.episodes = episodes
         self.seed = seed
-        self.curve_path = run_dir / "evaluations.csv"
-        self.best_path = run_dir / "best_model.zip"
+        self.curve_path = run_dir / CURVE_FILE
+        self.best_path = run_dir / BEST_MODEL
         previous = read_curve(self.curve_path) if resume_from is not None else []
         if resume_from is not None:
             previous = [row for row in previous if row["timesteps"] <= resume_from]
@@ -190,8 +190,7 @@ class SafetyEvalCallback(BaseCallback):
             self.model.save(self.best_path)
             if stats is not None:
                 save_stats(stats, stats_path(self.best_path))
-            card = {"selected_at_timesteps": steps, "validation": row}
-            card_path(self.best_path).write_text(json.dumps(card, indent=2) + "\n")
+            write_card(self.best_path, {"selected_at_timesteps": steps, "validation": row})
         if self.verbose:
             print(
                 f"[eval] {steps:>9d} steps  return {summary['mean_return']:8.1f}  "

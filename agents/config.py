@@ -187,3 +187,109 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
             raise ValueError(f"{path}: {unsupported!r} is not supported by agents.train")
     result.algo_kwargs = raw
     return result
+
+
+def jsonable(value: Any) -> Any:
+    """Hyperparameter values as JSON (schedules and classes by name)."""
+    if isinstance(value, dict):
+        return {str(key): jsonable(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(item) for item in value]
+    if isinstance(value, (bool, int, float, str)) or value is None:
+        return value
+    return getattr(value, "__name__", repr(value))
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """What one training run was asked to do: behind the CLI, ``config.json`` and the cards.
+
+    Build it with :meth:`resolve` (the command's values over the hyperparameter file's);
+    :meth:`document` is the record written to ``config.json`` and into every model card.
+
+    Attributes:
+        env_id: A trailer_env id.
+        algo: "ppo", "sac" or "td3".
+        n_trailers: Number of trailers (over the file's ``env_kwargs``).
+        seed: Seed of the model and of the training environments (env i gets seed + i).
+        budget: Total training budget in environment steps.
+        n_envs: Environments in the training batch (RLlib: all runners together).
+        hyperparams: The hyperparameter file's entry.
+        backend: "sb3" or "rllib".
+        command: The command line that started the run.
+    """
+
+    env_id: str
+    algo: str
+    n_trailers: int
+    seed: int
+    budget: int
+    n_envs: int
+    hyperparams: Hyperparams
+    backend: str = "sb3"
+    command: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.backend not in ("sb3", "rllib"):
+            raise ValueError(f"backend must be 'sb3' or 'rllib', got {self.backend!r}")
+        if self.budget < 1 or self.n_envs < 1:
+            raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
+
+    @classmethod
+    def resolve(
+        cls,
+        env_id: str,
+        algo: str,
+        n_trailers: int,
+        seed: int,
+        hyperparams: Hyperparams,
+        *,
+        timesteps: int | None = None,
+        n_envs: int | None = None,
+        backend: str = "sb3",
+        command: tuple[str, ...] | list[str] = (),
+    ) -> TrainConfig:
+        """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's."""
+        return cls(
+            env_id=env_id,
+            algo=algo,
+            n_trailers=n_trailers,
+            seed=seed,
+            budget=int(timesteps if timesteps is not None else hyperparams.n_timesteps),
+            n_envs=int(n_envs if n_envs is not None else hyperparams.n_envs),
+            hyperparams=hyperparams,
+            backend=backend,
+            command=tuple(command),
+        )
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The environment's keyword arguments: the file's, with this run's ``n_trailers``."""
+        return {**self.hyperparams.env_kwargs, "n_trailers": self.n_trailers}
+
+    def document(self) -> dict[str, Any]:
+        """The run's record (JSON-ready) for ``config.json`` and the model cards.
+
+        An SB3 run records the file's policy, algorithm arguments and normalisation; an
+        RLlib run records ``backend`` (its trainer adds the RLlib settings it resolved).
+        """
+        record: dict[str, Any] = {
+            "algo": self.algo,
+            "env_id": self.env_id,
+            "env_kwargs": self.env_kwargs,
+            "seed": self.seed,
+            "budget": self.budget,
+            "n_envs": self.n_envs,
+            "command": list(self.command),
+        }
+        if self.backend == "sb3":
+            record.update(
+                {
+                    "policy": self.hyperparams.policy,
+                    "hyperparams": jsonable(self.hyperparams.algo_kwargs),
+                    "normalize": self.hyperparams.normalize,
+                }
+            )
+        else:
+            record["backend"] = self.backend
+        return record

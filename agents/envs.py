@@ -6,12 +6,12 @@ from typing import Any
 
 import gymnasium as gym
 
-import trailer_env
+from trailer_env.registry import ENVIRONMENTS, core_class_of, env_class_of
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 from trailer_env.vector import ConvoyVectorEnv
 
-#: The registered ids, e.g. "trailer_env/Reverse-v0".
-ENV_IDS: tuple[str, ...] = tuple(trailer_env.ENVIRONMENTS)
+#: The registered ids, e.g. "trailer_env/Reverse-v0" (the scene table's order).
+ENV_IDS: tuple[str, ...] = tuple(ENVIRONMENTS)
 
 
 def check_env_id(env_id: str) -> str:
@@ -20,14 +20,30 @@ def check_env_id(env_id: str) -> str:
     Raises:
         ValueError: Naming the valid ids otherwise.
     """
-    if env_id not in ENV_IDS:
-        raise ValueError(f"unknown environment {env_id!r}; choose from {list(ENV_IDS)}")
+    env_class_of(env_id)
     return env_id
 
 
 def scene_of(env_id: str) -> str:
-    """The scene's short name, e.g. "reverse" for "trailer_env/Reverse-v0"."""
-    return check_env_id(env_id).split("/")[1].split("-")[0].lower()
+    """The scene's short name as its core declares it, lower case: "reverse" for
+    "trailer_env/Reverse-v0" (run folders and model files are named with it)."""
+    return core_class_of(env_id).scene.lower()
+
+
+def scene_title(env_id: str) -> str:
+    """The id without its namespace, for titles: "Reverse-v0"."""
+    core = core_class_of(env_id)
+    return f"{core.scene}-v{core.version}"
+
+
+def headline_metric(env_id: str) -> str:
+    """The rate reported first for the scene (a key of :func:`agents.metrics.summarize`)."""
+    return core_class_of(env_id).headline_metric
+
+
+def scene_baselines(env_id: str) -> tuple[str, ...]:
+    """The names of the baselines that apply to the scene (:data:`agents.baselines.BASELINES`)."""
+    return core_class_of(env_id).baselines
 
 
 def env_settings(env_kwargs: dict[str, Any] | None = None) -> EnvSettings:

@@ -34,9 +34,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from agents import cli
 from agents.baselines import BASELINES, Policy
-from agents.envs import ENV_IDS, check_env_id, env_settings
+from agents.envs import check_env_id, env_settings, headline_metric, scene_baselines
 from agents.metrics import EpisodeResults, rollout, summarize
+from agents.model_files import curve_path
 from agents.policies import (
     MODELS_DIR,
     is_model_spec,
@@ -68,14 +70,13 @@ class Evaluation:
 
 
 def curve_metric(env_id: str) -> str:
-    """The headline rate of a scene: safety for Reverse-v0, task success elsewhere."""
-    return "safe_rate" if "Reverse" in env_id else "success_rate"
+    """The headline rate of a scene, as its core declares it (``headline_metric``)."""
+    return headline_metric(env_id)
 
 
 def default_baselines(env_id: str) -> list[str]:
-    """The baselines that fit ``env_id`` (heading-p only for Heading-v0)."""
-    names = ["zero", "random", "lqr"]
-    return [*names, "heading-p"] if "Heading" in env_id else names
+    """The baselines that fit ``env_id``, as its core declares them (``baselines``)."""
+    return list(scene_baselines(env_id))
 
 
 def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[Path]:
@@ -224,6 +225,27 @@ def results_document(
     }
 
 
+def learning_curve(evaluation: Evaluation) -> Path | None:
+    """The learning curve (``evaluations.csv`` exported as ``<model>.csv``) of a model, if any."""
+    if not is_model_spec(evaluation.spec):
+        return None
+    curve = curve_path(Path(evaluation.spec))
+    return curve if curve.is_file() else None
+
+
+def baseline_levels(evaluations: Sequence[Evaluation], metric: str) -> dict[str, float]:
+    """The baselines' ``metric``, drawn as levels over the learning curves.
+
+    The random baseline is left out: it marks no level a trained agent is measured
+    against (zero and the controllers do).
+    """
+    return {
+        e.label: e.summary[metric]
+        for e in evaluations
+        if not is_model_spec(e.spec) and e.label != "random"
+    }
+
+
 def write_pictures(
     evaluations: Sequence[Evaluation],
     env_id: str,
@@ -254,22 +276,17 @@ def write_pictures(
         rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
     if rows:
         written.append(plots.plot_frames(rows, out / f"{prefix}frames.png"))
-    curves = {
-        e.label: Path(e.spec).with_suffix(".csv")
-        for e in evaluations
-        if is_model_spec(e.spec) and Path(e.spec).with_suffix(".csv").is_file()
-    }
+    curves = {e.label: curve for e in evaluations if (curve := learning_curve(e)) is not None}
     if curves:
         metric = curve_metric(env_id)
-        baselines = {
-            e.label: e.summary[metric]
-            for e in evaluations
-            if e.label in ("zero", "lqr", "heading-p")
-        }
         title = f"{env_id}, n = {n}: validation episodes during training"
         written.append(
             plots.plot_learning_curves(
-                curves, out / f"{prefix}curves.png", baselines, title, metric
+                curves,
+                out / f"{prefix}curves.png",
+                baseline_levels(evaluations, metric),
+                title,
+                metric,
             )
         )
     return written
@@ -281,14 +298,8 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m agents.evaluate",
         description="Evaluate baselines and saved agents over seeded episodes.",
     )
-    parser.add_argument(
-        "--env",
-        default="trailer_env/Reverse-v0",
-        choices=ENV_IDS,
-        metavar="ENV_ID",
-        help=f"one of {', '.join(ENV_IDS)}",
-    )
-    parser.add_argument("--n-trailers", type=int, default=2, help="number of trailers (default 2)")
+    cli.add_env(parser, default="trailer_env/Reverse-v0")
+    cli.add_n_trailers(parser)
     parser.add_argument(
         "--policy",
         nargs="+",
@@ -298,13 +309,8 @@ def build_parser() -> argparse.ArgumentParser:
         "(e.g. ppo_reverse_n2), model paths (.zip) and/or RLlib checkpoint folders; "
         "default: the scene's baselines and its committed models",
     )
-    parser.add_argument("--episodes", type=int, default=100, help="episodes (default 100)")
-    parser.add_argument(
-        "--seed",
-        type=_non_negative_int,
-        default=TEST_SEED,
-        help=f"episode i is seeded seed + i (default {TEST_SEED})",
-    )
+    cli.add_episodes(parser, 100, "episodes (default 100)")
+    cli.add_seed(parser, TEST_SEED, f"episode i is seeded seed + i (default {TEST_SEED})")
     parser.add_argument(
         "--out", type=Path, default=Path("out/eval"), help="output folder (default out/eval)"
     )
@@ -318,49 +324,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--video-steps",
-        type=_non_negative_int,
+        type=cli.non_negative_int,
         default=None,
         help="cut the video after this many steps (default: the whole episode)",
     )
-    parser.add_argument(
-        "--trust-pickle",
-        action="store_true",
-        help="allow unpickling parts of the model files (only for files you trust)",
-    )
+    cli.add_trust_pickle(parser, "parts of the model files")
     parser.add_argument(
         "--force",
         action="store_true",
         help="evaluate models whose card names another environment or n_trailers",
     )
-    parser.add_argument("--overwrite", action="store_true", help="replace an existing --video file")
+    cli.add_overwrite(parser, "replace an existing --video file")
     return parser
-
-
-def _non_negative_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return value
-
-
-def check_out_folder(parser: argparse.ArgumentParser, out: Path, name: str = "--out") -> None:
-    """Exit 2 naming the argument when ``out`` exists and is not a folder."""
-    if out.exists() and not out.is_dir():
-        parser.error(f"argument {name}: {out} exists and is not a folder")
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.n_trailers < 0:
-        parser.error(f"argument --n-trailers: must be >= 0, got {args.n_trailers}")
-    if args.episodes < 1:
-        parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
-    check_out_folder(parser, args.out)
+    cli.check_out_folder(parser, args.out)
     if args.video is not None:
         from agents.plots import VIDEO_SUFFIXES
 

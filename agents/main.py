@@ -23,6 +23,7 @@ import shutil
 import time
 from pathlib import Path
 
+from agents import cli
 from agents.envs import env_settings
 from agents.evaluate import (
     TEST_SEED,
@@ -33,7 +34,9 @@ from agents.evaluate import (
     results_document,
     write_pictures,
 )
+from agents.model_files import export_files, model_stem
 from agents.policies import limit_torch_threads
+from agents.run_folder import export_model
 
 ENV_ID = "trailer_env/Reverse-v0"
 N_TRAILERS = 2
@@ -43,9 +46,11 @@ SHORT_BUDGET = 1_000_000
 
 def short_run_files(out: Path) -> list[Path]:
     """What :func:`train_short` writes under ``out`` and would replace: its run, its export."""
-    from agents.train import export_files
+    return [out / "run", *export_files(_short_export(out))]
 
-    return [out / "run", *export_files(out / f"ppo_reverse_n{N_TRAILERS}.zip")]
+
+def _short_export(out: Path) -> Path:
+    return out / f"{model_stem('ppo', ENV_ID, N_TRAILERS)}.zip"
 
 
 def train_short(out: Path, budget: int, seed: int = 0, overwrite: bool = False) -> Path:
@@ -55,7 +60,8 @@ def train_short(out: Path, budget: int, seed: int = 0, overwrite: bool = False) 
         FileExistsError: If ``out`` already holds such a run (or its export) and
             ``overwrite`` is false.
     """
-    from agents.train import export_model, train
+    from agents.config import TrainConfig, load_hyperparams
+    from agents.train import train
 
     run_dir = out / "run"
     existing = [path for path in short_run_files(out) if path.exists()]
@@ -63,18 +69,18 @@ def train_short(out: Path, budget: int, seed: int = 0, overwrite: bool = False) 
         raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
     shutil.rmtree(run_dir, ignore_errors=True)
     print(f"no committed agent: training PPO for {budget} steps into {run_dir} ...", flush=True)
-    train(
+    command = ("python", "-m", "agents.main", "--train-steps", str(budget))
+    config = TrainConfig.resolve(
         ENV_ID,
         "ppo",
         N_TRAILERS,
-        budget,
         seed,
-        run_dir,
-        eval_freq=max(budget // 10, 1),
-        progress_bar=False,
-        command=["python", "-m", "agents.main", "--train-steps", str(budget)],
+        load_hyperparams("ppo", ENV_ID),
+        timesteps=budget,
+        command=command,
     )
-    return export_model(run_dir, out / f"ppo_reverse_n{N_TRAILERS}.zip", overwrite=overwrite)
+    train(config, run_dir, eval_freq=max(budget // 10, 1), progress_bar=False)
+    return export_model(run_dir, _short_export(out), overwrite=overwrite)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -83,30 +89,21 @@ def main(argv: list[str] | None = None) -> int:
         prog="python -m agents.main", description=(__doc__ or "").split("\n")[0]
     )
     parser.add_argument("--out", type=Path, default=Path("out"), help="output folder (default out)")
-    parser.add_argument(
-        "--episodes", type=int, default=100, help="evaluation episodes (default 100)"
-    )
+    cli.add_episodes(parser, 100, "evaluation episodes (default 100)")
     parser.add_argument(
         "--train-steps",
-        type=int,
+        type=cli.at_least(1),
         default=SHORT_BUDGET,
         help=f"budget when training (default {SHORT_BUDGET})",
     )
     parser.add_argument(
         "--retrain", action="store_true", help="train a fresh agent even if committed ones exist"
     )
-    parser.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="with --retrain: replace the run (and exported model) already in --out",
+    cli.add_overwrite(
+        parser, "with --retrain: replace the run (and exported model) already in --out"
     )
     args = parser.parse_args(argv)
-    if args.out.exists() and not args.out.is_dir():
-        parser.error(f"argument --out: {args.out} exists and is not a folder")
-    if args.episodes < 1:
-        parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
-    if args.train_steps < 1:
-        parser.error(f"argument --train-steps: must be >= 1, got {args.train_steps}")
+    cli.check_out_folder(parser, args.out)
     limit_torch_threads()
     started = time.perf_counter()
     models = [] if args.retrain else committed_models(ENV_ID, N_TRAILERS)

@@ -14,10 +14,7 @@ per-episode results from ``info`` and termination:
 * ``band_steps``: steps spent in the singular band (``cost`` > 0, i.e.
   ``singular_margin < singular_band``);
 * ``min_margin``: the smallest ``singular_margin`` seen, the starting state included;
-* ``actuator_work``: the actuator's work over the episode (J);
-* ``forward_steps``: steps on which the cart moved forwards (observation 0, the speed
-  u, > 0). Reverse-v0 starts every episode reversing and ends it on the step the
-  convoy stops reversing, so there this is at most one step per episode.
+* ``actuator_work``: the actuator's work over the episode (J).
 
 An episode is *safe* when it never enters the singular band and is not terminated
 as a failure (it never folds, and on Reverse-v0 it never stops reversing: braking
@@ -50,7 +47,6 @@ class EpisodeResults:
     band_steps: np.ndarray
     min_margin: np.ndarray
     actuator_work: np.ndarray
-    forward_steps: np.ndarray
     #: Every step's singular margin, all episodes concatenated (for histograms).
     margins: np.ndarray
 
@@ -58,11 +54,6 @@ class EpisodeResults:
     def safe(self) -> np.ndarray:
         """Episodes that never entered the singular band and were not failures."""
         return (self.band_steps == 0) & ~self.jackknifed & ~self.failed
-
-    @property
-    def forward_fraction(self) -> np.ndarray:
-        """Fraction of each episode's steps with the cart moving forwards."""
-        return self.forward_steps / np.maximum(self.lengths, 1)
 
     @property
     def band_fraction(self) -> np.ndarray:
@@ -102,7 +93,6 @@ def rollout(
     band_steps = np.zeros(episodes, dtype=np.int64)
     min_margin = np.asarray(info["singular_margin"], dtype=np.float64).copy()
     work = np.zeros(episodes)
-    forward_steps = np.zeros(episodes, dtype=np.int64)
     margins: list[np.ndarray] = []
     for _ in range(envs.max_episode_steps):
         obs, reward, terminated, truncated, info = envs.step(policy(obs))
@@ -116,7 +106,6 @@ def rollout(
         work[rows] = info["actuator_work"][rows]
         jackknifed[rows] = terminated[rows] & info["jackknifed"][rows]
         failed[rows] = terminated[rows] & ~info["is_success"][rows]
-        forward_steps[rows] += obs[rows, 0] > 0.0  # u after the step (before any autoreset)
         margins.append(margin[rows])
         running &= ~(terminated | truncated)
         if not running.any():
@@ -132,7 +121,6 @@ def rollout(
         band_steps=band_steps,
         min_margin=min_margin,
         actuator_work=work,
-        forward_steps=forward_steps,
         margins=np.concatenate(margins) if margins else np.ones(0),
     )
 
@@ -156,7 +144,7 @@ def summarize(results: EpisodeResults) -> dict[str, Any]:
     Reverse-v0 stopped reversing), ``safe_rate`` (never in the band, no failure) with its 95 %
     Wilson interval ``safe_rate_ci``, ``band_time_fraction`` (mean over episodes),
     ``min_margin_mean``, ``min_margin_worst``, ``success_rate``,
-    ``mean_abs_actuator_work``, ``forward_time_fraction``.
+    ``mean_abs_actuator_work``.
     """
     count = int(results.returns.size)
     safe = int(results.safe.sum())
@@ -179,5 +167,4 @@ def summarize(results: EpisodeResults) -> dict[str, Any]:
         "min_margin_worst": rounded(results.min_margin.min()),
         "success_rate": rounded(results.success.mean()),
         "mean_abs_actuator_work": rounded(np.abs(results.actuator_work).mean()),
-        "forward_time_fraction": rounded(results.forward_fraction.mean()),
     }

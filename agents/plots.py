@@ -75,10 +75,7 @@ def plot_learning_curves(
     ax_metric.set_ylabel(METRIC_LABELS.get(metric, metric))
     ax_return.set_ylabel("mean return")
     ax_metric.legend(fontsize=8)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return _save(fig, plt, out)
+    return _save(fig, plt, out, title)
 
 
 def plot_curve_grid(
@@ -93,7 +90,6 @@ def plot_curve_grid(
         axis.set_title(title, fontsize=10)
         axis.set_ylabel(METRIC_LABELS.get(metric, metric), fontsize=9)
         axis.legend(fontsize=7, loc="best")
-    fig.tight_layout()
     return _save(fig, plt, out)
 
 
@@ -120,10 +116,7 @@ def plot_margin_histograms(
     ax_min.set_xlabel("smallest singular margin of the episode")
     ax_min.set_ylabel("episodes")
     ax_min.legend(fontsize=8)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    return _save(fig, plt, out)
+    return _save(fig, plt, out, title)
 
 
 def render_frames(
@@ -178,11 +171,14 @@ def plot_frames(rows: Mapping[str, tuple[list[np.ndarray], list[str]]], out: Pat
             else:
                 axis.axis("off")
         axes[row][0].set_ylabel(label, fontsize=9)
-    fig.tight_layout()
     return _save(fig, plt, out)
 
 
-def _save(fig: Any, plt: Any, out: Path) -> Path:
+def _save(fig: Any, plt: Any, out: Path, title: str = "") -> Path:
+    """Lay out ``fig`` (under ``title``, if any), write it to ``out`` and close it."""
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=80)
     plt.close(fig)

@@ -2,7 +2,7 @@
 
 ``load_policy("lqr", ...)`` and ``load_policy("agents/models/sac_reverse_n2.zip", ...)``
 both return a batched :data:`agents.baselines.Policy`. A saved model may carry a
-*model card*, a JSON file beside it (same stem) written by :mod:`agents.train`, that
+*model card*, a JSON file beside it (same stem; names in :mod:`agents.model_files`), that
 records the algorithm, environment, seed, budget and wall time of its training.
 Models load without unpickling anything unless the caller trusts the file
 (:mod:`agents.model_files`); RLlib checkpoints come from :mod:`agents.rllib_backend`.
@@ -10,8 +10,6 @@ Models load without unpickling anything unless the caller trusts the file
 
 from __future__ import annotations
 
-import json
-import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +17,17 @@ import numpy as np
 
 from agents.baselines import BASELINES, Policy, make_baseline
 from agents.envs import check_env_id, env_settings, make_vector_env
+from agents.model_files import (
+    UnsafeFileError,
+    frozen_normalizer,
+    load_pickled_stats,
+    pickled_stats_path,
+    read_card,
+    read_sb3_data,
+    read_stats,
+    stats_path,
+)
+from agents.run_folder import RLLIB_CHECKPOINT
 
 #: Algorithm name (as on the command line) -> stable-baselines3 class name.
 ALGOS: dict[str, str] = {"ppo": "PPO", "sac": "SAC", "td3": "TD3"}
@@ -45,39 +54,6 @@ def limit_torch_threads(threads: int = 1) -> None:
     torch.set_num_threads(threads)
 
 
-def card_path(model_path: Path) -> Path:
-    """Where the model card of ``model_path`` lives (``x.zip`` -> ``x.json``)."""
-    return model_path.with_suffix(".json")
-
-
-def stats_path(model_path: Path) -> Path:
-    """Where the observation-normalisation statistics (JSON) of ``model_path`` live.
-
-    ``x.zip`` -> ``x_vecnormalize.json``; checkpoints ``<algo>_<k>_steps.zip`` ->
-    ``<algo>_vecnormalize_<k>_steps.json`` (beside them, as SB3's CheckpointCallback
-    names its statistics).
-    """
-    stem = model_path.stem
-    prefix, _, steps = stem.rpartition("_")
-    if steps == "steps":
-        algo, _, count = prefix.rpartition("_")
-        if algo and count.isdigit():
-            return model_path.with_name(f"{algo}_vecnormalize_{count}_steps.json")
-    return model_path.with_name(f"{stem}_vecnormalize.json")
-
-
-def pickled_stats_path(model_path: Path) -> Path | None:
-    """A legacy pickled ``VecNormalize`` beside ``model_path`` (``.pkl``; rl-zoo3's
-    ``<env>/vecnormalize.pkl``), or None."""
-    for candidate in (
-        stats_path(model_path).with_suffix(".pkl"),
-        model_path.with_suffix("") / "vecnormalize.pkl",
-    ):
-        if candidate.is_file():
-            return candidate
-    return None
-
-
 def load_stats(model_path: Path, observation_space: Any = None, trust_pickle: bool = False) -> Any:
     """The read-only ``VecNormalize`` saved with ``model_path`` (no env), or None.
 
@@ -88,13 +64,6 @@ def load_stats(model_path: Path, observation_space: Any = None, trust_pickle: bo
         ValueError: On a damaged statistics file, statistics that do not fit
             ``observation_space``, or a pickled one without ``trust_pickle``.
     """
-    from agents.model_files import (
-        UnsafeFileError,
-        frozen_normalizer,
-        load_pickled_stats,
-        read_stats,
-    )
-
     path = stats_path(model_path)
     if path.is_file():
         if observation_space is None:
@@ -114,24 +83,6 @@ def load_stats(model_path: Path, observation_space: Any = None, trust_pickle: bo
     return load_pickled_stats(pickled)
 
 
-def read_card(model_path: Path) -> dict[str, Any]:
-    """The model card of ``model_path``, or an empty dict when there is none.
-
-    Raises:
-        ValueError: If the card is not a JSON object.
-    """
-    path = card_path(model_path)
-    if not path.is_file():
-        return {}
-    try:
-        card = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"model card {path} is not JSON: {error}") from None
-    if not isinstance(card, dict):
-        raise ValueError(f"model card {path} is not a JSON object")
-    return card
-
-
 def detect_algo(model_path: Path) -> str:
     """The algorithm that saved ``model_path``: from its card, else from the policy class.
 
@@ -141,12 +92,8 @@ def detect_algo(model_path: Path) -> str:
     algo = read_card(model_path).get("algo")
     if algo in ALGOS:
         return str(algo)
-    try:
-        with zipfile.ZipFile(model_path) as archive:
-            data = json.loads(archive.read("data"))
-    except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"{model_path} is not a stable-baselines3 model: {error}") from None
-    if not isinstance(data, dict) or not isinstance(data.get("policy_class", {}), dict):
+    data = read_sb3_data(model_path)
+    if not isinstance(data.get("policy_class", {}), dict):
         raise ValueError(f"{model_path} is not a stable-baselines3 model: unexpected data")
     module = str(data.get("policy_class", {}).get("__module__", ""))
     for name in ("sac", "td3"):
@@ -258,7 +205,7 @@ def policy_label(spec: str) -> str:
     if not is_model_spec(spec):
         return spec
     path = Path(resolve_model(spec))
-    if path.is_dir() and path.name == "checkpoint":
+    if path.is_dir() and path.name == RLLIB_CHECKPOINT:
         return path.resolve().parent.name  # an RLlib run's checkpoint: the run's name
     return path.stem
 

@@ -2,8 +2,9 @@
 
 Run with ``python -m agents.report [--img docs/img] [--out out/report] [--episodes 100]``.
 
-For Reverse-v0 with n = 1, 2, 3 and Heading-v0 with n = 2 it evaluates the
-baselines and every committed model (``agents/models/``) on the same seeded
+For every scene and number of trailers that a committed model was trained on
+(Reverse-v0 with n = 1, 2, 3 and Heading-v0 with n = 2 today) it evaluates the
+scene's baselines and every committed model (``agents/models/``) on the same seeded
 episodes (seeds 1000 ..), prints one Markdown table per scene (also written to
 ``<out>/tables.md`` with the JSON results), and writes the pictures
 ``agents_curves.png`` (learning curves of all committed agents),
@@ -19,27 +20,38 @@ import json
 import time
 from pathlib import Path
 
-from agents import plots
+from agents import cli, plots
+from agents.envs import ENV_IDS, scene_title
 from agents.evaluate import (
     TEST_SEED,
     Evaluation,
+    baseline_levels,
     committed_models,
     curve_metric,
     default_baselines,
     evaluate_policies,
+    learning_curve,
     markdown_table,
     results_document,
     write_pictures,
 )
-from agents.policies import limit_torch_threads
+from agents.policies import MODELS_DIR, limit_torch_threads, read_card
+
+
+def committed_scenarios(directory: Path = MODELS_DIR) -> tuple[tuple[str, int], ...]:
+    """(environment id, number of trailers) of every committed model's card, in the scene
+    table's order, then by n: the scenarios the README reports."""
+    found = set()
+    for path in directory.glob("*.zip"):
+        card = read_card(path)
+        env_id, n = card.get("env_id"), card.get("env_kwargs", {}).get("n_trailers")
+        if env_id in ENV_IDS and isinstance(n, int):
+            found.add((env_id, n))
+    return tuple(sorted(found, key=lambda scenario: (ENV_IDS.index(scenario[0]), scenario[1])))
+
 
 #: (environment id, number of trailers) of the README's results.
-SCENARIOS: tuple[tuple[str, int], ...] = (
-    ("trailer_env/Reverse-v0", 1),
-    ("trailer_env/Reverse-v0", 2),
-    ("trailer_env/Reverse-v0", 3),
-    ("trailer_env/Heading-v0", 2),
-)
+SCENARIOS: tuple[tuple[str, int], ...] = committed_scenarios()
 #: The scenario whose margins and frames are drawn.
 HEADLINE = ("trailer_env/Reverse-v0", 2)
 #: Actuator settings of the authority sweep (ConvoyParams / EnvSettings overrides).
@@ -80,18 +92,11 @@ def curve_panel(
     metric = curve_metric(env_id)
     curves = {}
     for evaluation in evaluations:
-        curve = Path(evaluation.spec).with_suffix(".csv")
-        if evaluation.card and curve.is_file():
-            name = str(evaluation.card.get("algo", evaluation.label)).upper()
-            if evaluation.card.get("forward_penalty"):
-                name += " + forward penalty"
-            curves[name] = curve
-    levels = {
-        evaluation.label: evaluation.summary[metric]
-        for evaluation in evaluations
-        if evaluation.label in ("zero", "lqr", "heading-p")
-    }
-    return f"{env_id.split('/')[1]}, n = {n}", curves, levels, metric
+        curve = learning_curve(evaluation)
+        if evaluation.card and curve is not None:
+            curves[str(evaluation.card.get("algo", evaluation.label)).upper()] = curve
+    levels = baseline_levels(evaluations, metric)
+    return f"{scene_title(env_id)}, n = {n}", curves, levels, metric
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -101,10 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--img", type=Path, default=Path("docs/img"), help="picture folder")
     parser.add_argument("--out", type=Path, default=Path("out/report"), help="tables and JSON")
-    parser.add_argument("--episodes", type=int, default=100, help="episodes per policy")
+    cli.add_episodes(parser, 100, "episodes per policy (default 100)")
     args = parser.parse_args(argv)
-    if args.episodes < 1:
-        parser.error(f"argument --episodes: must be >= 1, got {args.episodes}")
     limit_torch_threads()
     started = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)

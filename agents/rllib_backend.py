@@ -50,7 +50,9 @@ from typing import Any
 import numpy as np
 
 from agents.baselines import Policy
-from agents.config import Hyperparams
+from agents.config import Hyperparams, TrainConfig
+from agents.model_files import write_json
+from agents.run_folder import PROGRESS_FILE, RLLIB_CHECKPOINT, write_config
 
 #: The name under which :func:`register_trailer_env` registers the env creator.
 RLLIB_ENV_NAME = "trailer_env_rllib"
@@ -210,63 +212,51 @@ def _env_steps(result: Mapping[str, Any]) -> int:
 
 
 def train_rllib(
-    env_id: str,
-    algo: str,
-    n_trailers: int,
-    timesteps: int | None,
-    seed: int,
+    config: TrainConfig,
     run_dir: Path,
     *,
-    hyperparams: Hyperparams,
     num_env_runners: int = 1,
-    envs_per_runner: int | None = None,
     address: str | None = None,
     verbose: int = 1,
-    command: list[str] | None = None,
 ) -> dict[str, Any]:
-    """Train PPO on Ray RLlib until ``timesteps`` env steps; returns the run's record.
+    """Train PPO on Ray RLlib until ``config.budget`` env steps; returns the run's record.
 
     Args:
-        env_id, n_trailers, seed, run_dir, hyperparams, command: As for
-            :func:`agents.train.train`.
-        algo: "ppo" (the only algorithm of this backend).
-        timesteps: Budget in environment steps (None: the file's n_timesteps); training
-            stops after the first iteration that reaches it.
+        config: What to train (backend "rllib"); ``config.n_envs`` convoys in all,
+            split evenly across the runners' native batches.
+        run_dir: Run folder.
         num_env_runners: Remote env runners (0: the driver samples itself).
-        envs_per_runner: Convoys per runner's native batch (default: the file's
-            ``n_envs`` split across the runners).
         address: A running Ray cluster (``ray start --head`` prints it; "auto" finds a
             local one); None starts a local Ray and shuts it down at the end.
+
+    Training stops after the first iteration that reaches the budget.
 
     Raises:
         ValueError: For an algorithm other than PPO or a negative runner count.
         ConnectionError: If ``address`` cannot be reached.
     """
-    if algo not in RLLIB_ALGOS:
-        raise ValueError(f"the rllib backend trains {list(RLLIB_ALGOS)}, not {algo!r}")
+    if config.algo not in RLLIB_ALGOS:
+        raise ValueError(f"the rllib backend trains {list(RLLIB_ALGOS)}, not {config.algo!r}")
     if num_env_runners < 0:
         raise ValueError(f"num_env_runners must be >= 0, got {num_env_runners}")
 
-    env_kwargs = {**hyperparams.env_kwargs, "n_trailers": n_trailers}
-    budget = int(timesteps if timesteps is not None else hyperparams.n_timesteps)
-    per_runner = envs_per_runner or max(hyperparams.n_envs // max(num_env_runners, 1), 1)
+    env_kwargs = config.env_kwargs
+    budget = config.budget
+    per_runner = max(config.n_envs // max(num_env_runners, 1), 1)
     run_dir.mkdir(parents=True, exist_ok=True)
     started_ray, ray_logs = _ray_init(address, num_env_runners)
     try:
-        config = ppo_config(env_id, env_kwargs, hyperparams, seed, num_env_runners, per_runner)
-        algorithm = config.build_algo()
+        rllib_config = ppo_config(
+            config.env_id, env_kwargs, config.hyperparams, config.seed, num_env_runners, per_runner
+        )
+        algorithm = rllib_config.build_algo()
         runner_envs = (
             algorithm.env_runner_group.foreach_env_runner(_runner_env, local_env_runner=False)
             if num_env_runners > 0
             else [_runner_env(algorithm.env_runner)]
         )
         record: dict[str, Any] = {
-            "algo": algo,
-            "backend": "rllib",
-            "env_id": env_id,
-            "env_kwargs": env_kwargs,
-            "seed": seed,
-            "budget": budget,
+            **config.document(),
             "n_envs": per_runner * max(num_env_runners, 1),
             "num_env_runners": num_env_runners,
             "envs_per_runner": per_runner,
@@ -274,19 +264,18 @@ def train_rllib(
             # What each runner steps: (class name, is a native ConvoyVectorEnv batch).
             "runner_envs": runner_envs,
             "hyperparams": {
-                "train_batch_size": config.train_batch_size_per_learner,
-                "minibatch_size": config.minibatch_size,
-                "num_epochs": config.num_epochs,
-                "lr": config.lr,
-                "gamma": config.gamma,
-                "lambda": config.lambda_,
-                "clip_param": config.clip_param,
-                "entropy_coeff": config.entropy_coeff,
-                "fcnet_hiddens": list(config.model_config["fcnet_hiddens"]),
+                "train_batch_size": rllib_config.train_batch_size_per_learner,
+                "minibatch_size": rllib_config.minibatch_size,
+                "num_epochs": rllib_config.num_epochs,
+                "lr": rllib_config.lr,
+                "gamma": rllib_config.gamma,
+                "lambda": rllib_config.lambda_,
+                "clip_param": rllib_config.clip_param,
+                "entropy_coeff": rllib_config.entropy_coeff,
+                "fcnet_hiddens": list(rllib_config.model_config["fcnet_hiddens"]),
             },
-            "command": command or [],
         }
-        (run_dir / "config.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")
+        write_config(run_dir, record)
         rows: list[dict[str, Any]] = []
         started = time.perf_counter()
         steps = 0
@@ -317,11 +306,11 @@ def train_rllib(
                     flush=True,
                 )
         wall = time.perf_counter() - started
-        with (run_dir / "progress.csv").open("w", newline="") as handle:
+        with (run_dir / PROGRESS_FILE).open("w", newline="") as handle:
             writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
             writer.writeheader()
             writer.writerows(rows)
-        checkpoint = run_dir / "checkpoint"
+        checkpoint = run_dir / RLLIB_CHECKPOINT
         algorithm.save_to_path(str(checkpoint.resolve()))
         record.update(
             {
@@ -332,7 +321,7 @@ def train_rllib(
             }
         )
         export_policy(algorithm, checkpoint, record)
-        (run_dir / "config.json").write_text(json.dumps(record, indent=2, sort_keys=True) + "\n")
+        write_config(run_dir, record)
         algorithm.stop()
         return record
     finally:
@@ -373,7 +362,7 @@ def export_policy(algorithm: Any, checkpoint: Path, card: dict[str, Any]) -> Non
         "inference_only": True,
         "spaces": spaces,
     }
-    (checkpoint / POLICY_CARD).write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
+    write_json(checkpoint / POLICY_CARD, document)
 
 
 def is_rllib_checkpoint(path: Path) -> bool:

@@ -4,10 +4,8 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import subprocess
 import sys
-import zipfile
 from pathlib import Path
 
 import pytest
@@ -18,6 +16,8 @@ from agents.baselines import make_baseline
 from agents.envs import env_settings, make_sb3_env
 from agents.metrics import rollout
 from agents.policies import MODELS_DIR, resolve_model
+from agents.run_folder import run_dir_of_checkpoint
+from tests.agents.helpers import model_copy, rewrite_zip, tiny_model
 
 REVERSE = "trailer_env/Reverse-v0"
 ROOT = Path(__file__).resolve().parents[2]
@@ -42,7 +42,6 @@ def _exit(command, argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple
         (["--env", REVERSE, "--algo", "ppo", "--timesteps", "1.5"], "argument --timesteps"),
         (["--env", REVERSE, "--algo", "ppo", "--n-trailers", "two"], "argument --n-trailers"),
         (["--env", REVERSE, "--algo", "ppo", "--resume", "absent.zip"], "no checkpoint file"),
-        (["--env", REVERSE, "--algo", "ppo", "--forward-penalty", "-1"], "--forward-penalty"),
         (["--env", REVERSE, "--algo", "ppo", "--hyperparams", "/nonexistent"], "no hyperparameter"),
     ],
 )
@@ -103,9 +102,7 @@ def test_main_rejects_bad_arguments(capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_evaluation_is_deterministic_under_a_seed(tmp_path: Path) -> None:
-    model = tmp_path / "tiny.zip"
-    venv = make_sb3_env(REVERSE, 2, {"n_trailers": 2}, seed=0)
-    PPO("MlpPolicy", venv, policy_kwargs={"net_arch": [8]}, seed=0, device="cpu").save(model)
+    model = tiny_model(tmp_path / "tiny.zip", n=2)
     outputs = []
     for name in ("a", "b"):
         argv = ["--policy", "zero", "random", "lqr", str(model), "--episodes", "20", "--seed", "5"]
@@ -129,27 +126,14 @@ def test_commands_exit_nonzero_in_a_fresh_process() -> None:
     assert done.returncode == 2 and "argument --algo" in done.stderr
 
 
-def _model_copy(folder: Path, stem: str = "ppo_reverse_n2") -> Path:
-    """A shipped model, its card and statistics copied to ``folder`` (a file from elsewhere)."""
-    folder.mkdir(parents=True, exist_ok=True)
-    for suffix in (".zip", ".json", "_vecnormalize.json"):
-        shutil.copyfile(MODELS_DIR / f"{stem}{suffix}", folder / f"{stem}{suffix}")
-    return folder / f"{stem}.zip"
-
-
 @pytest.mark.filterwarnings("ignore:Detected pickle protocol:UserWarning")  # the garbage
 def test_evaluate_errors_name_their_argument(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     a_file = tmp_path / "a_file"
     a_file.write_text("x")
-    garbage = _model_copy(tmp_path / "garbage")
-    with zipfile.ZipFile(garbage) as archive:
-        entries = {name: archive.read(name) for name in archive.namelist()}
-    entries["policy.pth"] = b"\x80\x04garbage" * 50
-    with zipfile.ZipFile(garbage, "w") as archive:
-        for name, content in entries.items():
-            archive.writestr(name, content)
+    garbage = model_copy(tmp_path / "garbage")
+    rewrite_zip(garbage, {"policy.pth": b"\x80\x04garbage" * 50})
     cases = [
         (["--seed", "-1"], "argument --seed: expected an integer >= 0, got '-1'"),
         (["--out", str(a_file)], f"argument --out: {a_file} exists and is not a folder"),
@@ -232,13 +216,9 @@ def test_train_errors_name_their_argument(
     broken_yaml = tmp_path / "broken"
     broken_yaml.mkdir()
     (broken_yaml / "ppo.yml").write_text("trailer_env/Reverse-v0: [unclosed\n  n_envs: 2\n")
-    no_weights = _model_copy(tmp_path / "no_weights")
-    with zipfile.ZipFile(no_weights) as archive:
-        entries = {name: archive.read(name) for name in archive.namelist() if name != "policy.pth"}
-    with zipfile.ZipFile(no_weights, "w") as archive:
-        for name, content in entries.items():
-            archive.writestr(name, content)
-    exported = _model_copy(tmp_path / "exported")
+    no_weights = model_copy(tmp_path / "no_weights")
+    rewrite_zip(no_weights, {"policy.pth": None})
+    exported = model_copy(tmp_path / "exported")
     base = ["--env", REVERSE, "--algo", "ppo"]
     hp_file = broken_yaml / "ppo.yml"
     cases = [
@@ -267,8 +247,8 @@ def test_resuming_a_model_outside_a_run_starts_a_fresh_run_folder(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """A shipped model's folder never becomes a run folder."""
-    assert train.run_dir_of_checkpoint(MODELS_DIR / "ppo_reverse_n2.zip") is None
-    model = _model_copy(tmp_path / "downloads", "ppo_reverse_n1")
+    assert run_dir_of_checkpoint(MODELS_DIR / "ppo_reverse_n2.zip") is None
+    model = model_copy(tmp_path / "downloads", "ppo_reverse_n1")
     monkeypatch.chdir(tmp_path)
     argv = ["--env", REVERSE, "--algo", "ppo", "--n-trailers", "1", "--resume", str(model),
             "--timesteps", "1000", "--quiet", "--no-progress"]  # fmt: skip

@@ -72,8 +72,6 @@ def test_stopping_the_reversal_is_a_failure_not_safe(monkeypatch: pytest.MonkeyP
     assert stopped.sum() >= 10
     assert not np.any(results.safe | results.success)
     assert summarize(results)["failure_rate"] == pytest.approx(results.failed.mean())
-    # The step that ends an episode moving forwards is its only forward step.
-    assert np.all(results.forward_steps[stopped] == 1)
 
 
 def test_wilson_interval() -> None:

@@ -10,7 +10,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import VecNormalize
 
 from agents.envs import make_sb3_env
@@ -22,49 +21,24 @@ from agents.model_files import (
     restore_stats,
     safe_custom_objects,
     save_stats,
+    stats_path,
 )
-from agents.policies import MODELS_DIR, load_model, load_policy, load_stats, stats_path
+from agents.policies import MODELS_DIR, load_model, load_policy, load_stats
+from tests.agents.helpers import Touch, rewrite_zip, tiny_model
 
 REVERSE = "trailer_env/Reverse-v0"
 
 
-class _Touch:
-    """A pickle that creates a file when it is unpickled (stands for hostile code)."""
-
-    def __init__(self, marker: Path) -> None:
-        self.marker = marker
-
-    def __reduce__(self):  # type: ignore[no-untyped-def]
-        return (Path.touch, (self.marker,))
-
-
 def _tiny_model(folder: Path, n: int = 1) -> Path:
-    path = folder / "tiny.zip"
-    venv = make_sb3_env(REVERSE, 2, {"n_trailers": n}, seed=0)
-    PPO("MlpPolicy", venv, policy_kwargs={"net_arch": [8]}, seed=0, device="cpu").save(path)
-    return path
-
-
-def _rewrite_zip(path: Path, replace: dict[str, bytes | None]) -> None:
-    """Rewrite the zip at ``path`` with some entries replaced (None: dropped)."""
-    with zipfile.ZipFile(path) as archive:
-        entries = {name: archive.read(name) for name in archive.namelist()}
-    for name, content in replace.items():
-        if content is None:
-            entries.pop(name, None)
-        else:
-            entries[name] = content
-    with zipfile.ZipFile(path, "w") as archive:
-        for name, content in entries.items():
-            archive.writestr(name, content)
+    return tiny_model(folder / "tiny.zip", n)
 
 
 def _plant_pickle(path: Path, key: str, marker: Path) -> None:
     with zipfile.ZipFile(path) as archive:
         data = json.loads(archive.read("data"))
-    payload = base64.b64encode(pickle.dumps(_Touch(marker))).decode()
+    payload = base64.b64encode(pickle.dumps(Touch(marker))).decode()
     data[key] = {**data[key], ":serialized:": payload}
-    _rewrite_zip(path, {"data": json.dumps(data).encode()})
+    rewrite_zip(path, {"data": json.dumps(data).encode()})
 
 
 def test_statistics_round_trip_exactly_through_json(tmp_path: Path) -> None:
@@ -131,7 +105,7 @@ def test_an_unknown_pickled_entry_is_refused(tmp_path: Path) -> None:
     with zipfile.ZipFile(model) as archive:
         data = json.loads(archive.read("data"))
     data["surprise"] = {":serialized:": base64.b64encode(pickle.dumps(1)).decode()}
-    _rewrite_zip(model, {"data": json.dumps(data).encode()})
+    rewrite_zip(model, {"data": json.dumps(data).encode()})
     with pytest.raises(UnsafeFileError, match=r"entry 'surprise' is a pickle.*--trust-pickle"):
         load_policy(str(model), REVERSE, {"n_trailers": 1})
 
@@ -139,7 +113,7 @@ def test_an_unknown_pickled_entry_is_refused(tmp_path: Path) -> None:
 def test_pickled_statistics_need_trust(tmp_path: Path) -> None:
     model = _tiny_model(tmp_path)
     marker = tmp_path / "ran"
-    stats_path(model).with_suffix(".pkl").write_bytes(pickle.dumps(_Touch(marker)))
+    stats_path(model).with_suffix(".pkl").write_bytes(pickle.dumps(Touch(marker)))
     with pytest.raises(UnsafeFileError, match=r"tiny_vecnormalize\.pkl.*--trust-pickle"):
         load_policy(str(model), REVERSE, {"n_trailers": 1})
     assert not marker.exists()
@@ -160,6 +134,6 @@ def test_damaged_zips_raise_value_errors(
     tmp_path: Path, damage: dict[str, bytes | None], message: str
 ) -> None:
     model = _tiny_model(tmp_path)
-    _rewrite_zip(model, damage)
+    rewrite_zip(model, damage)
     with pytest.raises(ValueError, match=message):
         load_policy(str(model), REVERSE, {"n_trailers": 1})

@@ -13,18 +13,10 @@ from agents.callbacks import read_curve
 from agents.envs import env_settings
 from agents.metrics import rollout, summarize
 from agents.policies import load_model, load_policy, make_baseline
+from agents.run_folder import export_model
+from tests.agents.helpers import Touch
 
 REVERSE = "trailer_env/Reverse-v0"
-
-
-class _Touch:
-    """A pickle that creates a file when unpickled (stands for hostile code)."""
-
-    def __init__(self, marker: Path) -> None:
-        self.marker = marker
-
-    def __reduce__(self):  # type: ignore[no-untyped-def]
-        return (Path.touch, (self.marker,))
 
 
 #: A small PPO for tests (rl-zoo3 format): 16 environments, 1024 steps per update.
@@ -124,7 +116,7 @@ def test_resume_continues_the_timestep_count(
     saved = stats.read_text()
     stats.unlink()
     marker = tmp_path / "ran"
-    stats.with_suffix(".pkl").write_bytes(pickle.dumps(_Touch(marker)))
+    stats.with_suffix(".pkl").write_bytes(pickle.dumps(Touch(marker)))
     with pytest.raises(SystemExit) as refused:
         _train(tmp_path, "--timesteps", "6144", *resumed)
     assert refused.value.code == 2 and not marker.exists()
@@ -159,6 +151,6 @@ def test_off_policy_resume_restores_the_replay_buffer(
     model = load_model(run / "final_model.zip")
     assert model.num_timesteps == 400
     export = tmp_path / "models" / "sac_reverse_n1.zip"
-    train.export_model(run, export)
+    export_model(run, export)
     assert export.is_file() and export.with_suffix(".json").is_file()
     assert export.with_suffix(".csv").is_file()
