@@ -21,7 +21,7 @@ actions drawn beforehand so that sampling is not timed:
 * cost against n: single-env and vector-env (N = 4096) steps per second of
   Reverse-v0 for n = 1 .. 32, on one numba thread (stable on a shared machine), at
   the default fidelity (whose substeps grow with n to hold the tolerance, see
-  :mod:`trailer_env.fidelity`) and at one fixed substep (the same physics step count
+  :mod:`trailer_env.substeps`) and at one fixed substep (the same physics step count
   for every n: the kernel's cost). The mean substeps per step of each convoy case
   is counted separately, outside the timed runs.
 

@@ -20,7 +20,7 @@ import warnings
 from dataclasses import dataclass
 
 #: Largest number of trailers. The kernels are O(n) per row, but RK4's stability limit
-#: was measured up to n = 128 (trailer_env.fidelity.RK4_STABILITY_LIMITS) and the
+#: was measured up to n = 128 (trailer_env.substeps.RK4_STABILITY_LIMITS) and the
 #: substep rule's chain factor grows with n; 256 leaves room without extrapolating far.
 MAX_TRAILERS = 256
 #: Accepted range of the lengths l and s_max (m), and bound on |a| and |b|. Every

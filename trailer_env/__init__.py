@@ -38,11 +38,13 @@ from trailer_env.fidelity import Fidelity
 from trailer_env.registry import ENVIRONMENTS, register_scenes
 from trailer_env.scenes import CoastEnv, DockEnv, HeadingEnv, ReverseEnv
 from trailer_env.settings import EnvSettings
+from trailer_env.substeps import AccuracyWarning
 
 register_scenes()
 
 __all__ = [
     "ENVIRONMENTS",
+    "AccuracyWarning",
     "CoastEnv",
     "DockEnv",
     "EnvSettings",

@@ -23,7 +23,7 @@ Accuracy: with ``fidelity.substeps="auto"`` the rule's estimate of each step's e
 stays below the tolerance unless a cap binds (``max_substeps`` on the accuracy rule,
 only at speeds far beyond the scenes', e.g. ``|u| = 1000`` m/s). Such a step is never
 silent: :attr:`ConvoyCore.accuracy_exceeded` flags its rows and an
-:class:`~trailer_env.fidelity.AccuracyWarning` is issued (once per core).
+:class:`~trailer_env.substeps.AccuracyWarning` is issued (once per core).
 
 Scenes override the hooks (``_reset_row``, ``_update_task``, ``_advance``,
 ``_is_success``, ``_is_terminated``, ``_reward``, ``_after_reset``,
@@ -320,7 +320,7 @@ class ConvoyCore:
         The energy's rate of change is the actuator's power (physics.md section 10),
         so the energy change is the integral of that power; the difference is the
         integrator's error, bounded per step by the fidelity's tolerance (default 1e-4,
-        typically ~100 times smaller; see :mod:`trailer_env.fidelity`).
+        typically ~100 times smaller; see :mod:`trailer_env.substeps`).
         """
         return self.energy - self.energy0
 

@@ -41,9 +41,9 @@ from dynamics.jit import (
     scatter_block,
     sincos_block,
 )
-from trailer_env import actuator, fidelity
+from trailer_env import actuator, substeps
 from trailer_env.actuator import apply_action_row, clamp_row_to_rail, first_non_finite_row
-from trailer_env.fidelity import auto_substeps_row
+from trailer_env.substeps import auto_substeps_row
 
 #: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
 SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
@@ -55,7 +55,7 @@ _CHUNK = 4 * LANES
 
 # Indices into the packed observation settings.
 OBS_B, OBS_S_MAX, OBS_SPEED_MAX, OBS_BAND, OBS_FOLD = range(5)
-_DEPENDS = (actuator, fidelity)
+_DEPENDS = (actuator, substeps)
 
 
 @cached_njit(depends_on=_DEPENDS)

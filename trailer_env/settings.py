@@ -18,13 +18,8 @@ from typing import Any
 
 from dynamics import ConvoyParams
 from dynamics.params import MAX_TRAILERS, bounded_integer, bounded_real
-from trailer_env.fidelity import (
-    MAX_FIXED_SUBSTEPS,
-    STABILITY_FRACTION,
-    Fidelity,
-    cart_rate_coefficient,
-    stability_limit,
-)
+from trailer_env.fidelity import MAX_FIXED_SUBSTEPS, Fidelity
+from trailer_env.substeps import STABILITY_FRACTION, cart_rate_coefficient, stability_limit
 
 ACTION_MODES = ("servo", "accel", "planar")
 
@@ -49,7 +44,7 @@ class EnvSettings:
     Besides each field's range, the combination must be integrable: at the
     reference speed ``|u| = 2 m/s`` (:data:`REFERENCE_SPEED`, above every scene's
     starting speed) the convoy's fastest rate ``r = |u| max(1 / l, c_cart)`` (see
-    :mod:`trailer_env.fidelity`) must be resolved by the fidelity, i.e. ``dt r / k``
+    :mod:`trailer_env.substeps`) must be resolved by the fidelity, i.e. ``dt r / k``
     within RK4's stability limit for fixed ``k`` substeps, and within
     :data:`~trailer_env.fidelity.MAX_FIXED_SUBSTEPS` (10,000) substeps of the auto
     rule's safe step otherwise. Settings that would diverge at the first step, or

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from dynamics.jit import cached_njit
-from trailer_env import actuator, fidelity, kernels
+from trailer_env import actuator, kernels, substeps
 from trailer_env.core import ShapedCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.kernels import step_serial
@@ -25,7 +25,7 @@ ANGLE_WEIGHT = 10.0
 OMEGA_WEIGHT = 1.0
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def coast_potential(z: np.ndarray, hitch_trig: np.ndarray, i: int, n: int) -> float:
     """Potential of row ``i``: -10 mean_k (1 - cos alpha_k) - min(|omega|, 1).
 
@@ -41,14 +41,14 @@ def coast_potential(z: np.ndarray, hitch_trig: np.ndarray, i: int, n: int) -> fl
     return -ANGLE_WEIGHT * (total / n) - omega_term
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def coast_potentials(z: np.ndarray, hitch_trig: np.ndarray, n: int, out: np.ndarray) -> None:
     """:func:`coast_potential` of every row into ``out``."""
     for i in range(z.shape[0]):
         out[i] = coast_potential(z, hitch_trig, i, n)
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def coast_is_straight(z: np.ndarray, i: int, n: int) -> bool:
     """Every |alpha_k| below SUCCESS_ANGLE and |omega| below SUCCESS_OMEGA."""
     if not abs(z[i, 1]) < SUCCESS_OMEGA:
@@ -59,14 +59,14 @@ def coast_is_straight(z: np.ndarray, i: int, n: int) -> bool:
     return True
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def coast_straight_rows(z: np.ndarray, n: int, out: np.ndarray) -> None:
     """:func:`coast_is_straight` of every row into ``out``."""
     for i in range(z.shape[0]):
         out[i] = coast_is_straight(z, i, n)
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
     """ShapedCore's reward, termination and success of ``rows`` after a step."""
     (z, n, previous, failed, reward, terminated, success, time_penalty, band_penalty,
@@ -91,7 +91,7 @@ def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
         previous[i] = potential
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def coast_step(
     action: np.ndarray,
     rows: np.ndarray,

@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from dynamics.jit import cached_njit
-from trailer_env import actuator, fidelity, kernels
+from trailer_env import actuator, kernels, substeps
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.kernels import step_serial
@@ -45,7 +45,7 @@ def reverse_reward(
         out[i] = reward
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def reverse_rows(
     z: np.ndarray,
     hitch_trig: np.ndarray,
@@ -83,7 +83,7 @@ def reverse_rows(
         success[i] = not failed
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
     """Reward, termination and success of ``rows`` after a step (:func:`reverse_rows`)."""
     z, n, band_penalty, fold_penalty, reward, terminated, success = scene
@@ -91,7 +91,7 @@ def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
                  reward, terminated, success)  # fmt: skip
 
 
-@cached_njit(depends_on=(actuator, fidelity, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels))
 def reverse_step(
     action: np.ndarray,
     rows: np.ndarray,
