@@ -71,6 +71,17 @@ from trailer_env.kernels import (
 )
 from trailer_env.settings import EnvSettings
 
+#: The ``info`` keys of every environment and the core attributes behind them; the single
+#: env, the vector env and the SB3 adapter all build their infos from this table.
+INFO_FIELDS: tuple[tuple[str, str], ...] = (
+    ("cost", "cost"),
+    ("singular_margin", "singular_margin"),
+    ("energy", "energy"),
+    ("actuator_work", "actuator_work"),
+    ("is_success", "success"),
+    ("jackknifed", "jackknifed"),
+)
+
 
 class NonFiniteStateError(ValueError):
     """The state holds NaN or infinite values."""
@@ -165,6 +176,7 @@ class ConvoyCore:
         self.reward = np.zeros(size)
         self.terminated = np.zeros(size, dtype=bool)
         self.success = np.zeros(size, dtype=bool)
+        self.failed = np.zeros(size, dtype=bool)
         self.accuracy_exceeded = np.zeros(size, dtype=bool)
         self._nonfinite = np.zeros(size, dtype=bool)
         self._integrator = fidelity.make_integrator(self.params, self.with_pose)
@@ -230,9 +242,17 @@ class ConvoyCore:
         """Boolean (B,): the task is achieved. Default: never."""
         return np.zeros(self.batch_size, dtype=bool)
 
+    def _is_failed(self) -> np.ndarray:
+        """Boolean (B,): the episode ends in a failure other than a jackknife. Default: never.
+
+        Evaluated after :meth:`_is_success` (it may read ``success``); the result is kept
+        in ``failed`` for :meth:`_is_terminated` and :meth:`_reward`.
+        """
+        return np.zeros(self.batch_size, dtype=bool)
+
     def _is_terminated(self) -> np.ndarray:
-        """Boolean (B,): the episode ends. Default: jackknife or success."""
-        return self.jackknifed | self.success
+        """Boolean (B,): the episode ends. Default: jackknife, success or failure."""
+        return self.jackknifed | self.success | self.failed
 
     def _reward(self) -> np.ndarray:
         """Float (B,) reward of the step just taken."""
@@ -301,6 +321,7 @@ class ConvoyCore:
         self.energy0[i] = self.energy[i]
         self.reward[i] = 0.0
         self.terminated[i] = False
+        self.failed[i] = False
         self._after_reset(rows)
         self.success[i] = self._is_success()[i]
 
@@ -350,6 +371,7 @@ class ConvoyCore:
         self.energy0[rows] = self.energy[rows]
         self.reward[rows] = 0.0
         self.terminated[rows] = False
+        self.failed[rows] = False
         self._after_reset(rows)
         self.success[rows] = self._is_success()[rows]
 
@@ -429,6 +451,7 @@ class ConvoyCore:
         if self.scene_kernel is None:
             self._advance()
             self.success[:] = self._is_success()
+            self.failed[:] = self._is_failed()
             self.terminated[:] = self._is_terminated()
             self.reward[:] = self._reward()
 
@@ -460,26 +483,18 @@ class ConvoyCore:
             )
 
     def info_row(self, i: int) -> dict[str, Any]:
-        """The ``info`` dict of environment ``i`` (Python scalars)."""
-        return {
-            "cost": float(self.cost[i]),
-            "singular_margin": float(self.singular_margin[i]),
-            "energy": float(self.energy[i]),
-            "actuator_work": float(self.energy[i] - self.energy0[i]),
-            "is_success": bool(self.success[i]),
-            "jackknifed": bool(self.jackknifed[i]),
-        }
+        """The ``info`` dict of environment ``i`` (Python scalars), keys :data:`INFO_FIELDS`."""
+        return {key: getattr(self, name)[i].item() for key, name in INFO_FIELDS}
 
     def info_batch(self) -> dict[str, np.ndarray]:
         """The same quantities as arrays (B,) (copies)."""
-        return {
-            "cost": self.cost.copy(),
-            "singular_margin": self.singular_margin.copy(),
-            "energy": self.energy.copy(),
-            "actuator_work": self.energy - self.energy0,
-            "is_success": self.success.copy(),
-            "jackknifed": self.jackknifed.copy(),
-        }
+        return {key: np.array(getattr(self, name)) for key, name in INFO_FIELDS}
+
+    def info_rows(self) -> list[dict[str, Any]]:
+        """One ``info`` dict per environment (Python scalars), as SB3's ``VecEnv`` wants."""
+        keys = [key for key, _ in INFO_FIELDS]
+        columns = [getattr(self, name).tolist() for _, name in INFO_FIELDS]
+        return [dict(zip(keys, values, strict=True)) for values in zip(*columns, strict=True)]
 
 
 class ShapedCore(ConvoyCore):
@@ -501,23 +516,13 @@ class ShapedCore(ConvoyCore):
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         super().__init__(settings, batch_size, track_pose=track_pose)
         self.previous_potential = np.zeros(self.batch_size)
-        self.failed = np.zeros(self.batch_size, dtype=bool)
 
     def _potential(self) -> np.ndarray:
         """Potential of every row's current state (higher is closer to the goal)."""
         raise NotImplementedError
 
-    def _is_failed(self) -> np.ndarray:
-        """Boolean (B,): the episode ends in a failure other than a jackknife. Default: never."""
-        return np.zeros(self.batch_size, dtype=bool)
-
-    def _is_terminated(self) -> np.ndarray:
-        self.failed[:] = self._is_failed()
-        return self.jackknifed | self.success | self.failed
-
     def _after_reset(self, rows: np.ndarray) -> None:
         self.previous_potential[rows] = self._potential()[rows]
-        self.failed[rows] = False
 
     def _reward(self) -> np.ndarray:
         potential = self._potential()

@@ -87,7 +87,7 @@ class ConvoySB3VecEnv(VecEnv):
         self.elapsed_steps[:] = 0
         self._episode_returns[:] = 0.0
         self._episode_lengths[:] = 0
-        self.reset_infos = [self.core.info_row(i) for i in range(self.num_envs)]
+        self.reset_infos = self.core.info_rows()
         self._reset_seeds()
         self._reset_options()
         return self.core.obs.copy()
@@ -107,7 +107,7 @@ class ConvoySB3VecEnv(VecEnv):
         rewards = core.reward.astype(np.float32)
         self._episode_returns += rewards
         self._episode_lengths += 1
-        infos = self._infos()
+        infos = self.core.info_rows()
         rows = np.flatnonzero(dones)
         if rows.size:
             elapsed = round(time.time() - self._start_time, 6)
@@ -124,29 +124,6 @@ class ConvoySB3VecEnv(VecEnv):
             self._episode_returns[rows] = 0.0
             self._episode_lengths[rows] = 0
         return core.obs.copy(), rewards, dones, infos
-
-    def _infos(self) -> list[dict[str, Any]]:
-        core = self.core
-        columns = zip(
-            core.cost.tolist(),
-            core.singular_margin.tolist(),
-            core.energy.tolist(),
-            (core.energy - core.energy0).tolist(),
-            core.success.tolist(),
-            core.jackknifed.tolist(),
-            strict=True,
-        )
-        return [
-            {
-                "cost": cost,
-                "singular_margin": margin,
-                "energy": energy,
-                "actuator_work": work,
-                "is_success": success,
-                "jackknifed": jackknifed,
-            }
-            for cost, margin, energy, work, success, jackknifed in columns
-        ]
 
     def close(self) -> None:
         """Nothing to release."""
