@@ -71,13 +71,14 @@ from trailer_env.kernels import (
 )
 from trailer_env.settings import EnvSettings
 
-#: The ``info`` keys of every environment and the core attributes behind them; the single
-#: env, the vector env and the SB3 adapter all build their infos from this table.
-INFO_FIELDS: tuple[tuple[str, str], ...] = (
+#: The ``info`` keys of every environment and the core arrays behind them (None:
+#: ``actuator_work``, derived as ``energy - energy0``); the single env, the vector env
+#: and the SB3 adapter all build their infos from this table.
+INFO_FIELDS: tuple[tuple[str, str | None], ...] = (
     ("cost", "cost"),
     ("singular_margin", "singular_margin"),
     ("energy", "energy"),
-    ("actuator_work", "actuator_work"),
+    ("actuator_work", None),
     ("is_success", "success"),
     ("jackknifed", "jackknifed"),
 )
@@ -177,6 +178,7 @@ class ConvoyCore:
         self.terminated = np.zeros(size, dtype=bool)
         self.success = np.zeros(size, dtype=bool)
         self.failed = np.zeros(size, dtype=bool)
+        self._info_arrays: list[tuple[str, np.ndarray | None]] | None = None
         self.accuracy_exceeded = np.zeros(size, dtype=bool)
         self._nonfinite = np.zeros(size, dtype=bool)
         self._integrator = fidelity.make_integrator(self.params, self.with_pose)
@@ -482,19 +484,33 @@ class ConvoyCore:
                 "(use fidelity='auto' or more substeps)"
             )
 
+    def _info_sources(self) -> list[tuple[str, np.ndarray | None]]:
+        # The arrays are updated in place for the core's life, so they are looked up once.
+        if self._info_arrays is None:
+            self._info_arrays = [
+                (key, None if name is None else getattr(self, name)) for key, name in INFO_FIELDS
+            ]
+        return self._info_arrays
+
     def info_row(self, i: int) -> dict[str, Any]:
         """The ``info`` dict of environment ``i`` (Python scalars), keys :data:`INFO_FIELDS`."""
-        return {key: getattr(self, name)[i].item() for key, name in INFO_FIELDS}
+        return {
+            key: self.energy.item(i) - self.energy0.item(i) if array is None else array.item(i)
+            for key, array in self._info_sources()
+        }
 
     def info_batch(self) -> dict[str, np.ndarray]:
         """The same quantities as arrays (B,) (copies)."""
-        return {key: np.array(getattr(self, name)) for key, name in INFO_FIELDS}
+        return {
+            key: self.energy - self.energy0 if array is None else array.copy()
+            for key, array in self._info_sources()
+        }
 
     def info_rows(self) -> list[dict[str, Any]]:
         """One ``info`` dict per environment (Python scalars), as SB3's ``VecEnv`` wants."""
-        keys = [key for key, _ in INFO_FIELDS]
-        columns = [getattr(self, name).tolist() for _, name in INFO_FIELDS]
-        return [dict(zip(keys, values, strict=True)) for values in zip(*columns, strict=True)]
+        batch = self.info_batch()
+        columns = [values.tolist() for values in batch.values()]
+        return [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
 
 
 class ShapedCore(ConvoyCore):

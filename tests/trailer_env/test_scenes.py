@@ -285,3 +285,16 @@ def test_actuator_work_is_the_integrated_actuator_power() -> None:
         assert not terminated
     assert abs(work) > 1e-3
     assert info["actuator_work"] == pytest.approx(work, rel=1e-3)
+
+
+@pytest.mark.parametrize("n", [0, 1, 3, 8])
+def test_reverse_start_is_the_documented_uniform_draws(n: int) -> None:
+    # One draw of n + 2 uniforms per reset gives, bit for bit, the numbers of drawing
+    # u ~ -U(0.8, 1.2), omega ~ U(-0.05, 0.05), alpha ~ U(-0.05, 0.05)^n in that order.
+    env = make("Reverse", n_trailers=n)
+    for seed in range(200):
+        env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        expected = [-rng.uniform(0.8, 1.2), rng.uniform(-0.05, 0.05)]
+        expected += list(rng.uniform(-0.05, 0.05, n))
+        np.testing.assert_array_equal(env.unwrapped.core.z[0], expected)

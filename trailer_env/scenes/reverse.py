@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -121,11 +122,23 @@ class ReverseCore(ConvoyCore):
         return (self.z, self.n, float(self.band_penalty), float(self.fold_penalty), self.reward,
                 self.terminated, self.success)  # fmt: skip
 
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        n = self.n
+        # The start (|u|, omega, alpha_1..alpha_n) = low + span * U[0, 1)^(n+2): one draw
+        # per reset, the same numbers in the same order as uniform(low, high) per part.
+        self._start_low = np.array([SPEED_RANGE[0], -OMEGA_NOISE] + [-ANGLE_NOISE] * n)
+        self._start_span = np.array(
+            [SPEED_RANGE[1] - SPEED_RANGE[0], OMEGA_NOISE - (-OMEGA_NOISE)]
+            + [ANGLE_NOISE - (-ANGLE_NOISE)] * n
+        )
+
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:
-        z = self.z[i]
-        z[0] = -rng.uniform(*SPEED_RANGE)
-        z[1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
-        z[2 : 2 + self.n] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE, self.n)
+        start = self.z[i, : self.n + 2]
+        rng.random(out=start)
+        start *= self._start_span
+        start += self._start_low
+        start[0] = -start[0]  # reversing
 
     def _stopped_reversing(self) -> np.ndarray:
         # The mass can brake the convoy and push it forwards, where it is stable: that
