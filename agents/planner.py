@@ -32,7 +32,6 @@ of an evaluation is in benchmarks/README.md and the certification's output.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import scipy.linalg

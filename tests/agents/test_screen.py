@@ -77,7 +77,7 @@ def test_bad_arguments_raise() -> None:
 
 
 def test_convoy_screen_grows_with_the_number_of_trailers() -> None:
-    # Seed 1000 of Reverse-v0 (u0 = -1.03): identical trailers give a Jordan block in the
+    # Seed 1000 of Reverse-v0: identical trailers give a Jordan block in the
     # linearisation, so every trailer adds a condition and the stroke grows with n.
     strokes = []
     for n in (1, 2, 3):
