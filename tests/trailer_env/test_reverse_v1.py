@@ -10,10 +10,9 @@ from gymnasium.utils import seeding
 import trailer_env
 from trailer_env.scenes.reverse import ReverseCore
 from trailer_env.scenes.reverse_v1 import (
-    ANGLE_NOISE,
     MIN_REVERSE_SPEED,
-    NOISE_EXPONENT,
-    OMEGA_NOISE,
+    PERTURBATION,
+    PERTURBATION_EXPONENT,
     SPEED_RANGE,
     ReverseV1Core,
 )
@@ -30,18 +29,22 @@ def test_registered_next_to_v0() -> None:
 
 @pytest.mark.parametrize("n", [1, 2, 3])
 def test_start_distribution(n: int) -> None:
-    envs = gym.make_vec(V1, num_envs=500, vectorization_mode="vector_entry_point", n_trailers=n)
+    count = 2000
+    envs = gym.make_vec(V1, num_envs=count, vectorization_mode="vector_entry_point", n_trailers=n)
     envs.reset(seed=0)
     z = envs.unwrapped.core.z
-    scale = max(n, 1) ** -NOISE_EXPONENT
     speed = -z[:, 0]
     assert speed.min() >= SPEED_RANGE[0] and speed.max() <= SPEED_RANGE[1]
-    assert speed.min() < SPEED_RANGE[0] + 0.02 and speed.max() > SPEED_RANGE[1] - 0.02
-    assert np.abs(z[:, 1]).max() <= OMEGA_NOISE * scale
-    assert np.abs(z[:, 2 : 2 + n]).max() <= ANGLE_NOISE * scale
-    # Uniform: the half-width is nearly reached, and the mean is near zero.
-    assert np.abs(z[:, 2 : 2 + n]).max() > 0.95 * ANGLE_NOISE * scale
-    assert abs(z[:, 2 : 2 + n].mean()) < 0.1 * ANGLE_NOISE * scale
+    assert speed.min() < SPEED_RANGE[0] + 0.01 and speed.max() > SPEED_RANGE[1] - 0.01
+    # (omega, alpha_1..alpha_n) lies on the sphere of radius PERTURBATION n**-1.1 ...
+    radius = PERTURBATION * n**-PERTURBATION_EXPONENT
+    assert ReverseV1Core.perturbation_radius(n) == pytest.approx(radius)
+    perturbation = z[:, 1 : 2 + n]
+    np.testing.assert_allclose(np.linalg.norm(perturbation, axis=1), radius, rtol=1e-12)
+    # ... uniformly: zero mean, each component's mean square radius^2 / (n + 1).
+    sigma = radius / np.sqrt(n + 1)
+    np.testing.assert_allclose(perturbation.mean(axis=0), 0.0, atol=5 * sigma / np.sqrt(count))
+    np.testing.assert_allclose(np.mean(perturbation**2, axis=0), sigma**2, rtol=0.15)
     np.testing.assert_array_equal(envs.unwrapped.core.act[:, 1], 0.0)  # the mass centred
     envs.close()
 
