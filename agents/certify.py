@@ -67,7 +67,6 @@ def replay(env_id: str, env_kwargs: dict[str, Any], seed: int, actions: np.ndarr
     env = gym.make(env_id, **env_kwargs)
     env.reset(seed=seed)
     sequence = np.asarray(actions, dtype=np.float64).reshape(len(actions), -1)
-    core = env.unwrapped.core
     length = 0
     safe = True
     for action in sequence:
@@ -78,7 +77,6 @@ def replay(env_id: str, env_kwargs: dict[str, Any], seed: int, actions: np.ndarr
             break
         if terminated or truncated:
             break
-    del core
     env.close()
     return Replay(safe, length)
 
@@ -132,7 +130,9 @@ def certify(
     for i, seed in enumerate(seeds):
         sequence = planned.actions[i, : planned.lengths[i]]
         outcome = replay(env_id, env_kwargs, seed, sequence) if planned.safe[i] else None
-        feasible = outcome is not None and outcome.safe
+        feasible = (
+            outcome is not None and outcome.safe and outcome.length == core_class.max_episode_steps
+        )
         recoverable = bool(np.isfinite(strokes[i]) and strokes[i] <= 1.0)
         status = FEASIBLE if feasible else (OPEN if recoverable else NOT_RECOVERABLE)
         if feasible:
