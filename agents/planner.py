@@ -14,19 +14,23 @@ search's starting mean.
 The candidates are simulated by the scene's own batched core
 (:class:`trailer_env.core.ConvoyCore`, one row per candidate and environment, the same
 integrator, servo and guard as the env): their states are copied from the real state
-each control step (``core.z[:] = ...; core.act[:] = ...; core.refresh()``). A rollout's
-cost sums, per step, ``sum_k alpha_k^2 + 0.1 omega^2 + 0.05 (s / s_max)^2`` plus 20 per
-step in the singular band, a failure (fold, or the scene's other termination without
-success: the convoy stopped reversing) costs 1000 plus 100 per remaining step, and the
-final state costs ``x^T P x`` with ``P`` the LQR's Riccati matrix at the nearest design
-speed (what it would take the regulator to recover from there).
+each control step (``core.z[:] = ...; core.act[:] = ...; core.refresh()``). A candidate's
+offsets act over ``horizon`` steps; the rollout then continues for ``tail`` steps under
+the LQR alone, which is what makes the search saturation-aware: a candidate is judged
+by whether the regulator can still recover from where it leaves the convoy (a short
+horizon alone picked myopic sequences that drove the mass to the rail's end, and did
+worse than the LQR). A rollout's cost sums, per step, ``sum_k alpha_k^2 + 0.1 omega^2 +
+0.05 (s / s_max)^2`` plus 20 per step in the singular band; a failure (a fold, or the
+scene's other termination without success: the convoy stopped reversing) costs 1000
+plus 100 per remaining step, and the final state costs ``x^T P x`` with ``P`` the LQR's
+Riccati matrix at the nearest design speed.
 
 It is an oracle: it knows the model exactly and reads the exact state (from the
 environment's core, or from an observation, which holds the state in float32). Its
-cost per control step is ``iterations * horizon`` core steps of ``samples`` rows per
-environment: with the defaults (24 samples, 25 steps, 2 iterations), 1200 simulated
-steps per environment and control step, 480 000 per 400-step episode; the wall time
-of an evaluation is in benchmarks/README.md and the certification's output.
+cost per control step is ``iterations * (horizon + tail) * samples`` simulated steps
+per environment: with the defaults (2 iterations, 10 + 50 steps, 16 samples) 1920, so
+768 000 per 400-step episode. The wall time of 100 episodes planned in one batch is
+written by ``python -m agents.certify`` and quoted in docs/physics.md section 14.
 """
 
 from __future__ import annotations
@@ -54,12 +58,8 @@ ANGLE_COST = 1.0
 OMEGA_COST = 0.1
 RAIL_COST = 0.05
 BAND_COST = 20.0
-#: Beyond this fraction of the stroke the mass pays RAIL_END_COST per step (squared excess).
-RAIL_END = 0.7
-RAIL_END_COST = 0.0
 FAILURE_COST = 1000.0
 FAILURE_COST_PER_STEP = 100.0
-TERMINAL_WEIGHT = 1.0
 
 
 @dataclass(frozen=True)
@@ -201,7 +201,6 @@ class SamplingPlanner:
                 ANGLE_COST * np.sum(alpha**2, axis=1)
                 + OMEGA_COST * core.z[:, 1] ** 2
                 + RAIL_COST * (core.act[:, 1] / s_max) ** 2
-                + RAIL_END_COST * np.maximum(np.abs(core.act[:, 1]) / s_max - RAIL_END, 0.0) ** 2
                 + BAND_COST * core.cost
             )
             failed = alive & core.terminated & ~core.success
@@ -222,7 +221,7 @@ class SamplingPlanner:
         state = np.column_stack(
             [core.z[:, 1], core.z[:, 2 : 2 + n], core.act[:, 1], core.act[:, 3]]
         )
-        terminal = TERMINAL_WEIGHT * np.einsum("bi,bij,bj->b", state, self.riccati[nearest], state)
+        terminal = np.einsum("bi,bij,bj->b", state, self.riccati[nearest], state)
         cost += np.where(alive, terminal, 0.0)
         return cost.reshape(count, samples), first.reshape(count, samples)
 
