@@ -41,7 +41,7 @@ import numpy as np
 
 from agents.envs import ENV_IDS, check_env_id, env_settings
 from agents.planner import PlannerConfig, SamplingPlanner, plan_episodes
-from agents.screen import screen_start
+from agents.screen import DEFAULT_HORIZON, screen_start
 from trailer_env.registry import core_class_of
 from trailer_env.vector import seed_generators
 
@@ -101,7 +101,7 @@ def certify(
     n_trailers: int,
     seeds: list[int],
     config: PlannerConfig | None = None,
-    screen_horizon: float = 8.0,
+    screen_horizon: float = DEFAULT_HORIZON,
 ) -> dict[str, Any]:
     """Screen, plan and replay every seed; returns the certificate (with the action records).
 
