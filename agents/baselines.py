@@ -11,6 +11,9 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
   learning has to beat.
 * ``heading-p``: :func:`trailer_env.controllers.heading_policy`, the proportional
   baseline of Heading-v0 (servo mode only).
+* ``mpc``: :class:`agents.planner.MPCPolicy`, a sampling MPC on the nonlinear model
+  that simulates its candidates with the scene's batched core (an oracle: it knows
+  the model and reads the state; rail modes only).
 
 The physics of the regulator lives in ``trailer_env.controllers``; this module only
 adapts it to the batched policy interface.
@@ -35,6 +38,7 @@ BASELINES: dict[str, str] = {
     "random": "uniform random actions in [-1, 1] (seeded)",
     "lqr": "LQR on the linearised straight convoy, mass states included (trailer_env.controllers)",
     "heading-p": "proportional heading baseline of Heading-v0 (trailer_env.controllers)",
+    "mpc": "sampling MPC on the nonlinear model from the LQR (an oracle; agents.planner)",
 }
 
 
@@ -111,4 +115,9 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
         return LQRPolicy(settings)
     if name == "heading-p":
         return HeadingProportionalPolicy(settings)
+    if name == "mpc":
+        from agents.planner import MPCPolicy
+        from trailer_env.registry import core_class_of
+
+        return MPCPolicy(core_class_of(env_id), settings)
     raise ValueError(f"unknown baseline {name!r}; choose from {sorted(BASELINES)}")

@@ -45,12 +45,20 @@ def test_other_action_modes_pass_the_checker(mode: str) -> None:
 
 
 def test_ids_are_registered_with_both_entry_points() -> None:
-    expected = {"Reverse-v0": 400, "Coast-v0": 300, "Heading-v0": 300, "Dock-v0": 400}
+    expected = {
+        "Reverse-v0": 400,
+        "Reverse-v1": 400,
+        "Coast-v0": 300,
+        "Heading-v0": 300,
+        "Dock-v0": 400,
+    }
+    modules = {"Reverse-v1": "reverse_v1:ReverseV1Env"}
     assert list(trailer_env.ENVIRONMENTS) == [f"trailer_env/{name}" for name in expected]
     for name, steps in expected.items():
         spec = gym.spec(f"trailer_env/{name}")
         assert spec.max_episode_steps == steps
-        assert spec.entry_point == f"trailer_env.scenes.{name[:-3].lower()}:{name[:-3]}Env"
+        module = modules.get(name, f"{name[:-3].lower()}:{name[:-3]}Env")
+        assert spec.entry_point == f"trailer_env.scenes.{module}"
         envs = gym.make_vec(spec.id, num_envs=2, vectorization_mode="vector_entry_point")
         assert isinstance(envs.unwrapped, ConvoyVectorEnv)
         assert envs.unwrapped.core_class.scene == name[:-3]

@@ -12,9 +12,10 @@ from trailer_env.scenes.coast import CoastCore, CoastEnv
 from trailer_env.scenes.dock import DockCore, DockEnv
 from trailer_env.scenes.heading import HeadingCore, HeadingEnv
 from trailer_env.scenes.reverse import ReverseCore, ReverseEnv
+from trailer_env.scenes.reverse_v1 import ReverseV1Core, ReverseV1Env
 
 #: The one table of scenes, in registration order.
-SCENE_ENVS: tuple[type[ConvoyEnv], ...] = (ReverseEnv, CoastEnv, HeadingEnv, DockEnv)
+SCENE_ENVS: tuple[type[ConvoyEnv], ...] = (ReverseEnv, ReverseV1Env, CoastEnv, HeadingEnv, DockEnv)
 
 __all__ = [
     "SCENE_ENVS",
@@ -26,4 +27,6 @@ __all__ = [
     "HeadingEnv",
     "ReverseCore",
     "ReverseEnv",
+    "ReverseV1Core",
+    "ReverseV1Env",
 ]

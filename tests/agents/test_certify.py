@@ -1,0 +1,51 @@
+"""The certification command: statuses, float64 records that replay, refusal to overwrite."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.certify import FEASIBLE, certify, main, parse_seeds, replay, write_certificate
+from agents.planner import PlannerConfig
+
+V1 = "trailer_env/Reverse-v1"
+SMALL = PlannerConfig(samples=4, elites=1, iterations=1, tail=30)
+
+
+def test_parse_seeds() -> None:
+    assert parse_seeds("1000-1003") == [1000, 1001, 1002, 1003]
+    assert parse_seeds("5") == [5]
+    assert parse_seeds("1,4-5") == [1, 4, 5]
+    with pytest.raises(ValueError, match="empty"):
+        parse_seeds("9-3")
+
+
+def test_certified_sequence_replays_identically(tmp_path: Path) -> None:
+    certificate = certify(V1, 1, [2000, 2002], SMALL)
+    assert certificate["feasible"] == 2
+    assert certificate["ceiling"] == 1.0
+    write_certificate(certificate, tmp_path / "cert", overwrite=False)
+    document = json.loads((tmp_path / "cert" / "certificate.json").read_text())
+    start = document["starts"][0]
+    assert start["status"] == FEASIBLE
+    sequence = np.load(tmp_path / "cert" / start["actions_file"], allow_pickle=False)
+    assert sequence.dtype == np.float64
+    assert sequence.shape == (400,)
+    first = replay(V1, {"n_trailers": 1}, 2000, sequence)
+    second = replay(V1, {"n_trailers": 1}, 2000, sequence)
+    assert first.safe and second.safe
+    assert first.length == second.length == 400
+
+
+def test_refuses_to_overwrite(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "cert"
+    out.mkdir()
+    with pytest.raises(SystemExit) as error:
+        main(["--env", V1, "--n-trailers", "1", "--seeds", "2000", "--out", str(out)])
+    assert error.value.code == 2
+    assert "--overwrite" in capsys.readouterr().err
+    with pytest.raises(FileExistsError):
+        write_certificate({"starts": [], "actions": {}}, out, overwrite=False)

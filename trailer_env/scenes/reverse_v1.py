@@ -1,0 +1,108 @@
+"""Reverse-v1: back the convoy up from starts that are all recoverable, and keep backing up."""
+
+from __future__ import annotations
+
+from typing import ClassVar
+
+import numpy as np
+
+from trailer_env.scenes.reverse import ReverseCore, ReverseEnv
+
+#: Starting reversing speed range, m/s (the stroke needed is smallest near 1-1.2 m/s).
+SPEED_RANGE = (0.9, 1.2)
+#: Size of the starting perturbation (omega in rad/s, alpha_k in rad) for one trailer: the
+#: vector (omega, alpha_1..alpha_n) is drawn uniformly on the sphere of radius
+#: PERTURBATION * n**-PERTURBATION_EXPONENT. The stroke needed per unit of perturbation
+#: grows about as fast as that radius shrinks with the number of trailers.
+PERTURBATION = 0.064
+PERTURBATION_EXPONENT = 1.1
+#: Minimum reversing speed, m/s: the episode fails when -u drops below it.
+MIN_REVERSE_SPEED = 0.3
+
+
+class ReverseV1Core(ReverseCore):
+    """Batched task logic of Reverse-v1: slower, smaller starts and a minimum reversing speed."""
+
+    version = 1
+    baselines = ("zero", "random", "lqr", "mpc")
+    #: Starting reversing speed range (m/s) and the half-widths of the perturbations.
+    speed_range: ClassVar[tuple[float, float]] = SPEED_RANGE
+    #: Radius of the starting perturbation with one trailer (see PERTURBATION).
+    perturbation: ClassVar[float] = PERTURBATION
+    #: The episode fails when the reversing speed -u drops below this (m/s).
+    min_reverse_speed: ClassVar[float] = MIN_REVERSE_SPEED
+
+    @classmethod
+    def perturbation_radius(cls, n_trailers: int) -> float:
+        """Radius of the starting (omega, alpha) perturbation: ``perturbation * n**-1.1``."""
+        return float(cls.perturbation * max(n_trailers, 1) ** -PERTURBATION_EXPONENT)
+
+    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
+        z = self.z[i]
+        z[0] = -rng.uniform(*self.speed_range)
+        direction = rng.standard_normal(self.n + 1)
+        z[1 : 2 + self.n] = self.perturbation_radius(self.n) * direction / np.linalg.norm(direction)
+
+    def _stopped_reversing(self) -> np.ndarray:
+        return self.z[:, 0] > -self.min_reverse_speed
+
+
+class ReverseV1Env(ReverseEnv):
+    """Back a convoy of ``n`` trailers up without folding it: every start recoverable (v1).
+
+    ## Description
+
+    The task, the dynamics, the actuator and the reward are Reverse-v0's (see
+    `ReverseEnv`); v1 changes the start distribution and adds a minimum reversing
+    speed, so that the task has a known ceiling: every test start is recoverable by
+    some controller with margin on the rail's stroke, and a planner that knows the
+    model (`agents.planner`, baseline `mpc`) certifies it (`python -m agents.certify`).
+    Reverse-v0 stays registered unchanged: about 15 % of its two-trailer starts and
+    half of its three-trailer starts are not recoverable at all (docs/physics.md
+    section 14).
+
+    ## What sets the basin
+
+    Linearised about the straight reversing convoy (`agents.screen`), the mass acts
+    only through its acceleration: `omega_dot = ... - k s_ddot` with
+    `k = mu b / (I0 + mu b^2)` (0.53 rad/m with the defaults: a full stroke `2 s_max`
+    turns the cart by 0.53 rad while the mass moves), and not through its position.
+    The convoy has n + 1 unstable modes, at about `|u| / l` per trailer (a repeated
+    eigenvalue: identical trailers form a Jordan block, so every trailer adds a
+    condition to meet) and one for the cart's turning. The smallest stroke that
+    brings them to zero (the screen's linear programme, with the rail's speed and
+    acceleration bounds) is proportional to the perturbation's size, and per unit
+    of perturbation it grows with n: with hitch angles and turning rate uniform in
+    +-0.015 the hardest of 100 starts needs 0.20, 0.47 and 0.83 of `s_max` for
+    n = 1, 2, 3. It depends on the speed non-monotonically: for the same
+    perturbation it is smallest near 1-1.5 m/s and two to three times larger at 0.5 m/s (a
+    turning rate is a curvature `omega / u`, larger when slower; faster, the rail's
+    speed and acceleration bounds bind). So slowing down does not make the task
+    easier, and stopping would escape it: the minimum reversing speed keeps the
+    task what its name says. The actuator's parameters (`mu`, `b`, `s_max`,
+    `rail_accel_max`) and the rod length keep their defaults, which every consumer
+    that builds settings from keyword arguments shares.
+
+    ## Starting State
+
+    `u ~ -U(0.9, 1.2)` m/s; the perturbation `(omega, alpha_1..alpha_n)` uniform on
+    the sphere of radius `0.064 n^-1.1` (0.064, 0.030, 0.019 for n = 1, 2, 3; rad/s
+    and rad), sized so that the hardest of 100 tuning starts (seeds 2000-2099)
+    needs at most about 80 % of the stroke; the mass at rest at the rail's centre.
+    A fixed size in a random direction, rather than a box, makes the starts about
+    equally hard (a box's corners set its size while its typical start is easy),
+    which is what leaves a saturation-unaware controller room to fail.
+
+    ## Episode End
+
+    Terminated, as a failure, when the convoy jackknifes (any `|alpha_k| >=
+    fold_angle`) or its reversing speed drops below 0.3 m/s (`u > -0.3`, a third of
+    the slowest start). Truncated after 400 steps (20 s at `dt = 0.05`).
+
+    ## Action Space, Observation Space, Rewards, Information, Arguments
+
+    As Reverse-v0 (`ReverseEnv`); `info["is_success"]` is "not folded and still
+    reversing at >= 0.3 m/s". Baselines: `zero`, `random`, `lqr` and `mpc`.
+    """
+
+    core_class = ReverseV1Core
