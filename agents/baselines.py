@@ -104,8 +104,8 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
     Raises:
         ValueError: On an unknown name or a baseline that does not fit the environment.
     """
-    if name in BASELINES and name not in scene_baselines(env_id):
-        fitting = [other for other in ENV_IDS if name in scene_baselines(other)]
+    if name in BASELINES and name not in scene_baselines(env_id, oracles=True):
+        fitting = [other for other in ENV_IDS if name in scene_baselines(other, oracles=True)]
         raise ValueError(f"the {name} baseline is for {', '.join(fitting)}, not {env_id}")
     if name == "zero":
         return ZeroPolicy(settings.action_dim)

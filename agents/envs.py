@@ -41,9 +41,13 @@ def headline_metric(env_id: str) -> str:
     return core_class_of(env_id).headline_metric
 
 
-def scene_baselines(env_id: str) -> tuple[str, ...]:
-    """The names of the baselines that apply to the scene (:data:`agents.baselines.BASELINES`)."""
-    return core_class_of(env_id).baselines
+def scene_baselines(env_id: str, *, oracles: bool = False) -> tuple[str, ...]:
+    """The baselines the scene evaluates by default (:data:`agents.baselines.BASELINES`).
+
+    With ``oracles``, also those that apply but are only run when named (the planner).
+    """
+    core = core_class_of(env_id)
+    return (*core.baselines, *core.oracle_baselines) if oracles else core.baselines
 
 
 def env_settings(env_kwargs: dict[str, Any] | None = None) -> EnvSettings:

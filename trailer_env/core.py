@@ -123,8 +123,11 @@ class ConvoyCore:
     max_episode_steps: ClassVar[int] = 400
     #: The rate the agents report first for this scene (a key of ``agents.metrics``).
     headline_metric: ClassVar[str] = "success_rate"
-    #: Names of the ``agents`` baselines that apply to this scene.
+    #: Names of the ``agents`` baselines that apply to this scene (evaluated by default).
     baselines: ClassVar[tuple[str, ...]] = ("zero", "random", "lqr")
+    #: Baselines that apply too but read the exact state and cost minutes per 100
+    #: episodes (the ``mpc`` planner): named explicitly, never run by default.
+    oracle_baselines: ClassVar[tuple[str, ...]] = ()
     #: Whether the scene itself needs the cart's pose (x, y, theta).
     uses_pose: ClassVar[bool] = False
     #: Number of task features appended to the observation.

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
@@ -56,6 +56,7 @@ def reverse_rows(
     jackknifed: np.ndarray,
     band_penalty: float,
     fold_penalty: float,
+    min_reverse_speed: float,
     reward: np.ndarray,
     terminated: np.ndarray,
     success: np.ndarray,
@@ -67,7 +68,7 @@ def reverse_rows(
     :func:`reverse_reward`'s ``math.cos`` to 1 ulp.
     """
     for i in rows:
-        stopped = z[i, 0] >= 0.0
+        stopped = z[i, 0] >= -min_reverse_speed
         failed = jackknifed[i] or stopped
         straightness = 1.0
         if n > 0:
@@ -87,9 +88,9 @@ def reverse_rows(
 @cached_njit(depends_on=(actuator, substeps, kernels))
 def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
     """Reward, termination and success of ``rows`` after a step (:func:`reverse_rows`)."""
-    z, n, band_penalty, fold_penalty, reward, terminated, success = scene
+    z, n, band_penalty, fold_penalty, min_reverse_speed, reward, terminated, success = scene
     reverse_rows(z, outputs[6], rows, n, outputs[2], outputs[3], band_penalty, fold_penalty,
-                 reward, terminated, success)  # fmt: skip
+                 min_reverse_speed, reward, terminated, success)  # fmt: skip
 
 
 @cached_njit(depends_on=(actuator, substeps, kernels))
@@ -115,12 +116,16 @@ class ReverseCore(ConvoyCore):
     scene = "Reverse"
     max_episode_steps = 400
     headline_metric = "safe_rate"
+    oracle_baselines = ("mpc",)
+    #: The episode fails once the reversing speed -u is at most this (m/s).
+    min_reverse_speed: ClassVar[float] = 0.0
     scene_kernel = staticmethod(reverse_step)
     scene_outcome = staticmethod(reverse_outcome)
 
     def _scene_arguments(self) -> tuple:
-        return (self.z, self.n, float(self.band_penalty), float(self.fold_penalty), self.reward,
-                self.terminated, self.success)  # fmt: skip
+        return (self.z, self.n, float(self.band_penalty), float(self.fold_penalty),
+                float(self.min_reverse_speed), self.reward, self.terminated,
+                self.success)  # fmt: skip
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -143,7 +148,7 @@ class ReverseCore(ConvoyCore):
     def _stopped_reversing(self) -> np.ndarray:
         # The mass can brake the convoy and push it forwards, where it is stable: that
         # escapes the task instead of solving it, so it ends the episode as a failure.
-        return self.z[:, 0] >= 0.0
+        return self.z[:, 0] >= -self.min_reverse_speed
 
     def _is_success(self) -> np.ndarray:
         return ~self.jackknifed & ~self._stopped_reversing()
