@@ -16,7 +16,7 @@ SPEED_RANGE = (0.9, 1.2)
 #: grows about as fast as that radius shrinks with the number of trailers.
 PERTURBATION = 0.064
 PERTURBATION_EXPONENT = 1.1
-#: Minimum reversing speed, m/s: the episode fails when -u drops below it.
+#: Minimum reversing speed, m/s: the episode fails once -u is at most this.
 MIN_REVERSE_SPEED = 0.3
 
 
