@@ -25,9 +25,11 @@ def check_env_id(env_id: str) -> str:
 
 
 def scene_of(env_id: str) -> str:
-    """The scene's short name as its core declares it, lower case: "reverse" for
-    "trailer_env/Reverse-v0" (run folders and model files are named with it)."""
-    return core_class_of(env_id).scene.lower()
+    """The scene's short name as its core declares it, lower case, with its version past 0:
+    "reverse" for "trailer_env/Reverse-v0", "reverse_v1" for "trailer_env/Reverse-v1" (run
+    folders and model files are named with it)."""
+    core = core_class_of(env_id)
+    return core.scene.lower() + (f"_v{core.version}" if core.version else "")
 
 
 def scene_title(env_id: str) -> str:

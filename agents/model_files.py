@@ -334,7 +334,10 @@ def safe_custom_objects(
                 f"model {path} expects {noun} of shape {shape}, "
                 f"but the environment has {tuple(space.shape)}"
             )
-    module = str(data.get("policy_class", {}).get("__module__", ""))
+    entry = data.get("policy_class", {})
+    if not isinstance(entry, dict):
+        raise ValueError(f"{path}: its policy_class entry is not an SB3 class record")
+    module = str(entry.get("__module__", ""))
     if module and module != _POLICY_MODULES[algo]:
         raise ValueError(
             f"{path}: policy class from {module!r}, not {algo}'s MlpPolicy; "

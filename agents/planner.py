@@ -155,8 +155,6 @@ class SamplingPlanner:
         self.lqr = LQRController(settings)
         self.speeds = -DESIGN_SPEEDS
         self.riccati = riccati_matrices(settings, self.speeds)
-        rows = self.core.batch_size
-        self._rows = np.arange(rows)
         self.rng = np.random.default_rng(self.config.seed)
         self.mean = np.zeros((self.batch_size, self.config.horizon))
         self.simulated_steps = 0

@@ -106,7 +106,8 @@ def ppo_config(
     train batch; ``batch_size`` the minibatch; ``n_epochs``, ``gamma``, ``gae_lambda``,
     ``clip_range``, ``ent_coef`` and a constant ``learning_rate`` carry over, and
     ``policy_kwargs["net_arch"]`` becomes ``fcnet_hiddens``. Observations are not
-    normalised (RLlib has no VecNormalize; the scenes' observations are bounded).
+    normalised (RLlib has no VecNormalize): u and omega enter unscaled, of order 1 m/s
+    and 1 rad/s in the scenes' states; the other entries lie in [-1, 1].
     """
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig

@@ -85,15 +85,6 @@ def cpu_seconds_once(
             return elapsed / calls
 
 
-def cpu_seconds(run: Callable[[], Any], min_total: float = 0.05, repeats: int = 3) -> float:
-    """CPU seconds of one call of ``run``: best of ``repeats`` averages over >= ``min_total`` s.
-
-    CPU time (not wall time) so that other people's jobs on a shared machine
-    disturb it less; the best of a few repeats to drop the remaining hiccups.
-    """
-    run()  # compile / warm caches
-    return min(cpu_seconds_once(run, min_total) for _ in range(repeats))
-
 
 def best_of_rounds(
     runs: Sequence[Callable[[], Any]],

@@ -6,6 +6,7 @@ Importing the package registers the scenes (namespace ``trailer_env``):
 id                          max_episode_steps   task
 ==========================  ==================  =====================================
 ``trailer_env/Reverse-v0``  400 (20 s)          back up without folding (headline)
+``trailer_env/Reverse-v1``  400 (20 s)          the same, every start recoverable
 ``trailer_env/Coast-v0``    300 (15 s)          straighten from a random coasting state
 ``trailer_env/Heading-v0``  300 (15 s)          reach and hold a target heading
 ``trailer_env/Dock-v0``     400 (20 s)          reverse the last axle onto a dock
@@ -36,7 +37,7 @@ __version__ = "0.2.0"
 
 from trailer_env.fidelity import Fidelity
 from trailer_env.registry import ENVIRONMENTS, register_scenes
-from trailer_env.scenes import CoastEnv, DockEnv, HeadingEnv, ReverseEnv
+from trailer_env.scenes import CoastEnv, DockEnv, HeadingEnv, ReverseEnv, ReverseV1Env
 from trailer_env.settings import EnvSettings
 from trailer_env.substeps import AccuracyWarning
 
@@ -51,5 +52,6 @@ __all__ = [
     "Fidelity",
     "HeadingEnv",
     "ReverseEnv",
+    "ReverseV1Env",
     "__version__",
 ]

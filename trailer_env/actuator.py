@@ -163,10 +163,3 @@ def clamp_row_to_rail(act: np.ndarray, i: int, b: float, s_max: float) -> None:
     """Remove rounding-level excursions past the rail's ends (the guard keeps them below 1e-15)."""
     act[i, 1] = min(max(act[i, 1], -s_max), s_max)
     act[i, 0] = min(max(act[i, 0], b - s_max), b + s_max)
-
-
-@njit(cache=True)
-def clamp_to_rail(act: np.ndarray, b: float, s_max: float) -> None:
-    """:func:`clamp_row_to_rail` for every row."""
-    for i in range(act.shape[0]):
-        clamp_row_to_rail(act, i, b, s_max)

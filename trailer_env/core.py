@@ -13,11 +13,11 @@ default integrators ("rk4", "rk4-energy"; :func:`trailer_env.kernels.step_serial
 4. where the scene provides :attr:`ConvoyCore.scene_kernel` (a jitted function that
    calls the step kernel, then its reward and termination formulas), those too.
 
-Then, in Python: the scene's ``_update_task`` and, for scenes without a scene kernel, the
-hooks ``_advance``, ``_is_success``, ``_is_terminated``, ``_reward``. Other integrators
-("dopri5", registered ones) take three calls: the actuator and auto rule, the
-integrator, the observations; their fold test sees the state at control instants only
-(DOPRI5's own steps are not visible from here).
+Then, in Python: the scene's ``_update_task`` and, for scenes without a scene kernel (or
+when the step was not fused), the hooks ``_advance``, ``_is_success``, ``_is_failed``,
+``_is_terminated``, ``_reward``. ``"dopri5"`` takes three calls: the actuator and auto
+rule, the integrator, the observations; its fold test sees the state at control instants
+only (DOPRI5's own steps are not visible from here).
 
 Accuracy: with ``fidelity.substeps="auto"`` the rule's estimate of each step's error
 stays below the tolerance unless a cap binds (``max_substeps`` on the accuracy rule,
@@ -315,13 +315,13 @@ class ConvoyCore:
         ):
             raise ValueError("the mass must be on the rail and able to stop before its ends")
         rows = np.array([i], dtype=np.int64)
+        self.set_task(i, **task)  # validates the task values before anything else changes
         self.z[i] = 0.0
         self.z[i, : state.shape[0]] = state
         self.act[i] = 0.0
         self.act[i, 0] = self._b
         self.act[i, 1] = s
         self.act[i, 3] = s_dot
-        self.set_task(i, **task)
         self.refresh(rows)
         self.energy0[i] = self.energy[i]
         self.reward[i] = 0.0
@@ -453,7 +453,7 @@ class ConvoyCore:
                 stacklevel=3,
             )
         self._update_task(slice(None))
-        if self.scene_kernel is None:
+        if self.scene_kernel is None or not self._fused:  # the kernel did not run the formulas
             self._advance()
             self.success[:] = self._is_success()
             self.failed[:] = self._is_failed()

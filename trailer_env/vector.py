@@ -44,7 +44,7 @@ from gymnasium.vector.utils import batch_space
 
 from dynamics.params import bounded_integer
 from trailer_env.core import ConvoyCore
-from trailer_env.env import PATH_LENGTH, as_action_array
+from trailer_env.env import PATH_LENGTH, as_action_array, checked_state
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
 from trailer_env.settings import settings_from_kwargs
 
@@ -264,6 +264,8 @@ class ConvoyVectorEnv(VectorEnv):
                 raise ValueError(
                     f"state must have shape ({self.num_envs}, {width}), got {states.shape}"
                 )
+            for i in rows.tolist():  # every row checked before any environment changes
+                checked_state(states[i], 0.0, 0.0)
         return rows, states
 
     def _start(self, rows: np.ndarray, states: np.ndarray | None = None) -> None:

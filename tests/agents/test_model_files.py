@@ -137,3 +137,13 @@ def test_damaged_zips_raise_value_errors(
     rewrite_zip(model, damage)
     with pytest.raises(ValueError, match=message):
         load_policy(str(model), REVERSE, {"n_trailers": 1})
+
+
+def test_a_malformed_policy_class_entry_is_a_value_error(tmp_path: Path) -> None:
+    model = _tiny_model(tmp_path)
+    with zipfile.ZipFile(model) as archive:
+        data = json.loads(archive.read("data"))
+    data["policy_class"] = "MlpPolicy"
+    rewrite_zip(model, {"data": json.dumps(data).encode()})
+    with pytest.raises(ValueError, match="policy_class"):
+        load_policy(str(model), REVERSE, {"n_trailers": 1})

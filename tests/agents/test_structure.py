@@ -111,7 +111,7 @@ def test_the_agents_read_the_scene_table() -> None:
         core = core_class_of(env_id)
         assert curve_metric(env_id) == core.headline_metric
         assert default_baselines(env_id) == list(core.baselines)
-        assert scene_of(env_id) == core.scene.lower()
+        assert scene_of(env_id).split("_v")[0] == core.scene.lower()
         assert f"trailer_env/{scene_title(env_id)}" == env_id
     assert curve_metric(REVERSE) == "safe_rate"
     assert curve_metric("trailer_env/Heading-v0") == "success_rate"
@@ -133,3 +133,11 @@ def test_report_scenarios_come_from_the_committed_cards(tmp_path: Path) -> None:
             json.dumps({"env_id": env_id, "env_kwargs": {"n_trailers": n}})
         )
     assert committed_scenarios(tmp_path) == ((REVERSE, 4), ("trailer_env/Dock-v0", 1))
+
+
+def test_run_and_model_names_carry_the_version_past_zero() -> None:
+    from agents.envs import scene_of
+
+    assert scene_of("trailer_env/Reverse-v0") == "reverse"
+    assert scene_of("trailer_env/Reverse-v1") == "reverse_v1"
+    assert scene_of("trailer_env/Dock-v0") == "dock"

@@ -86,3 +86,13 @@ def test_version_and_command_line_listing() -> None:
         capture_output=True, text=True,
     )
     assert failed.returncode == 2 and "Nope-v0" in failed.stderr
+
+
+def test_a_bad_task_option_leaves_the_state_untouched() -> None:
+    env = make("Heading", n_trailers=1)
+    env.reset(seed=5)
+    core = env.unwrapped.core
+    with pytest.raises(ValueError, match="target_heading"):
+        env.reset(seed=5, options={"state": [1.0, 0.0, 0.0], "target_heading": float("nan")})
+    np.testing.assert_allclose(core.obs[0, :2], core.z[0, :2], rtol=1e-6)  # obs matches z
+    assert core.z[0, 0] != 1.0

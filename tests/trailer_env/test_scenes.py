@@ -306,3 +306,23 @@ def test_reverse_start_is_the_documented_uniform_draws(n: int) -> None:
         expected = [-rng.uniform(0.8, 1.2), rng.uniform(-0.05, 0.05)]
         expected += list(rng.uniform(-0.05, 0.05, n))
         np.testing.assert_array_equal(env.unwrapped.core.z[0], expected)
+
+
+@pytest.mark.parametrize("scene", ["Reverse", "Reverse-v1", "Coast"])
+def test_scene_formulas_also_run_without_the_fused_kernel(scene: str) -> None:
+    # dopri5 steps outside the compiled step: the Python hooks give reward and termination.
+    env_id = f"trailer_env/{scene}" if "-v" in scene else f"trailer_env/{scene}-v0"
+    outcomes = []
+    for fidelity in ("rk4", "dopri5"):
+        env = gym.make(env_id, n_trailers=2, fidelity=fidelity)
+        env.reset(seed=1)
+        total, steps = 0.0, 0
+        for steps in range(1, 301):  # noqa: B007
+            _, reward, terminated, truncated, _ = env.step(np.zeros(1, np.float32))
+            total += reward
+            if terminated or truncated:
+                break
+        outcomes.append((steps, terminated, total))
+    (rk4_steps, rk4_end, rk4_total), (dp_steps, dp_end, dp_total) = outcomes
+    assert rk4_end and dp_end and abs(rk4_steps - dp_steps) <= 1
+    assert dp_total == pytest.approx(rk4_total, rel=0.05, abs=0.5)

@@ -103,3 +103,15 @@ def test_rgb_array_render_gives_one_frame_per_environment() -> None:
         envs.step(np.full((3, 1), 0.5))
     np.testing.assert_array_equal(envs.render()[1], single.render())  # env 1 is seeded 1 + 1
     envs.close()
+
+
+def test_bad_state_options_change_nothing() -> None:
+    envs = make_vec(2)
+    envs.reset(seed=0)
+    before = envs.unwrapped.core.z.copy()
+    generators = [g.bit_generator.state for g in envs.unwrapped._generators]
+    for bad in ([[-1e200, 0, 0, 0]] * 2, [[-1.0, 0, 0, 0], [np.nan, 0, 0, 0]]):
+        with pytest.raises(ValueError, match="z"):
+            envs.reset(options={"state": np.array(bad)})
+        np.testing.assert_array_equal(envs.unwrapped.core.z, before)
+        assert [g.bit_generator.state for g in envs.unwrapped._generators] == generators

@@ -73,8 +73,11 @@ def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
      success_bonus, fold_penalty) = scene  # fmt: skip
     cost = outputs[2]
     jackknifed = outputs[3]
+    nonfinite = outputs[5]
     hitch_trig = outputs[6]
     for i in rows:
+        if nonfinite[i]:
+            continue  # the step is redone (core._retry_finer): keep the potential it started from
         straight = coast_is_straight(z, i, n)
         potential = coast_potential(z, hitch_trig, i, n)
         success[i] = straight

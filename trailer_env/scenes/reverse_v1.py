@@ -24,7 +24,7 @@ class ReverseV1Core(ReverseCore):
     """Batched task logic of Reverse-v1: slower, smaller starts and a minimum reversing speed."""
 
     version = 1
-    #: Starting reversing speed range (m/s) and the half-widths of the perturbations.
+    #: Starting reversing speed range (m/s).
     speed_range: ClassVar[tuple[float, float]] = SPEED_RANGE
     #: Radius of the starting perturbation with one trailer (see PERTURBATION).
     perturbation: ClassVar[float] = PERTURBATION
