@@ -433,13 +433,16 @@ def load_rllib_policy(
             )
         module_dir = path / "learner_group" / "learner" / "rl_module" / "default_policy"
         return RLlibPolicy(RLModule.from_checkpoint(str(module_dir)), low, high)
-    saved_shape = tuple(card["spaces"]["observation_shape"])
+    try:
+        saved_shape = tuple(card["spaces"]["observation_shape"])
+        hiddens = [int(width) for width in card["hyperparams"]["fcnet_hiddens"]]
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"{path}: malformed {POLICY_CARD} ({error!r})") from None
     if saved_shape != tuple(observation_space.shape):
         raise ValueError(
             f"RLlib policy {path} expects observations of shape {saved_shape}, "
             f"but the environment gives {tuple(observation_space.shape)}"
         )
-    hiddens = list(card["hyperparams"]["fcnet_hiddens"])
     module: Any = RLModuleSpec(
         module_class=DefaultPPOTorchRLModule,
         observation_space=observation_space,
