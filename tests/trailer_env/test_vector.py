@@ -45,9 +45,20 @@ def test_vector_env_matches_single_envs_seeded_seed_plus_i(
     rng: np.random.Generator, env_id: str
 ) -> None:
     """Env i of make_vec(seed=s) replays gym.make + reset(seed=s + i), autoresets included."""
+    _assert_vector_replays_singles(env_id, rng)
+
+
+def test_vector_env_replays_single_envs_with_dopri5(rng: np.random.Generator) -> None:
+    # The adaptive integrator keeps per-row state; the batch still replays single envs.
+    _assert_vector_replays_singles("trailer_env/Reverse-v0", rng, fidelity="dopri5")
+
+
+def _assert_vector_replays_singles(env_id: str, rng: np.random.Generator, **kwargs: object) -> None:
     count, steps, seed = 3, 160, 40
-    envs = make_vec(env_id, count, n_trailers=2, max_episode_steps=60)
-    singles = [gym.make(env_id, n_trailers=2, max_episode_steps=60) for _ in range(count)]
+    envs = make_vec(env_id, count, n_trailers=2, max_episode_steps=60, **kwargs)
+    singles = [
+        gym.make(env_id, n_trailers=2, max_episode_steps=60, **kwargs) for _ in range(count)
+    ]
     vector_obs, _ = envs.reset(seed=seed)
     single_obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(singles)])
     np.testing.assert_array_equal(vector_obs, single_obs)
