@@ -28,11 +28,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from agents import cli
 from agents.baselines import BASELINES, Policy
@@ -51,6 +54,8 @@ from agents.policies import (
 
 #: First seed of the test episodes (training validation uses 50000 and up).
 TEST_SEED = 1000
+#: The models of every training seed of the committed models (see :func:`seed_models`).
+SEEDS_DIR = MODELS_DIR / "seeds"
 
 
 @dataclass
@@ -62,11 +67,21 @@ class Evaluation:
     card: dict[str, Any]
     results: EpisodeResults
     policy: Policy | None = None
+    #: Per training seed (a committed model's siblings in ``agents/models/seeds/``): its
+    #: card's seed and the same episodes' summary.
+    seed_summaries: list[tuple[int | None, dict[str, Any]]] | None = None
 
     @property
     def summary(self) -> dict[str, Any]:
         """Aggregate metrics (:func:`agents.metrics.summarize`)."""
         return summarize(self.results)
+
+    def seed_spread(self, metric: str = "safe_rate") -> tuple[float, float, float, float] | None:
+        """(mean, sd, min, max) of ``metric`` over the training seeds, or None without them."""
+        if not self.seed_summaries:
+            return None
+        values = np.array([summary[metric] for _, summary in self.seed_summaries])
+        return float(values.mean()), float(values.std()), float(values.min()), float(values.max())
 
 
 def curve_metric(env_id: str) -> str:
@@ -90,6 +105,26 @@ def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR)
         ):
             found.append(path)
     return found
+
+
+def seed_models(spec: str, directory: Path = SEEDS_DIR) -> list[Path]:
+    """The models of every training seed of a committed model: ``<seeds>/<stem>_s<k>.zip``.
+
+    A committed model is the best of its configuration's training seeds; the others (and
+    a copy of it) are kept under ``agents/models/seeds/`` so that tables can report the
+    spread over seeds. Empty for baselines and for models without siblings.
+    """
+    if not is_model_spec(spec):
+        return []
+    path = Path(resolve_model(spec))
+    if path.is_dir():
+        return []
+    pattern = re.compile(re.escape(path.stem) + r"_s\d+")
+    return sorted(
+        candidate
+        for candidate in directory.glob(f"{path.stem}_s*.zip")
+        if pattern.fullmatch(candidate.stem)
+    )
 
 
 def model_card(spec: str) -> dict[str, Any]:
@@ -137,24 +172,43 @@ def evaluate_policies(
     *,
     trust_pickle: bool = False,
     force: bool = False,
+    with_seeds: bool = True,
 ) -> list[Evaluation]:
     """Evaluate each policy spec on the same ``episodes`` seeded episodes.
 
     Args:
         trust_pickle, force: As for :func:`agents.policies.load_policy`.
+        with_seeds: Also evaluate every training seed of a committed model
+            (:func:`seed_models`) on the same episodes.
     """
     evaluations = []
     loaded = load_policies(specs, env_id, env_kwargs, seed, trust_pickle=trust_pickle, force=force)
     for spec, policy in loaded:
         results = rollout(policy, env_id, episodes, seed, env_kwargs)
-        evaluations.append(Evaluation(policy_label(spec), spec, model_card(spec), results, policy))
+        siblings = seed_models(spec) if with_seeds else []
+        seed_summaries = None
+        if siblings:
+            seed_summaries = []
+            for sibling, sibling_policy in load_policies(
+                [str(path) for path in siblings], env_id, env_kwargs, seed,
+                trust_pickle=trust_pickle, force=force,
+            ):  # fmt: skip
+                sibling_results = rollout(sibling_policy, env_id, episodes, seed, env_kwargs)
+                seed_summaries.append((model_card(sibling).get("seed"), summarize(sibling_results)))
+        evaluations.append(
+            Evaluation(policy_label(spec), spec, model_card(spec), results, policy, seed_summaries)
+        )
     return evaluations
 
 
-def training_note(card: dict[str, Any]) -> str:
+#: What the table says in the training column of an oracle baseline.
+ORACLE_NOTES = {"mpc": "oracle: exact model and state, 768k simulated steps per episode"}
+
+
+def training_note(card: dict[str, Any], label: str = "") -> str:
     """ "PPO, seed 0, 2.0M steps, 95 s" from a model card ("-" for baselines)."""
     if not card:
-        return "-"
+        return ORACLE_NOTES.get(label, "-")
 
     def steps_text(steps: float) -> str:
         return f"{steps / 1e6:.3g}M" if steps >= 100_000 else f"{steps / 1e3:.3g}k"
@@ -165,7 +219,24 @@ def training_note(card: dict[str, Any]) -> str:
     wall = card.get("wall_time_s")
     wall_text = f", {wall:.0f} s" if isinstance(wall, (int, float)) else ""
     algo = str(card.get("algo", "?")).upper()
+    if card.get("recipe") == "dagger":
+        iteration = card.get("selected_at_iteration")
+        kept = f" (kept iteration {iteration})" if iteration is not None else ""
+        return (
+            f"{algo} policy by DAgger from mpc, seed {card.get('seed')}, "
+            f"{steps_text(steps)} labels{kept}{wall_text}"
+        )
     return f"{algo}, seed {card.get('seed')}, {steps_text(steps)} steps{chosen}{wall_text}"
+
+
+def seeds_note(evaluation: Evaluation) -> str:
+    """ "96 ± 2% (94-98, 3 seeds)": the safe rate over the training seeds, or "-"."""
+    spread = evaluation.seed_spread()
+    if spread is None:
+        return "-"
+    mean, sd, low, high = (100 * value for value in spread)
+    count = len(evaluation.seed_summaries or [])
+    return f"{mean:.0f} ± {sd:.0f}% ({low:.0f}-{high:.0f}, {count} seeds)"
 
 
 def markdown_table(evaluations: Sequence[Evaluation]) -> str:
@@ -176,8 +247,9 @@ def markdown_table(evaluations: Sequence[Evaluation]) -> str:
     """
     header = (
         "| policy | training | return (mean ± sd) | safe episodes [95% CI] | jackknife "
-        "| time in band | min margin (mean / worst) | success | stopped reversing |\n"
-        "|---|---|---|---|---|---|---|---|---|\n"
+        "| time in band | min margin (mean / worst) | success | stopped reversing "
+        "| safe over training seeds |\n"
+        "|---|---|---|---|---|---|---|---|---|---|\n"
     )
     lines = []
     for evaluation in evaluations:
@@ -185,12 +257,13 @@ def markdown_table(evaluations: Sequence[Evaluation]) -> str:
         stopped = s["failure_rate"] - s["jackknife_rate"]
         low, high = s["safe_rate_ci"]
         lines.append(
-            f"| {evaluation.label} | {training_note(evaluation.card)} "
+            f"| {evaluation.label} | {training_note(evaluation.card, evaluation.label)} "
             f"| {s['mean_return']:.1f} ± {s['std_return']:.1f} "
             f"| {100 * s['safe_rate']:.0f}% [{100 * low:.0f}, {100 * high:.0f}] "
             f"| {100 * s['jackknife_rate']:.0f}% | {100 * s['band_time_fraction']:.1f}% "
             f"| {s['min_margin_mean']:.2f} / {s['min_margin_worst']:.2f} "
-            f"| {100 * s['success_rate']:.0f}% | {100 * stopped:.0f}% |"
+            f"| {100 * s['success_rate']:.0f}% | {100 * stopped:.0f}% "
+            f"| {seeds_note(evaluation)} |"
         )
     return header + "\n".join(lines) + "\n"
 
@@ -219,6 +292,15 @@ def results_document(
                     if key in evaluation.card
                 },
                 **evaluation.summary,
+                **(
+                    {}
+                    if evaluation.seed_summaries is None
+                    else {
+                        "training_seeds": [
+                            {"seed": seed, **summary} for seed, summary in evaluation.seed_summaries
+                        ]
+                    }
+                ),
             }
             for evaluation in evaluations
         ],

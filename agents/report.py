@@ -2,15 +2,17 @@
 
 Run with ``python -m agents.report [--img docs/img] [--out out/report] [--episodes 100]``.
 
-For every scene and number of trailers that a committed model was trained on
-(Reverse-v0 with n = 1, 2, 3 and Heading-v0 with n = 2 today) it evaluates the
-scene's baselines and every committed model (``agents/models/``) on the same seeded
-episodes (seeds 1000 ..), prints one Markdown table per scene (also written to
-``<out>/tables.md`` with the JSON results), and writes the pictures
-``agents_curves.png`` (learning curves of all committed agents),
-``agents_margins_reverse_n2.png`` and ``agents_frames_reverse_n2.png`` to ``--img``.
-A last table sweeps the actuator's authority (stroke, acceleration bound, mass) under
-the LQR baseline. It takes about a minute on two cores.
+For every scene and number of trailers that a committed model was trained on it
+evaluates the scene's baselines, its oracle (the ``mpc`` planner, where the scene has
+one; ``--no-planner`` leaves it out) and every committed model (``agents/models/``,
+with its training seeds from ``agents/models/seeds/``) on the same seeded episodes
+(seeds 1000 ..), prints one Markdown table per scene with its ceiling line
+(:func:`agents.certify.ceiling_note`; also written to ``<out>/tables.md`` with the
+JSON results), and writes the pictures ``agents_curves.png`` (learning curves of all
+committed agents), ``agents_margins_reverse_v1_n2.png`` and
+``agents_frames_reverse_v1_n2.png`` to ``--img``. A last table sweeps the actuator's
+authority (stroke, acceleration bound, mass) under the LQR baseline. With the planner
+it takes about 15 minutes on two cores, about two without.
 """
 
 from __future__ import annotations
@@ -21,7 +23,8 @@ import time
 from pathlib import Path
 
 from agents import cli, plots
-from agents.envs import ENV_IDS, scene_title
+from agents.certify import ceiling_note
+from agents.envs import ENV_IDS, scene_baselines, scene_title
 from agents.evaluate import (
     TEST_SEED,
     Evaluation,
@@ -53,7 +56,7 @@ def committed_scenarios(directory: Path = MODELS_DIR) -> tuple[tuple[str, int], 
 #: (environment id, number of trailers) of the README's results.
 SCENARIOS: tuple[tuple[str, int], ...] = committed_scenarios()
 #: The scenario whose margins and frames are drawn.
-HEADLINE = ("trailer_env/Reverse-v0", 2)
+HEADLINE = ("trailer_env/Reverse-v1", 2)
 #: Actuator settings of the authority sweep (ConvoyParams / EnvSettings overrides).
 AUTHORITY_SWEEP: tuple[dict[str, float], ...] = (
     {},
@@ -107,6 +110,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--img", type=Path, default=Path("docs/img"), help="picture folder")
     parser.add_argument("--out", type=Path, default=Path("out/report"), help="tables and JSON")
     cli.add_episodes(parser, 100, "episodes per policy (default 100)")
+    parser.add_argument(
+        "--no-planner", action="store_true", help="leave the scenes' oracle (mpc) out"
+    )
     args = parser.parse_args(argv)
     limit_torch_threads()
     started = time.perf_counter()
@@ -114,13 +120,17 @@ def main(argv: list[str] | None = None) -> int:
     sections, documents, panels = [], [], []
     for env_id, n in SCENARIOS:
         env_kwargs = {"n_trailers": n}
-        specs = [*default_baselines(env_id), *(str(p) for p in committed_models(env_id, n))]
+        oracles = [] if args.no_planner else list(scene_baselines(env_id, oracles=True))
+        oracles = [name for name in oracles if name not in default_baselines(env_id)]
+        models = [str(path) for path in committed_models(env_id, n)]
+        specs = [*default_baselines(env_id), *oracles, *models]
         evaluations = evaluate_policies(specs, env_id, env_kwargs, args.episodes, TEST_SEED)
         heading = (
             f"{env_id}, n = {n}: {args.episodes} episodes, seeds "
             f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}"
         )
-        sections.append(f"#### {heading}\n\n{markdown_table(evaluations)}")
+        ceiling = ceiling_note(env_id, n, args.episodes, TEST_SEED)
+        sections.append(f"#### {heading}\n\n{markdown_table(evaluations)}\n{ceiling}\n")
         documents.append(
             results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
         )
@@ -133,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
                 if path.name == "agents_curves.png":
                     path.unlink()  # replaced by the grid of every scenario below
                     continue
-                final = path.with_name(path.stem + "_reverse_n2.png")
+                final = path.with_name(path.stem + "_reverse_v1_n2.png")
                 path.replace(final)
                 print(f"wrote {final}")
     sweep = authority_table(args.episodes)

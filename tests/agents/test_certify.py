@@ -8,7 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.certify import FEASIBLE, certify, main, parse_seeds, replay, write_certificate
+from agents.certify import (
+    FEASIBLE,
+    NOT_RECOVERABLE,
+    certify,
+    main,
+    parse_seeds,
+    replay,
+    write_certificate,
+)
 from agents.planner import PlannerConfig
 
 V1 = "trailer_env/Reverse-v1"
@@ -49,3 +57,15 @@ def test_refuses_to_overwrite(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     assert "--overwrite" in capsys.readouterr().err
     with pytest.raises(FileExistsError):
         write_certificate({"starts": [], "actions": {}}, out, overwrite=False)
+
+
+def test_restarts_plan_only_the_starts_not_kept_safe() -> None:
+    # Reverse-v0, n = 3: seed 2004 needs 1.5 strokes (not recoverable), 2009 needs 0.33.
+    certificate = certify("trailer_env/Reverse-v0", 3, [2004, 2009], SMALL, restarts=2)
+    hard, easy = certificate["starts"]
+    assert hard["status"] == NOT_RECOVERABLE and hard["planner_attempts"] == 3
+    assert easy["status"] == FEASIBLE and easy["planner_attempts"] == 1
+    assert certificate["planner"]["restarts"] == 2
+    assert certificate["planner"]["first_pass_safe"] == 1
+    with pytest.raises(ValueError, match="restarts"):
+        certify(V1, 1, [2000], SMALL, restarts=-1)

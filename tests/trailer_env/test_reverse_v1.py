@@ -11,8 +11,8 @@ import trailer_env
 from trailer_env.scenes.reverse import ReverseCore
 from trailer_env.scenes.reverse_v1 import (
     MIN_REVERSE_SPEED,
-    PERTURBATION,
     PERTURBATION_EXPONENT,
+    PERTURBATION_RADII,
     SPEED_RANGE,
     ReverseV1Core,
 )
@@ -36,9 +36,9 @@ def test_start_distribution(n: int) -> None:
     speed = -z[:, 0]
     assert speed.min() >= SPEED_RANGE[0] and speed.max() <= SPEED_RANGE[1]
     assert speed.min() < SPEED_RANGE[0] + 0.01 and speed.max() > SPEED_RANGE[1] - 0.01
-    # (omega, alpha_1..alpha_n) lies on the sphere of radius PERTURBATION n**-1.1 ...
-    radius = PERTURBATION * n**-PERTURBATION_EXPONENT
-    assert ReverseV1Core.perturbation_radius(n) == pytest.approx(radius)
+    # (omega, alpha_1..alpha_n) lies on the sphere of the radius sized for n ...
+    radius = PERTURBATION_RADII[n]
+    assert ReverseV1Core.perturbation_radius(n) == radius
     perturbation = z[:, 1 : 2 + n]
     np.testing.assert_allclose(np.linalg.norm(perturbation, axis=1), radius, rtol=1e-12)
     # ... uniformly: zero mean, each component's mean square radius^2 / (n + 1).
@@ -47,6 +47,14 @@ def test_start_distribution(n: int) -> None:
     np.testing.assert_allclose(np.mean(perturbation**2, axis=0), sigma**2, rtol=0.15)
     np.testing.assert_array_equal(envs.unwrapped.core.act[:, 1], 0.0)  # the mass centred
     envs.close()
+
+
+def test_radius_beyond_the_sized_counts() -> None:
+    assert PERTURBATION_RADII == {1: 0.064, 2: 0.0365, 3: 0.0229}
+    assert ReverseV1Core.perturbation_radius(0) == PERTURBATION_RADII[1]
+    for n in (4, 8, 32):
+        expected = 0.0229 * (3 / n) ** PERTURBATION_EXPONENT
+        assert ReverseV1Core.perturbation_radius(n) == pytest.approx(expected, rel=1e-15)
 
 
 def test_v0_start_distribution_is_unchanged() -> None:
