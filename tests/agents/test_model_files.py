@@ -17,6 +17,7 @@ from agents.model_files import (
     STATS_FORMAT,
     UnsafeFileError,
     frozen_normalizer,
+    read_card,
     read_stats,
     restore_stats,
     safe_custom_objects,
@@ -74,13 +75,13 @@ def test_damaged_statistics_are_refused(tmp_path: Path) -> None:
 
 def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     zips = sorted(MODELS_DIR.glob("*.zip"))
-    assert len(zips) == 8 and not list(MODELS_DIR.glob("*.pkl"))
+    assert len(zips) == 12 and not list(MODELS_DIR.glob("*.pkl"))
     for model in zips:
         document = read_stats(stats_path(model))
         assert document["norm_obs"] is True and document["norm_reward"] is False
         # Every pickled entry of the zip has a safe replacement: nothing is unpickled.
-        probe = make_sb3_env(REVERSE if "reverse" in model.stem else "trailer_env/Heading-v0",
-                             1, {"n_trailers": int(model.stem[-1])})  # fmt: skip
+        card = read_card(model)
+        probe = make_sb3_env(card["env_id"], 1, card["env_kwargs"])
         custom = safe_custom_objects(model, model.stem[:3], probe.observation_space,
                                      probe.action_space)  # fmt: skip
         assert {"policy_class", "observation_space", "action_space"} <= set(custom)

@@ -125,7 +125,9 @@ def test_report_scenarios_come_from_the_committed_cards(tmp_path: Path) -> None:
     from agents.report import SCENARIOS, committed_scenarios
 
     assert SCENARIOS == (
-        (REVERSE, 1), (REVERSE, 2), (REVERSE, 3), ("trailer_env/Heading-v0", 2),
+        (REVERSE, 1), (REVERSE, 2), (REVERSE, 3),
+        ("trailer_env/Coast-v0", 1), ("trailer_env/Coast-v0", 2), ("trailer_env/Heading-v0", 2),
+        ("trailer_env/Dock-v0", 1), ("trailer_env/Dock-v0", 2),
     )  # fmt: skip
     for stem, env_id, n in (("b", "trailer_env/Dock-v0", 1), ("a", REVERSE, 4), ("c", "x", 1)):
         (tmp_path / f"{stem}.zip").write_bytes(b"")
