@@ -229,9 +229,9 @@ def training_note(card: dict[str, Any], label: str = "") -> str:
     return f"{algo}, seed {card.get('seed')}, {steps_text(steps)} steps{chosen}{wall_text}"
 
 
-def seeds_note(evaluation: Evaluation) -> str:
-    """ "96 ± 2% (94-98, 3 seeds)": the safe rate over the training seeds, or "-"."""
-    spread = evaluation.seed_spread()
+def seeds_note(evaluation: Evaluation, metric: str = "safe_rate") -> str:
+    """ "96 ± 2% (94-98, 3 seeds)": ``metric`` over the training seeds, or "-"."""
+    spread = evaluation.seed_spread(metric)
     if spread is None:
         return "-"
     mean, sd, low, high = (100 * value for value in spread)
@@ -239,8 +239,11 @@ def seeds_note(evaluation: Evaluation) -> str:
     return f"{mean:.0f} ± {sd:.0f}% ({low:.0f}-{high:.0f}, {count} seeds)"
 
 
-def markdown_table(evaluations: Sequence[Evaluation]) -> str:
+def markdown_table(evaluations: Sequence[Evaluation], metric: str = "safe_rate") -> str:
     """The comparison table in Markdown (rates in %, margins in [0, 1]).
+
+    The last column gives ``metric`` (the scene's headline rate) over a committed
+    model's training seeds.
 
     "stopped reversing" counts the failures that are not folds: on Reverse-v0 the
     episodes ended because the cart's speed reached u >= 0 (other scenes have none).
@@ -248,7 +251,7 @@ def markdown_table(evaluations: Sequence[Evaluation]) -> str:
     header = (
         "| policy | training | return (mean ± sd) | safe episodes [95% CI] | jackknife "
         "| time in band | min margin (mean / worst) | success | stopped reversing "
-        "| safe over training seeds |\n"
+        f"| {metric.removesuffix('_rate')} over training seeds |\n"
         "|---|---|---|---|---|---|---|---|---|---|\n"
     )
     lines = []
@@ -263,7 +266,7 @@ def markdown_table(evaluations: Sequence[Evaluation]) -> str:
             f"| {100 * s['jackknife_rate']:.0f}% | {100 * s['band_time_fraction']:.1f}% "
             f"| {s['min_margin_mean']:.2f} / {s['min_margin_worst']:.2f} "
             f"| {100 * s['success_rate']:.0f}% | {100 * stopped:.0f}% "
-            f"| {seeds_note(evaluation)} |"
+            f"| {seeds_note(evaluation, metric)} |"
         )
     return header + "\n".join(lines) + "\n"
 
@@ -459,7 +462,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     document = results_document(evaluations, env_id, env_kwargs, args.episodes, args.seed)
     (args.out / "results.json").write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
-    table = markdown_table(evaluations)
+    table = markdown_table(evaluations, curve_metric(env_id))
     (args.out / "results.md").write_text(
         f"{env_id}, n = {args.n_trailers}: {args.episodes} episodes, seeds "
         f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}"

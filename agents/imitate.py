@@ -51,7 +51,7 @@ from agents.callbacks import CURVE_COLUMNS, VALIDATION_SEED, score
 from agents.config import load_hyperparams, parse_policy_kwargs
 from agents.envs import check_env_id, env_settings, make_sb3_env
 from agents.metrics import rollout, summarize
-from agents.model_files import export_files, save_stats, stats_path, write_card
+from agents.model_files import export_files, read_card, save_stats, stats_path, write_card
 from agents.planner import PlannerConfig, SamplingPlanner
 from agents.policies import ModelPolicy, limit_torch_threads
 from agents.run_folder import (
@@ -67,6 +67,8 @@ from agents.run_folder import (
 from trailer_env.registry import core_class_of
 from trailer_env.vector import ConvoyVectorEnv
 
+#: Keys of the run's record that the best model's card takes at the end of the run.
+RUN_TOTALS = ("timesteps", "wall_time_s", "simulated_steps")
 #: The aggregated data set (normalised observations, labels) in the run folder.
 DATASET_FILE = "dataset.npz"
 #: Floor of the observations' variance in the frozen statistics. The cosines of nearly
@@ -324,6 +326,9 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     model.save(run_dir / FINAL_MODEL)
     save_stats(stats, stats_path(run_dir / FINAL_MODEL))
     write_card(run_dir / FINAL_MODEL, {**record, "validation": curve[-1]})
+    # The best model's card keeps when it was selected, and gets the run's totals.
+    best_card = read_card(run_dir / BEST_MODEL)
+    write_card(run_dir / BEST_MODEL, {**best_card, **{key: record[key] for key in RUN_TOTALS}})
     write_config(run_dir, record)
     envs.close()
     return record

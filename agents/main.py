@@ -34,6 +34,7 @@ from agents.envs import env_settings
 from agents.evaluate import (
     TEST_SEED,
     committed_models,
+    curve_metric,
     default_baselines,
     evaluate_policies,
     markdown_table,
@@ -146,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
     ceiling = ceiling_note(ENV_ID, N_TRAILERS, args.episodes, TEST_SEED)
     document["ceiling"] = ceiling
     (args.out / "results.json").write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
-    table = markdown_table(evaluations)
+    table = markdown_table(evaluations, curve_metric(ENV_ID))
     print(
         f"\n{ENV_ID}, n = {N_TRAILERS}: {args.episodes} episodes, seeds "
         f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "

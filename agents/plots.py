@@ -78,13 +78,23 @@ def plot_learning_curves(
     return _save(fig, plt, out, title)
 
 
+#: Panels per row of :func:`plot_curve_grid`.
+CURVE_GRID_COLUMNS = 4
+
+
 def plot_curve_grid(
     panels: Sequence[tuple[str, Mapping[str, Path], Mapping[str, float], str]], out: Path
 ) -> Path:
-    """Several scenes' learning curves side by side: (title, curves, baselines, metric) each."""
+    """Several scenes' learning curves, four to a row: (title, curves, baselines, metric) each."""
     plt = _pyplot()
-    fig, axes = plt.subplots(1, len(panels), figsize=(4.2 * len(panels), 3.8), squeeze=False)
-    for axis, (title, curves, baselines, metric) in zip(axes[0], panels, strict=True):
+    columns = min(CURVE_GRID_COLUMNS, max(len(panels), 1))
+    rows = -(-len(panels) // columns)
+    fig, axes = plt.subplots(
+        rows, columns, figsize=(4.2 * columns, 3.8 * rows), squeeze=False
+    )
+    for axis in axes.flat[len(panels) :]:
+        axis.set_visible(False)
+    for axis, (title, curves, baselines, metric) in zip(axes.flat, panels, strict=False):
         _draw_curves(axis, curves, metric, baselines)
         axis.set_ylim(-0.02, 1.02)
         axis.set_title(title, fontsize=10)

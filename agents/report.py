@@ -97,7 +97,10 @@ def curve_panel(
     for evaluation in evaluations:
         curve = learning_curve(evaluation)
         if evaluation.card and curve is not None:
-            curves[str(evaluation.card.get("algo", evaluation.label)).upper()] = curve
+            name = str(evaluation.card.get("algo", evaluation.label)).upper()
+            if evaluation.card.get("recipe") == "dagger":
+                name = "DAgger (PPO policy)"
+            curves[name] = curve
     levels = baseline_levels(evaluations, metric)
     return f"{scene_title(env_id)}, n = {n}", curves, levels, metric
 
@@ -130,7 +133,8 @@ def main(argv: list[str] | None = None) -> int:
             f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}"
         )
         ceiling = ceiling_note(env_id, n, args.episodes, TEST_SEED)
-        sections.append(f"#### {heading}\n\n{markdown_table(evaluations)}\n{ceiling}\n")
+        table = markdown_table(evaluations, curve_metric(env_id))
+        sections.append(f"#### {heading}\n\n{table}\n{ceiling}\n")
         documents.append(
             results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
         )

@@ -75,14 +75,16 @@ def test_damaged_statistics_are_refused(tmp_path: Path) -> None:
 
 def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     zips = sorted(MODELS_DIR.glob("*.zip"))
-    assert len(zips) == 12 and not list(MODELS_DIR.glob("*.pkl"))
-    for model in zips:
+    seeds = sorted((MODELS_DIR / "seeds").glob("*.zip"))
+    assert len(zips) == 15 and not list(MODELS_DIR.glob("**/*.pkl"))
+    assert len(seeds) == 21  # 3 training seeds of each of the Reverse-v1, Dock, Coast models
+    for model in zips + seeds:
         document = read_stats(stats_path(model))
         assert document["norm_obs"] is True and document["norm_reward"] is False
         # Every pickled entry of the zip has a safe replacement: nothing is unpickled.
         card = read_card(model)
         probe = make_sb3_env(card["env_id"], 1, card["env_kwargs"])
-        custom = safe_custom_objects(model, model.stem[:3], probe.observation_space,
+        custom = safe_custom_objects(model, card["algo"], probe.observation_space,
                                      probe.action_space)  # fmt: skip
         assert {"policy_class", "observation_space", "action_space"} <= set(custom)
 

@@ -126,6 +126,7 @@ def test_report_scenarios_come_from_the_committed_cards(tmp_path: Path) -> None:
 
     assert SCENARIOS == (
         (REVERSE, 1), (REVERSE, 2), (REVERSE, 3),
+        ("trailer_env/Reverse-v1", 1), ("trailer_env/Reverse-v1", 2), ("trailer_env/Reverse-v1", 3),
         ("trailer_env/Coast-v0", 1), ("trailer_env/Coast-v0", 2), ("trailer_env/Heading-v0", 2),
         ("trailer_env/Dock-v0", 1), ("trailer_env/Dock-v0", 2),
     )  # fmt: skip
