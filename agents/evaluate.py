@@ -112,12 +112,14 @@ def seed_models(spec: str, directory: Path = SEEDS_DIR) -> list[Path]:
 
     A committed model is the best of its configuration's training seeds; the others (and
     a copy of it) are kept under ``agents/models/seeds/`` so that tables can report the
-    spread over seeds. Empty for baselines and for models without siblings.
+    spread over seeds. Only a model in the folder above ``directory`` has siblings (a
+    model of the same name from anywhere else is not the committed one). Empty for
+    baselines and for models without siblings.
     """
     if not is_model_spec(spec):
         return []
     path = Path(resolve_model(spec))
-    if path.is_dir():
+    if path.is_dir() or path.resolve().parent != directory.resolve().parent:
         return []
     pattern = re.compile(re.escape(path.stem) + r"_s\d+")
     return sorted(

@@ -33,11 +33,15 @@ def _results(safe: list[bool]) -> EpisodeResults:
 
 
 def test_seed_models_are_the_numbered_siblings(tmp_path: Path) -> None:
+    seeds = tmp_path / "seeds"
+    seeds.mkdir()
     for name in ("x_s0", "x_s1", "x_s10", "x_sfoo", "x_s2_old", "y_s0"):
-        (tmp_path / f"{name}.zip").write_bytes(b"")
-    found = seed_models(str(tmp_path / "elsewhere" / "x.zip"), directory=tmp_path)
+        (seeds / f"{name}.zip").write_bytes(b"")
+    found = seed_models(str(tmp_path / "x.zip"), directory=seeds)
     assert [path.stem for path in found] == ["x_s0", "x_s1", "x_s10"]
-    assert seed_models("lqr", directory=tmp_path) == []
+    # A model of the same name elsewhere (a retrained one) is not the committed model.
+    assert seed_models(str(tmp_path / "elsewhere" / "x.zip"), directory=seeds) == []
+    assert seed_models("lqr", directory=seeds) == []
 
 
 def test_seeds_note_reports_mean_sd_and_range() -> None:
