@@ -129,6 +129,7 @@ class ImitationConfig:
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
         if "mpc" not in core_class_of(self.env_id).oracle_baselines:
             raise ValueError(f"{self.env_id} has no planner (mpc) to imitate")
+        env_settings(self.env_kwargs)  # a bad number of trailers fails here, named
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
@@ -263,6 +264,7 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     data_labels: list[np.ndarray] = []
     curve: list[dict[str, float]] = []
     best: tuple[float, float, float] | None = None
+    summary: dict[str, Any] = {}
     for iteration in range(config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
         driver = None if iteration == 0 else ModelPolicy(model, stats)
@@ -325,7 +327,7 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     )
     model.save(run_dir / FINAL_MODEL)
     save_stats(stats, stats_path(run_dir / FINAL_MODEL))
-    write_card(run_dir / FINAL_MODEL, {**record, "validation": curve[-1]})
+    write_card(run_dir / FINAL_MODEL, {**record, "validation": summary})
     # The best model's card keeps when it was selected, and gets the run's totals.
     best_card = read_card(run_dir / BEST_MODEL)
     write_card(run_dir / BEST_MODEL, {**best_card, **{key: record[key] for key in RUN_TOTALS}})

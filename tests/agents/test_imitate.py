@@ -59,6 +59,8 @@ def test_bad_configurations_are_refused(tmp_path: Path, capsys: pytest.CaptureFi
         ImitationConfig("trailer_env/Dock-v0", 1)
     with pytest.raises(ValueError, match="iterations"):
         ImitationConfig(V1, 1, iterations=0)
+    with pytest.raises(ValueError, match="n_trailers"):
+        ImitationConfig(V1, -1)
     with pytest.raises(TypeError, match="episodes"):
         ImitationConfig(V1, 1, episodes=2.5)  # type: ignore[arg-type]
     run = tmp_path / "run"
