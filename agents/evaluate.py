@@ -203,14 +203,20 @@ def evaluate_policies(
     return evaluations
 
 
-#: What the table says in the training column of an oracle baseline.
-ORACLE_NOTES = {"mpc": "oracle: exact model and state, 768k simulated steps per episode"}
+def oracle_note(label: str, episode_steps: int = 400) -> str:
+    """What the table says in the training column of a baseline ("-" unless an oracle)."""
+    if label != "mpc":
+        return "-"
+    from agents.planner import PlannerConfig
+
+    per_episode = PlannerConfig().steps_per_decision * episode_steps
+    return f"oracle: exact model and state, {per_episode / 1000:.0f}k simulated steps per episode"
 
 
 def training_note(card: dict[str, Any], label: str = "") -> str:
     """ "PPO, seed 0, 2.0M steps, 95 s" from a model card ("-" for baselines)."""
     if not card:
-        return ORACLE_NOTES.get(label, "-")
+        return oracle_note(label)
 
     def steps_text(steps: float) -> str:
         return f"{steps / 1e6:.3g}M" if steps >= 100_000 else f"{steps / 1e3:.3g}k"

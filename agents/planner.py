@@ -105,6 +105,11 @@ class PlannerConfig:
         if not (self.noise > 0.0 and self.min_noise >= 0.0):
             raise ValueError("noise must be > 0 and min_noise >= 0")
 
+    @property
+    def steps_per_decision(self) -> int:
+        """Simulated steps per environment and control step."""
+        return self.iterations * (self.horizon + self.tail) * self.samples
+
 
 def riccati_matrices(settings: EnvSettings, speeds: np.ndarray) -> np.ndarray:
     """The LQR's Riccati matrices P (len(speeds), n+3, n+3) at forward ``speeds``."""

@@ -12,7 +12,7 @@ JSON results), and writes the pictures ``agents_curves.png`` (learning curves of
 committed agents), ``agents_margins_reverse_v1_n2.png`` and
 ``agents_frames_reverse_v1_n2.png`` to ``--img``. A last table sweeps the actuator's
 authority (stroke, acceleration bound, mass) under the LQR baseline. With the planner
-it takes about 15 minutes on two cores, about two without.
+it takes about three minutes on two cores, about one without.
 """
 
 from __future__ import annotations
