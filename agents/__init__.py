@@ -1,24 +1,23 @@
-"""Baselines and stable-baselines3 agents for the trailer_env scenes.
+"""Baselines, oracles and stable-baselines3 agents for the trailer_env scenes, in layers.
 
-Modules (one concept each):
+Each subpackage owns one concern and imports only from the layers below it (enforced
+by ``tests/test_layers.py``):
 
-* :mod:`agents.baselines`: zero, random, LQR and heading baselines as batched policies;
-* :mod:`agents.policies`: the registry (a baseline by name, a saved model by path or stem);
-* :mod:`agents.envs`: environment construction (native batches, the SB3 adapter) and the
-  scene table's look-ups (ids, scene names, headline metric, baselines);
-* :mod:`agents.metrics`: seeded batched rollouts and the safety metrics;
-* :mod:`agents.config`: rl-zoo3 hyperparameter files (``agents/hyperparams/*.yml``) and
-  :class:`~agents.config.TrainConfig`, the record behind ``config.json`` and the cards;
-* :mod:`agents.run_folder`: a training's run folder (default name, refusals, overwrite);
-* :mod:`agents.callbacks`: periodic evaluation during training (learning curves);
-* :mod:`agents.plots`: learning curves, margin histograms, rendered frames, episode videos;
-* :mod:`agents.model_files`: model file names, cards and export; loading without pickles
-  (JSON statistics, safe SB3 loads);
-* :mod:`agents.rllib_backend`: distributed PPO on Ray RLlib (``train --backend rllib``);
-* :mod:`agents.cli`: the command-line options and number parsers the commands share;
-* commands: :mod:`agents.train`, :mod:`agents.evaluate`, :mod:`agents.report` and the
-  main job :mod:`agents.main`.
+1. :mod:`agents.commands`: the command-line programs, argument parsing only
+   (``python -m agents.train``, ``agents.evaluate``, ``agents.certify``,
+   ``agents.imitate``, ``agents.report``, ``agents.main``);
+2. :mod:`agents.training`: SB3 and RLlib training, imitation (DAgger), hyperparameter
+   files, callbacks;
+3. :mod:`agents.evaluation`: seeded batched rollouts, metrics, tables, pictures;
+4. :mod:`agents.policies`: baselines, loaded models and the registry
+   (:func:`agents.policies.load_policy`);
+5. :mod:`agents.oracles`: the planner, the feasibility screen and certification;
+6. :mod:`agents.artifacts`: every file name and format, safe loading, cards, the
+   shipped models;
+7. :mod:`agents.seeds` (every seed range) and :mod:`agents.envs` (building envs and
+   the scene table's look-ups).
 
 Committed models live in ``agents/models/`` with their cards (``*.json``),
-observation statistics (``*_vecnormalize.json``) and learning curves (``*.csv``).
+observation statistics (``*_vecnormalize.json``) and learning curves (``*.csv``);
+committed certificates in ``agents/certificates/``.
 """

@@ -39,12 +39,13 @@ def scene_title(env_id: str) -> str:
 
 
 def headline_metric(env_id: str) -> str:
-    """The rate reported first for the scene (a key of :func:`agents.metrics.summarize`)."""
+    """The rate reported first for the scene (a key of
+    :func:`agents.evaluation.metrics.summarize`)."""
     return core_class_of(env_id).headline_metric
 
 
 def scene_baselines(env_id: str, *, oracles: bool = False) -> tuple[str, ...]:
-    """The baselines the scene evaluates by default (:data:`agents.baselines.BASELINES`).
+    """The baselines the scene evaluates by default (:data:`agents.policies.baselines.BASELINES`).
 
     With ``oracles``, also those that apply but are only run when named (the planner).
     """

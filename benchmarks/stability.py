@@ -46,7 +46,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,38 +53,18 @@ import numpy as np
 from scipy.optimize import brentq
 
 from benchmarks._common import one_thread, parse_command, report_written, write_csv
+from benchmarks.stability_plots import plot_failures, plot_limits
+from benchmarks.stability_theory import (
+    DOPRI5_FIXED,
+    METHODS,
+    RK4,
+    RK4_ENERGY_PRESERVING,
+    real_axis_limit,
+)
 from dynamics import ConvoyParams, Stepper, energy, rhs
 from dynamics.adaptive import DP_A, DP_B, AdaptiveStepper, integrate_adaptive
 
-RK4 = "RK4"
-RK4_ENERGY_PRESERVING = "RK4 energy-preserving"
-DOPRI5_FIXED = "DOPRI5 fixed step"
-METHODS = (RK4, RK4_ENERGY_PRESERVING, DOPRI5_FIXED)
-"""The fixed-step methods compared; the names label the CSV rows and the charts."""
 PERTURBATION = 1e-6
-
-
-def rk4_stability(z: complex) -> complex:
-    """Stability function of classical RK4."""
-    return 1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24
-
-
-def dopri5_stability(z: complex) -> complex:
-    """Stability function of DOPRI5's propagated (5th-order) solution, from its tableau."""
-    stages = 6  # stage 7 only feeds the error estimate
-    matrix = np.eye(stages) - z * DP_A[:stages, :stages]
-    return complex(1 + z * DP_B[:stages] @ np.linalg.solve(matrix, np.ones(stages)))
-
-
-def stability_function(method: str) -> Callable[[complex], complex]:
-    """R(z) of a method (the energy-preserving step has RK4's)."""
-    return dopri5_stability if method == DOPRI5_FIXED else rk4_stability
-
-
-def real_axis_limit(method: str) -> float:
-    """x* > 0 with |R(-x)| < 1 on (0, x*) and |R(-x*)| = 1."""
-    function = stability_function(method)
-    return float(brentq(lambda x: abs(function(-x)) - 1.0, 1.5, 4.0, xtol=1e-13))
 
 
 def decay_rates(params: ConvoyParams, speed: float) -> tuple[float, float]:
@@ -470,10 +449,6 @@ def measure_horizons(quick: bool) -> list[dict[str, Any]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    # Imported when the command runs: the charts import this module's methods and
-    # stability functions, so an import at the top would be circular.
-    from benchmarks.stability_plots import plot_failures, plot_limits
-
     args = parse_command(
         "python -m benchmarks.stability", __doc__, "fewer cases and a coarse sweep", argv
     )

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from benchmarks._common import machine_note, pyplot, save_figure
-from benchmarks.stability import (
+from benchmarks.stability_theory import (
     DOPRI5_FIXED,
     METHODS,
     RK4,

@@ -387,10 +387,11 @@ def main(argv: list[str] | None = None) -> None:
     args = parser.parse_args(argv)
     import gymnasium as gym
 
-    import trailer_env  # noqa: F401  (registers the ids)
     from trailer_env.controllers import LQRController
 
-    env = gym.make(args.env, n_trailers=args.n_trailers, render_mode="rgb_array")
+    # "module:id" makes Gymnasium import trailer_env (which registers the ids) without
+    # this module importing its own package.
+    env = gym.make(f"trailer_env:{args.env}", n_trailers=args.n_trailers, render_mode="rgb_array")
     controller = LQRController.from_env(env)
     obs, _ = env.reset(seed=args.seed)
     for _ in range(args.steps):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from agents.policies import limit_torch_threads
+from agents.policies.sb3 import limit_torch_threads
 
 
 @pytest.fixture(autouse=True, scope="session")

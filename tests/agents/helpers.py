@@ -8,8 +8,8 @@ from pathlib import Path
 
 from stable_baselines3 import PPO
 
+from agents.artifacts.shipped import MODELS_DIR
 from agents.envs import make_sb3_env
-from agents.policies import MODELS_DIR
 
 REVERSE = "trailer_env/Reverse-v0"
 

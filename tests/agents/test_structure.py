@@ -9,13 +9,18 @@ from pathlib import Path
 
 import pytest
 
-from agents import cli
-from agents.baselines import make_baseline
-from agents.config import TrainConfig, load_hyperparams
+from agents.artifacts.paths import model_stem
+from agents.artifacts.run_folder import (
+    RunFolderError,
+    choose_run_dir,
+    default_run_dir,
+    write_config,
+)
+from agents.commands import options as cli
 from agents.envs import ENV_IDS, env_settings, scene_of, scene_title
-from agents.evaluate import curve_metric, default_baselines
-from agents.model_files import model_stem
-from agents.run_folder import RunFolderError, choose_run_dir, default_run_dir, write_config
+from agents.evaluation.results import curve_metric, default_baselines
+from agents.policies.baselines import make_baseline
+from agents.training.config import TrainConfig, load_hyperparams
 from trailer_env.registry import core_class_of
 
 REVERSE = "trailer_env/Reverse-v0"
@@ -122,7 +127,7 @@ def test_the_agents_read_the_scene_table() -> None:
 
 
 def test_report_scenarios_come_from_the_committed_cards(tmp_path: Path) -> None:
-    from agents.report import SCENARIOS, committed_scenarios
+    from agents.evaluation.report import SCENARIOS, committed_scenarios
 
     assert SCENARIOS == (
         (REVERSE, 1), (REVERSE, 2), (REVERSE, 3),

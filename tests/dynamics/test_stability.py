@@ -35,19 +35,21 @@ import pytest
 
 from benchmarks import stability
 from benchmarks.stability import (
-    DOPRI5_FIXED,
-    RK4,
-    RK4_ENERGY_PRESERVING,
     advance,
     decay_rates,
     departure_time,
     largest_stable_step,
     linearisation,
     perturbed_equilibrium,
-    real_axis_limit,
     resting_mass_action,
-    rk4_stability,
     run_from_node,
+)
+from benchmarks.stability_theory import (
+    DOPRI5_FIXED,
+    RK4,
+    RK4_ENERGY_PRESERVING,
+    real_axis_limit,
+    rk4_stability,
 )
 from dynamics import ConvoyParams, energy, rhs
 from dynamics.adaptive import AdaptiveStepper

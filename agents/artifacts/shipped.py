@@ -1,0 +1,63 @@
+"""The models shipped in the package, their training-seed siblings, and stems resolved to paths."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from agents.artifacts.cards import read_card
+
+#: Where shipped models live (inside the installed package, not the working directory).
+MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
+
+
+def resolve_model(spec: str) -> str:
+    """A shipped model's path from its stem (``ppo_reverse_n2`` ->
+    ``<package>/models/ppo_reverse_n2.zip``); other specs (paths, baseline names) are
+    returned unchanged."""
+    if "/" in spec or Path(spec).suffix:
+        return spec
+    shipped = MODELS_DIR / f"{spec}.zip"
+    return str(shipped) if shipped.is_file() else spec
+
+
+def shipped_models() -> list[str]:
+    """Stems of the models shipped in :data:`MODELS_DIR`."""
+    return sorted(path.stem for path in MODELS_DIR.glob("*.zip"))
+
+
+#: The models of every training seed of the committed models (see :func:`seed_models`).
+SEEDS_DIR = MODELS_DIR / "seeds"
+
+
+def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[Path]:
+    """Models under ``directory`` whose card names ``env_id`` and ``n_trailers``."""
+    found = []
+    for path in sorted(directory.glob("*.zip")):
+        card = read_card(path)
+        if (
+            card.get("env_id") == env_id
+            and card.get("env_kwargs", {}).get("n_trailers") == n_trailers
+        ):
+            found.append(path)
+    return found
+
+
+def seed_models(spec: str, directory: Path = SEEDS_DIR) -> list[Path]:
+    """The models of every training seed of a committed model: ``<seeds>/<stem>_s<k>.zip``.
+
+    A committed model is the best of its configuration's training seeds; the others (and
+    a copy of it) are kept under ``agents/models/seeds/`` so that tables can report the
+    spread over seeds. Only a model in the folder above ``directory`` has siblings (a
+    model of the same name from anywhere else is not the committed one). Empty for
+    baselines and for models without siblings.
+    """
+    path = Path(resolve_model(spec))
+    if path.is_dir() or path.resolve().parent != directory.resolve().parent:
+        return []
+    pattern = re.compile(re.escape(path.stem) + r"_s\d+")
+    return sorted(
+        candidate
+        for candidate in directory.glob(f"{path.stem}_s*.zip")
+        if pattern.fullmatch(candidate.stem)
+    )

@@ -1,0 +1,159 @@
+"""Evaluate policies (baselines by name, saved models by path) over K seeded episodes.
+
+Usage::
+
+    python -m agents.evaluate --env trailer_env/Reverse-v0 --n-trailers 2 \
+        --policy zero random lqr ppo_reverse_n2 --episodes 100 --out out/eval
+
+A policy is a baseline name, the stem of a shipped model (``ppo_reverse_n2`` is the
+installed package's ``agents/models/ppo_reverse_n2.zip``, from any folder), a model
+zip's path or an RLlib checkpoint folder (``runs/<run>/checkpoint``). Model files are
+loaded without unpickling anything unless ``--trust-pickle``
+(:mod:`agents.artifacts`), and a model whose card names another environment id or
+number of trailers is refused unless ``--force``. ``--video PATH.mp4|.gif`` also
+writes every frame of one episode (seed ``--seed``) of the first policy.
+
+Without ``--policy`` it evaluates the scene's baselines and every committed model
+(``agents/models/*.zip``) trained for that environment and number of trailers.
+All episodes of one policy run in one native batch; episode ``i`` is seeded
+``seed + i`` (default seed 1000), so the same command gives the same JSON.
+
+Writes to ``--out``: ``results.json`` (every metric, per policy), ``results.md``
+(a Markdown table, also printed), and unless ``--no-plots``: ``margins.png``
+(singular-margin histograms), ``frames.png`` (a rendered episode per policy) and
+``curves.png`` (learning curves of the models that have them).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+from agents.artifacts.shipped import committed_models
+from agents.commands import options as cli
+from agents.envs import check_env_id, env_settings
+from agents.evaluation.pictures import write_pictures
+from agents.evaluation.results import (
+    curve_metric,
+    default_baselines,
+    evaluate_policies,
+    results_document,
+)
+from agents.evaluation.tables import markdown_table
+from agents.policies.baselines import BASELINES
+from agents.policies.sb3 import limit_torch_threads
+from agents.seeds import TEST_SEED
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.evaluate",
+        description="Evaluate baselines and saved agents over seeded episodes.",
+    )
+    cli.add_env(parser, default="trailer_env/Reverse-v0")
+    cli.add_n_trailers(parser)
+    parser.add_argument(
+        "--policy",
+        nargs="+",
+        default=None,
+        metavar="POLICY",
+        help=f"baselines ({', '.join(BASELINES)}), shipped models by stem "
+        "(e.g. ppo_reverse_n2), model paths (.zip) and/or RLlib checkpoint folders; "
+        "default: the scene's baselines and its committed models",
+    )
+    cli.add_episodes(parser, 100, "episodes (default 100)")
+    cli.add_seed(parser, TEST_SEED, f"episode i is seeded seed + i (default {TEST_SEED})")
+    parser.add_argument(
+        "--out", type=Path, default=Path("out/eval"), help="output folder (default out/eval)"
+    )
+    parser.add_argument("--no-plots", action="store_true", help="write JSON and Markdown only")
+    parser.add_argument(
+        "--video",
+        type=Path,
+        default=None,
+        metavar="PATH.mp4|PATH.gif",
+        help="also write a video of one episode (seed --seed) of the first --policy",
+    )
+    parser.add_argument(
+        "--video-steps",
+        type=cli.non_negative_int,
+        default=None,
+        help="cut the video after this many steps (default: the whole episode)",
+    )
+    cli.add_trust_pickle(parser, "parts of the model files")
+    parser.add_argument(
+        "--force",
+        action="store_true",
+        help="evaluate models whose card names another environment or n_trailers",
+    )
+    cli.add_overwrite(parser, "replace an existing --video file")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments exit with 2)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    cli.check_out_folder(parser, args.out)
+    if args.video is not None:
+        from agents.evaluation.plots import VIDEO_SUFFIXES
+
+        if args.video.suffix.lower() not in VIDEO_SUFFIXES:
+            parser.error(f"argument --video: must end in .mp4 or .gif, got {args.video.name!r}")
+        if args.video.exists() and not args.overwrite:
+            parser.error(f"argument --video: {args.video} exists; pass --overwrite to replace it")
+    env_id = check_env_id(args.env)
+    env_kwargs = {"n_trailers": args.n_trailers}
+    try:
+        env_settings(env_kwargs)
+    except (TypeError, ValueError) as error:
+        parser.error(f"argument --n-trailers: {error}")
+    specs = args.policy or [
+        *default_baselines(env_id),
+        *(str(path) for path in committed_models(env_id, args.n_trailers)),
+    ]
+    limit_torch_threads()
+    started = time.perf_counter()
+    try:
+        evaluations = evaluate_policies(
+            specs,
+            env_id,
+            env_kwargs,
+            args.episodes,
+            args.seed,
+            trust_pickle=args.trust_pickle,
+            force=args.force,
+        )
+    except (ValueError, FileNotFoundError) as error:
+        parser.error(f"argument --policy: {error}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    document = results_document(evaluations, env_id, env_kwargs, args.episodes, args.seed)
+    (args.out / "results.json").write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
+    table = markdown_table(evaluations, curve_metric(env_id))
+    (args.out / "results.md").write_text(
+        f"{env_id}, n = {args.n_trailers}: {args.episodes} episodes, seeds "
+        f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}"
+    )
+    print(table, end="")
+    print(f"evaluated {len(specs)} policies in {time.perf_counter() - started:.1f} s")
+    if not args.no_plots:
+        for path in write_pictures(evaluations, env_id, env_kwargs, args.out, args.seed):
+            print(f"wrote {path}")
+    if args.video is not None:
+        from agents.evaluation import plots
+
+        first = evaluations[0]
+        assert first.policy is not None  # evaluate_policies keeps every policy
+        frames = plots.episode_frames(env_id, first.policy, args.seed, env_kwargs, args.video_steps)
+        fps = 1.0 / env_settings(env_kwargs).dt
+        plots.write_video(frames, args.video, fps)
+        print(f"wrote {args.video} ({len(frames)} frames of {first.label}, seed {args.seed})")
+    print(f"wrote {args.out / 'results.json'} and {args.out / 'results.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,93 @@
+"""``python -m agents.imitate``: DAgger from the planner (:mod:`agents.training.imitate`)."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from agents.artifacts.paths import export_files
+from agents.artifacts.run_folder import (
+    RunFolderError,
+    choose_run_dir,
+    default_run_dir,
+    export_model,
+)
+from agents.commands import options as cli
+from agents.oracles.planner import PlannerConfig
+from agents.policies.sb3 import limit_torch_threads
+from agents.training.imitate import ImitationConfig, imitate
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.imitate", description=(__doc__ or "").split("\n")[0]
+    )
+    cli.add_env(parser, default="trailer_env/Reverse-v1")
+    cli.add_n_trailers(parser)
+    cli.add_seed(parser, 0, "seed of the network, the training episodes and the planner")
+    parser.add_argument("--iterations", type=cli.at_least(1), default=6, help="DAgger iterations")
+    cli.add_episodes(parser, 256, "convoys driven per iteration (one batch)")
+    parser.add_argument(
+        "--epochs", type=cli.at_least(1), default=10, help="passes over the data per iteration"
+    )
+    parser.add_argument(
+        "--net-arch", type=cli.at_least(1), nargs="+", default=None, help="hidden layer sizes"
+    )
+    parser.add_argument(
+        "--planner-samples",
+        type=cli.at_least(2),
+        default=PlannerConfig.samples,
+        help=f"the expert's candidates per iteration (default {PlannerConfig.samples})",
+    )
+    parser.add_argument(
+        "--planner-iterations",
+        type=cli.at_least(1),
+        default=PlannerConfig.iterations,
+        help=f"the expert's CEM iterations (default {PlannerConfig.iterations})",
+    )
+    parser.add_argument("--run-dir", type=Path, default=None, help="run folder")
+    parser.add_argument(
+        "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
+    )
+    cli.add_overwrite(parser, "replace a run in the run folder and --export's files")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        config = ImitationConfig(
+            env_id=args.env,
+            n_trailers=args.n_trailers,
+            seed=args.seed,
+            iterations=args.iterations,
+            episodes=args.episodes,
+            epochs=args.epochs,
+            net_arch=tuple(args.net_arch) if args.net_arch else None,
+            planner=PlannerConfig(
+                samples=args.planner_samples,
+                iterations=args.planner_iterations,
+                elites=max(1, args.planner_samples // 4),
+            ),
+        )
+    except (TypeError, ValueError) as error:
+        parser.error(str(error))
+    default = default_run_dir(config.env_id, "dagger", config.n_trailers, config.seed)
+    try:
+        run_dir = choose_run_dir(default, args.run_dir, overwrite=args.overwrite)
+    except RunFolderError as error:
+        parser.error(str(error))
+    if args.export is not None and not args.overwrite:
+        existing = [path for path in export_files(args.export) if path.exists()]
+        if existing:
+            parser.error(f"argument --export: {existing[0]} exists; pass --overwrite to replace it")
+    limit_torch_threads()
+    imitate(config, run_dir)
+    if args.export is not None:
+        print(f"exported {export_model(run_dir, args.export, overwrite=args.overwrite)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

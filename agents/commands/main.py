@@ -1,0 +1,172 @@
+"""The main job: the committed agent against the baselines and the planner on Reverse-v1 (n = 2).
+
+Run with ``python -m agents.main [--out DIR] [--episodes K] [--no-planner] [--retrain
+[--overwrite]] [--train-iterations I] [--train-episodes E]``.
+
+1. Load the committed agents for ``trailer_env/Reverse-v1``, n = 2
+   (``agents/models/*.zip`` whose card names that scene), or, when there are none
+   (or with ``--retrain``), imitate the planner on a short budget (DAgger,
+   :mod:`agents.training.imitate`) into ``<out>/run``; a run already there is replaced only
+   with ``--overwrite``.
+2. Evaluate them, the baselines (zero, random, LQR) and the ``mpc`` planner (an
+   oracle; ``--no-planner`` skips it) on K seeded episodes (seeds 1000 .. 1000 + K - 1)
+   in one native batch per policy; a committed agent's training seeds are evaluated
+   too (the table's spread over seeds).
+3. Print the comparison table and the ceiling (the certified share of these starts,
+   :func:`agents.oracles.certify.ceiling_note`), and write ``results.json``, ``results.md``,
+   ``margins.png``, ``frames.png`` and ``curves.png`` to ``--out`` (default ``out``).
+
+It takes about half a minute with the committed models on two cores (the planner is
+most of it), about a minute more when it imitates.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import time
+from pathlib import Path
+
+from agents.artifacts.paths import export_files, model_stem
+from agents.artifacts.run_folder import export_model
+from agents.artifacts.shipped import committed_models
+from agents.commands import options as cli
+from agents.envs import env_settings
+from agents.evaluation.pictures import write_pictures
+from agents.evaluation.results import (
+    curve_metric,
+    default_baselines,
+    evaluate_policies,
+    results_document,
+)
+from agents.evaluation.tables import markdown_table
+from agents.oracles.certify import ceiling_note
+from agents.policies.sb3 import limit_torch_threads
+from agents.seeds import TEST_SEED
+
+ENV_ID = "trailer_env/Reverse-v1"
+
+
+N_TRAILERS = 2
+
+
+#: Budget of the fallback training: DAgger iterations and convoys per iteration (about
+#: 40 s on two cores; 85 % safe on the test seeds, n = 2).
+SHORT_ITERATIONS = 2
+
+
+SHORT_EPISODES = 64
+
+
+def short_run_files(out: Path) -> list[Path]:
+    """What :func:`train_short` writes under ``out`` and would replace: its run, its export."""
+    return [out / "run", *export_files(_short_export(out))]
+
+
+def _short_export(out: Path) -> Path:
+    return out / f"{model_stem('dagger', ENV_ID, N_TRAILERS)}.zip"
+
+
+def train_short(
+    out: Path,
+    iterations: int = SHORT_ITERATIONS,
+    episodes: int = SHORT_EPISODES,
+    seed: int = 0,
+    overwrite: bool = False,
+) -> Path:
+    """Imitate the planner on Reverse-v1 (n = 2) on a short budget; returns the exported model.
+
+    Raises:
+        FileExistsError: If ``out`` already holds such a run (or its export) and
+            ``overwrite`` is false.
+    """
+    from agents.training.imitate import ImitationConfig, imitate
+
+    run_dir = out / "run"
+    existing = [path for path in short_run_files(out) if path.exists()]
+    if existing and not overwrite:
+        raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
+    shutil.rmtree(run_dir, ignore_errors=True)
+    print(
+        f"no committed agent: imitating the planner ({iterations} DAgger iterations of "
+        f"{episodes} convoys) into {run_dir} ...",
+        flush=True,
+    )
+    config = ImitationConfig(ENV_ID, N_TRAILERS, seed, iterations=iterations, episodes=episodes)
+    imitate(config, run_dir)
+    return export_model(run_dir, _short_export(out), overwrite=overwrite)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.main", description=(__doc__ or "").split("\n")[0]
+    )
+    parser.add_argument("--out", type=Path, default=Path("out"), help="output folder (default out)")
+    cli.add_episodes(parser, 100, "evaluation episodes (default 100)")
+    parser.add_argument(
+        "--no-planner", action="store_true", help="leave the mpc planner (an oracle) out"
+    )
+    parser.add_argument(
+        "--train-iterations",
+        type=cli.at_least(1),
+        default=SHORT_ITERATIONS,
+        help=f"DAgger iterations when training (default {SHORT_ITERATIONS})",
+    )
+    parser.add_argument(
+        "--train-episodes",
+        type=cli.at_least(1),
+        default=SHORT_EPISODES,
+        help=f"convoys per DAgger iteration when training (default {SHORT_EPISODES})",
+    )
+    parser.add_argument(
+        "--retrain", action="store_true", help="train a fresh agent even if committed ones exist"
+    )
+    cli.add_overwrite(
+        parser, "with --retrain: replace the run (and exported model) already in --out"
+    )
+    args = parser.parse_args(argv)
+    cli.check_out_folder(parser, args.out)
+    limit_torch_threads()
+    started = time.perf_counter()
+    models = [] if args.retrain else committed_models(ENV_ID, N_TRAILERS)
+    if not models:
+        existing = [path for path in short_run_files(args.out) if path.exists()]
+        if existing and not args.overwrite:
+            parser.error(
+                f"argument --out: {existing[0]} holds an earlier run; pass --overwrite "
+                "to replace it, or another --out"
+            )
+        models = [
+            train_short(
+                args.out, args.train_iterations, args.train_episodes, overwrite=args.overwrite
+            )
+        ]
+    env_kwargs = {"n_trailers": N_TRAILERS}
+    env_settings(env_kwargs)
+    planner = [] if args.no_planner else ["mpc"]
+    specs = [*default_baselines(ENV_ID), *planner, *(str(path) for path in models)]
+    evaluations = evaluate_policies(specs, ENV_ID, env_kwargs, args.episodes, TEST_SEED)
+    args.out.mkdir(parents=True, exist_ok=True)
+    document = results_document(evaluations, ENV_ID, env_kwargs, args.episodes, TEST_SEED)
+    ceiling = ceiling_note(ENV_ID, N_TRAILERS, args.episodes, TEST_SEED)
+    document["ceiling"] = ceiling
+    (args.out / "results.json").write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
+    table = markdown_table(evaluations, curve_metric(ENV_ID))
+    print(
+        f"\n{ENV_ID}, n = {N_TRAILERS}: {args.episodes} episodes, seeds "
+        f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "
+        "(margin < 0.3), never folded, never slowed to 0.3 m/s\n"
+    )
+    (args.out / "results.md").write_text(f"{table}\n{ceiling}\n")
+    print(table)
+    print(ceiling + "\n")
+    for path in write_pictures(evaluations, ENV_ID, env_kwargs, args.out, TEST_SEED):
+        print(f"wrote {path}")
+    print(f"done in {time.perf_counter() - started:.0f} s; results in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,307 @@
+"""Train a stable-baselines3 agent on a trailer_env scene through the native batched env.
+
+Usage::
+
+    python -m agents.train --env trailer_env/Reverse-v0 --algo ppo --n-trailers 2 \
+        --timesteps 1000000 --seed 0
+
+Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (rl-zoo3 format). The
+run folder (default ``runs/<scene>_n<n>_<algo>_s<seed>``) receives:
+
+* ``config.json``: the run's record (:class:`agents.training.config.TrainConfig`: the command's
+  arguments and the hyperparameters used), also the base of every model card;
+* ``evaluations.csv``: the learning curve (periodic seeded safety evaluations);
+* ``best_model.zip`` (+ card ``best_model.json``), ``final_model.zip`` (+ card), each
+  with ``*_vecnormalize.json`` (statistics, JSON) when the hyperparameters normalise
+  observations;
+* ``checkpoints/<algo>_<steps>_steps.zip`` (and the replay buffer for SAC/TD3);
+* ``logs/``: SB3's training statistics (CSV; TensorBoard too when installed).
+
+``--resume <checkpoint.zip>`` continues a run: the timestep count goes on from the
+checkpoint's and ``--timesteps`` is the run's total budget. Without ``--run-dir`` the
+run goes on in the checkpoint's run folder (the folder holding it, or the one above
+its ``checkpoints/``, when that folder has the run's ``config.json``); a checkpoint
+that is in no run folder (e.g. a shipped ``agents/models/*.zip``) starts the fresh
+default run folder instead: its own folder is never turned into a run. A folder that
+already holds another run is refused unless ``--overwrite`` (:mod:`agents.artifacts.run_folder`).
+
+``--export PATH`` copies the best model, its card, statistics and learning curve to
+PATH (e.g. ``agents/models/``); existing files there are refused unless ``--overwrite``
+(:func:`agents.artifacts.run_folder.export_model`).
+
+Nothing is unpickled from ``--resume``'s files unless ``--trust-pickle``
+(:mod:`agents.artifacts`): observation statistics are JSON, the model's pickled
+entries are rebuilt from the environment and the hyperparameter file, and a SAC/TD3
+replay buffer (SB3 saves it as a pickle) is refused without the flag.
+
+``--backend rllib`` trains PPO on Ray RLlib instead (:mod:`agents.training.rllib`):
+``--num-env-runners K`` remote runners, each stepping one native batch of
+``--n-envs`` convoys, on a local Ray or the cluster at ``--address``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from agents.artifacts.paths import export_files, pickled_stats_path, replay_buffer_path, stats_path
+from agents.artifacts.run_folder import (
+    RLLIB_CHECKPOINT,
+    RunFolderError,
+    choose_run_dir,
+    default_run_dir,
+    export_model,
+)
+from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError
+from agents.artifacts.stats import read_stats
+from agents.commands import options as cli
+from agents.envs import env_settings
+from agents.policies.sb3 import detect_algo, limit_torch_threads, load_model
+from agents.training.config import TrainConfig, load_hyperparams
+from agents.training.sb3 import train
+
+
+def _optional_positive(parser: argparse.ArgumentParser, flag: str, help: str) -> None:
+    """An optional count >= 1 whose default (None) is worked out from the other settings."""
+    parser.add_argument(flag, type=cli.positive_int, default=None, help=help)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.train",
+        description="Train PPO, SAC or TD3 on a trailer_env scene (native batched env).",
+    )
+    parser.add_argument(
+        "--backend",
+        choices=("sb3", "rllib"),
+        default="sb3",
+        help="sb3: stable-baselines3 on this machine (default); rllib: Ray RLlib PPO, "
+        "local Ray or a cluster (--address), see agents.rllib_backend",
+    )
+    cli.add_env(parser)
+    parser.add_argument("--algo", required=True, choices=sorted(ALGOS), help="algorithm")
+    cli.add_n_trailers(parser)
+    _optional_positive(
+        parser,
+        "--timesteps",
+        "total training budget in environment steps "
+        "(default: n_timesteps of the hyperparameter file)",
+    )
+    cli.add_seed(parser, 0, "random seed (default 0)")
+    _optional_positive(
+        parser,
+        "--n-envs",
+        "environments per batch (default: from the hyperparameters); "
+        "with --backend rllib: per env runner",
+    )
+    parser.add_argument(
+        "--num-env-runners",
+        type=cli.non_negative_int,
+        default=1,
+        help="rllib: remote env runners, each stepping one native batch (default 1)",
+    )
+    parser.add_argument(
+        "--address",
+        default=None,
+        help="rllib: address of a running Ray cluster (ray start --head prints it; "
+        "'auto' finds a local one); default: start a local Ray",
+    )
+    parser.add_argument(
+        "--hyperparams",
+        type=Path,
+        default=None,
+        help="folder of <algo>.yml files (default agents/hyperparams)",
+    )
+    parser.add_argument(
+        "--run-dir",
+        type=Path,
+        default=None,
+        help="run folder (default runs/<scene>_n<n>_<algo>_s<seed>; when resuming, the "
+        "checkpoint's run folder if it is in one)",
+    )
+    parser.add_argument(
+        "--resume", type=Path, default=None, help="checkpoint (.zip) to continue from"
+    )
+    cli.add_overwrite(
+        parser, "start afresh in a run folder that already holds a run; replace --export's files"
+    )
+    cli.add_trust_pickle(
+        parser,
+        "parts of --resume's files (SB3 serialized entries, SAC/TD3 replay buffers, "
+        "legacy .pkl statistics)",
+    )
+    _optional_positive(parser, "--eval-freq", "steps between evaluations (default: budget / 20)")
+    parser.add_argument(
+        "--eval-episodes",
+        type=cli.positive_int,
+        default=50,
+        help="episodes per evaluation (default 50)",
+    )
+    _optional_positive(
+        parser, "--checkpoint-freq", "steps between checkpoints (default: budget / 5)"
+    )
+    parser.add_argument(
+        "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
+    )
+    parser.add_argument(
+        "--torch-threads", type=cli.positive_int, default=1, help="torch CPU threads (default 1)"
+    )
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument("--quiet", action="store_true", help="no evaluation lines")
+    return parser
+
+
+def _check_resume(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse a --resume that is missing, of another algorithm, damaged or unsafe to load."""
+    if not args.resume.is_file():
+        parser.error(f"argument --resume: no checkpoint file {args.resume}")
+    try:
+        saved_algo = detect_algo(args.resume)
+    except ValueError as error:
+        parser.error(f"argument --resume: {error}")
+    if saved_algo != args.algo:
+        parser.error(f"argument --resume: {args.resume} was saved by {saved_algo}, not {args.algo}")
+    env_kwargs = {"n_trailers": args.n_trailers}
+    try:
+        load_model(
+            args.resume,
+            args.algo,
+            env_id=args.env,
+            env_kwargs=env_kwargs,
+            trust_pickle=args.trust_pickle,
+        )
+        if stats_path(args.resume).is_file():
+            read_stats(stats_path(args.resume))
+        elif pickled_stats_path(args.resume) is not None and not args.trust_pickle:
+            raise UnsafeFileError(
+                f"its statistics {pickled_stats_path(args.resume)} are a pickle; "
+                "pass --trust-pickle to load them"
+            )
+        buffer = replay_buffer_path(args.resume)
+        if buffer is not None and not args.trust_pickle:
+            raise UnsafeFileError(
+                f"its replay buffer {buffer} is a pickle; pass --trust-pickle to load it "
+                "(only if you trust the file)"
+            )
+    except (ValueError, FileNotFoundError) as error:
+        parser.error(f"argument --resume: {error}")
+
+
+def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse the options the chosen backend does not have."""
+    if args.backend == "rllib":
+        for name, unsupported in (
+            ("--resume", args.resume is not None),
+            ("--export", args.export is not None),
+        ):
+            if unsupported:
+                parser.error(f"argument {name}: not supported with --backend rllib")
+        if args.algo != "ppo":
+            parser.error(f"argument --algo: --backend rllib trains ppo, not {args.algo}")
+    elif args.address is not None:
+        parser.error("argument --address: only with --backend rllib")
+
+
+def config_from_args(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, command: list[str]
+) -> TrainConfig:
+    """The run's :class:`TrainConfig` from the command line and the hyperparameter file.
+
+    With ``--backend rllib`` ``--n-envs`` counts the convoys of one env runner; the
+    configuration records all runners' together.
+    """
+    try:
+        hp = (
+            load_hyperparams(args.algo, args.env, args.hyperparams)
+            if args.hyperparams is not None
+            else load_hyperparams(args.algo, args.env)
+        )
+    except (FileNotFoundError, KeyError, ValueError) as error:
+        parser.error(f"argument --hyperparams: {str(error).strip(chr(34) + chr(39))}")
+    n_envs = args.n_envs
+    if args.backend == "rllib":
+        runners = max(args.num_env_runners, 1)
+        n_envs = (n_envs or max(hp.n_envs // runners, 1)) * runners
+    config = TrainConfig.resolve(
+        args.env,
+        args.algo,
+        args.n_trailers,
+        args.seed,
+        hp,
+        timesteps=args.timesteps,
+        n_envs=n_envs,
+        backend=args.backend,
+        command=command,
+    )
+    try:
+        env_settings(config.env_kwargs)
+    except (TypeError, ValueError) as error:
+        parser.error(f"argument --n-trailers (or the file's env_kwargs): {error}")
+    return config
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments exit with 2, with a message)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    _check_backend(parser, args)
+    if args.resume is not None:
+        _check_resume(parser, args)
+    command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
+    config = config_from_args(parser, args, command)
+    if args.export is not None:
+        existing = [path for path in export_files(args.export) if path.exists()]
+        if existing and not args.overwrite:
+            parser.error(f"argument --export: {existing[0]} exists; pass --overwrite to replace it")
+    default = default_run_dir(args.env, args.algo, args.n_trailers, args.seed)
+    try:
+        run_dir = choose_run_dir(default, args.run_dir, args.resume, args.overwrite)
+    except RunFolderError as error:
+        parser.error(f"argument --run-dir: {error}")
+    limit_torch_threads(args.torch_threads)
+    started = time.perf_counter()
+    if args.backend == "rllib":
+        from agents.training.rllib import train_rllib
+
+        try:
+            record = train_rllib(
+                config,
+                run_dir,
+                num_env_runners=args.num_env_runners,
+                address=args.address,
+                verbose=0 if args.quiet else 1,
+            )
+        except ConnectionError as error:
+            parser.error(f"argument --address: {error}")
+        print(
+            f"trained ppo on {args.env} (n = {args.n_trailers}) with RLlib to "
+            f"{record['timesteps']} steps in {time.perf_counter() - started:.0f} s "
+            f"({record['env_steps_per_s']:.0f} env steps/s, {args.num_env_runners} runners); "
+            f"checkpoint {run_dir / RLLIB_CHECKPOINT}"
+        )
+        return 0
+    model = train(
+        config,
+        run_dir,
+        resume=args.resume,
+        eval_freq=args.eval_freq,
+        eval_episodes=args.eval_episodes,
+        checkpoint_freq=args.checkpoint_freq,
+        progress_bar=not args.no_progress,
+        verbose=0 if args.quiet else 1,
+        trust_pickle=args.trust_pickle,
+    )
+    print(
+        f"trained {args.algo} on {args.env} (n = {args.n_trailers}) to {model.num_timesteps} "
+        f"steps in {time.perf_counter() - started:.0f} s; run folder {run_dir}"
+    )
+    if args.export is not None:
+        print(f"exported {export_model(run_dir, args.export, overwrite=args.overwrite)}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

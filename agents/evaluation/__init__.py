@@ -1,0 +1,1 @@
+"""Seeded batched rollouts, the safety metrics, the comparison tables and the pictures."""

@@ -1,0 +1,79 @@
+"""The pictures of an evaluation: margin histograms, frames, learning curves."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from agents.artifacts.paths import curve_path
+from agents.envs import env_settings
+from agents.evaluation.results import Evaluation, curve_metric
+from agents.policies.registry import is_model_spec, load_policy
+
+
+def learning_curve(evaluation: Evaluation) -> Path | None:
+    """The learning curve (``evaluations.csv`` exported as ``<model>.csv``) of a model, if any."""
+    if not is_model_spec(evaluation.spec):
+        return None
+    curve = curve_path(Path(evaluation.spec))
+    return curve if curve.is_file() else None
+
+
+def baseline_levels(evaluations: Sequence[Evaluation], metric: str) -> dict[str, float]:
+    """The baselines' ``metric``, drawn as levels over the learning curves.
+
+    The random baseline is left out: it marks no level a trained agent is measured
+    against (zero and the controllers do).
+    """
+    return {
+        e.label: e.summary[metric]
+        for e in evaluations
+        if not is_model_spec(e.spec) and e.label != "random"
+    }
+
+
+def write_pictures(
+    evaluations: Sequence[Evaluation],
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    out: Path,
+    seed: int,
+    prefix: str = "",
+) -> list[Path]:
+    """Margin histograms, rendered frames and (if any) learning curves under ``out``."""
+    from agents.evaluation import plots
+
+    settings = env_settings(env_kwargs)
+    n = settings.n_trailers
+    title = f"{env_id}, n = {n}, {evaluations[0].results.returns.size} episodes"
+    written = [
+        plots.plot_margin_histograms(
+            {e.label: e.results for e in evaluations},
+            settings.singular_band,
+            out / f"{prefix}margins.png",
+            title,
+        )
+    ]
+    rows = {}
+    for evaluation in evaluations:
+        if evaluation.label == "random":
+            continue
+        policy = evaluation.policy or load_policy(evaluation.spec, env_id, env_kwargs, seed=seed)
+        rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
+    if rows:
+        written.append(plots.plot_frames(rows, out / f"{prefix}frames.png"))
+    curves = {e.label: curve for e in evaluations if (curve := learning_curve(e)) is not None}
+    if curves:
+        metric = curve_metric(env_id)
+        title = f"{env_id}, n = {n}: validation episodes during training"
+        written.append(
+            plots.plot_learning_curves(
+                curves,
+                out / f"{prefix}curves.png",
+                baseline_levels(evaluations, metric),
+                title,
+                metric,
+            )
+        )
+    return written

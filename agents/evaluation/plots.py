@@ -1,0 +1,262 @@
+"""Pictures of an evaluation: learning curves, singular-margin histograms, rendered frames.
+
+Every function writes one PNG (matplotlib, Agg backend) and returns its path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.artifacts.curves import read_curve
+from agents.evaluation.metrics import EpisodeResults
+from agents.policies.baselines import Policy
+
+#: Axis labels of the curve metrics.
+METRIC_LABELS = {
+    "safe_rate": "safe episodes (never in band, no fold, no stop)",
+    "success_rate": "successful episodes",
+    "jackknife_rate": "folded episodes",
+}
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _draw_curves(
+    axis: Any,
+    curves: Mapping[str, Path],
+    metric: str,
+    baselines: Mapping[str, float] | None,
+) -> None:
+    """One line per run of ``metric`` against steps (log axis), baselines as dashed lines."""
+    for label, path in curves.items():
+        rows = [row for row in read_curve(Path(path)) if row["timesteps"] > 0]
+        if rows:
+            steps = [row["timesteps"] for row in rows]
+            axis.plot(steps, [row[metric] for row in rows], marker=".", ms=3, label=label)
+    for index, (label, value) in enumerate((baselines or {}).items()):
+        axis.axhline(value, color=f"C{7 + index % 3}", ls="--", lw=1, label=label)
+    axis.set_xscale("log")
+    axis.set_xlabel("environment steps")
+    axis.grid(alpha=0.3)
+
+
+def plot_learning_curves(
+    curves: Mapping[str, Path],
+    out: Path,
+    baselines: Mapping[str, float] | None = None,
+    title: str = "",
+    metric: str = "safe_rate",
+) -> Path:
+    """Validation ``metric`` (default: safe rate) and mean return against training steps.
+
+    Args:
+        curves: Label -> evaluations.csv written by
+            :class:`agents.training.callbacks.SafetyEvalCallback`.
+        out: PNG path.
+        baselines: Label -> the baseline's value of ``metric``, drawn as dashed lines.
+        title: Figure title.
+        metric: A column of evaluations.csv.
+    """
+    plt = _pyplot()
+    fig, (ax_metric, ax_return) = plt.subplots(1, 2, figsize=(11, 4))
+    _draw_curves(ax_metric, curves, metric, baselines)
+    _draw_curves(ax_return, curves, "mean_return", None)
+    ax_metric.set_ylim(-0.02, 1.02)
+    ax_metric.set_ylabel(METRIC_LABELS.get(metric, metric))
+    ax_return.set_ylabel("mean return")
+    ax_metric.legend(fontsize=8)
+    return _save(fig, plt, out, title)
+
+
+#: Panels per row of :func:`plot_curve_grid`.
+CURVE_GRID_COLUMNS = 4
+
+
+def plot_curve_grid(
+    panels: Sequence[tuple[str, Mapping[str, Path], Mapping[str, float], str]], out: Path
+) -> Path:
+    """Several scenes' learning curves, four to a row: (title, curves, baselines, metric) each."""
+    plt = _pyplot()
+    columns = min(CURVE_GRID_COLUMNS, max(len(panels), 1))
+    rows = -(-len(panels) // columns)
+    fig, axes = plt.subplots(
+        rows, columns, figsize=(4.2 * columns, 3.8 * rows), squeeze=False
+    )
+    for axis in axes.flat[len(panels) :]:
+        axis.set_visible(False)
+    for axis, (title, curves, baselines, metric) in zip(axes.flat, panels, strict=False):
+        _draw_curves(axis, curves, metric, baselines)
+        axis.set_ylim(-0.02, 1.02)
+        axis.set_title(title, fontsize=10)
+        axis.set_ylabel(METRIC_LABELS.get(metric, metric), fontsize=9)
+        axis.legend(fontsize=7, loc="best")
+    return _save(fig, plt, out)
+
+
+def plot_margin_histograms(
+    results: Mapping[str, EpisodeResults], singular_band: float, out: Path, title: str = ""
+) -> Path:
+    """Distribution of the singular margin over all steps (left) and of each episode's minimum.
+
+    The singular band ``margin < singular_band`` is shaded.
+    """
+    plt = _pyplot()
+    fig, (ax_steps, ax_min) = plt.subplots(1, 2, figsize=(11, 4))
+    bins = np.linspace(0.0, 1.0, 41)
+    for label, result in results.items():
+        ax_steps.hist(result.margins, bins=bins, histtype="step", lw=1.5, density=True, label=label)
+        ax_min.hist(result.min_margin, bins=bins, histtype="step", lw=1.5, label=label)
+    for axis in (ax_steps, ax_min):
+        axis.axvspan(0.0, singular_band, color="red", alpha=0.08, label="singular band")
+        axis.set_xlim(0.0, 1.0)
+        axis.grid(alpha=0.3)
+    ax_steps.set_yscale("log")
+    ax_steps.set_xlabel("singular margin (every step)")
+    ax_steps.set_ylabel("density")
+    ax_min.set_xlabel("smallest singular margin of the episode")
+    ax_min.set_ylabel("episodes")
+    ax_min.legend(fontsize=8)
+    return _save(fig, plt, out, title)
+
+
+def render_frames(
+    env_id: str,
+    policy: Policy,
+    seed: int,
+    env_kwargs: dict[str, Any] | None = None,
+    times: Sequence[float] = (0.0, 2.0, 4.0, 8.0, 14.0, 20.0),
+) -> tuple[list[np.ndarray], list[str]]:
+    """Render one seeded episode of ``policy`` at the given times (s); stops at the episode's end.
+
+    Returns the RGB frames and their captions.
+    """
+    import gymnasium as gym
+
+    env = gym.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
+    dt = env.unwrapped.settings.dt  # type: ignore[attr-defined]
+    wanted = sorted({round(t / dt) for t in times})
+    obs, _ = env.reset(seed=seed)
+    frames: list[np.ndarray] = []
+    captions: list[str] = []
+    step, ended, info = 0, False, {"singular_margin": 1.0}
+    while True:
+        if step in wanted or ended:
+            frames.append(np.asarray(env.render()))
+            tag = " (folded)" if ended and info.get("jackknifed") else (" (end)" if ended else "")
+            captions.append(f"t = {step * dt:.1f} s{tag}")
+        if ended or step >= max(wanted):
+            break
+        obs, _, terminated, truncated, info = env.step(policy(obs[None])[0])
+        step += 1
+        ended = bool(terminated or truncated)
+    env.close()
+    return frames, captions
+
+
+def plot_frames(rows: Mapping[str, tuple[list[np.ndarray], list[str]]], out: Path) -> Path:
+    """A grid of rendered frames: one row per policy (label -> frames, captions)."""
+    plt = _pyplot()
+    columns = max(len(frames) for frames, _ in rows.values())
+    fig, axes = plt.subplots(
+        len(rows), columns, figsize=(2.2 * columns, 2.4 * len(rows)), squeeze=False
+    )
+    for row, (label, (frames, captions)) in enumerate(rows.items()):
+        for column in range(columns):
+            axis = axes[row][column]
+            axis.set_xticks([])
+            axis.set_yticks([])
+            if column < len(frames):
+                axis.imshow(frames[column])
+                axis.set_title(captions[column], fontsize=8)
+            else:
+                axis.axis("off")
+        axes[row][0].set_ylabel(label, fontsize=9)
+    return _save(fig, plt, out)
+
+
+def _save(fig: Any, plt: Any, out: Path, title: str = "") -> Path:
+    """Lay out ``fig`` (under ``title``, if any), write it to ``out`` and close it."""
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=80)
+    plt.close(fig)
+    return out
+
+
+def episode_frames(
+    env_id: str,
+    policy: Policy,
+    seed: int,
+    env_kwargs: dict[str, Any] | None = None,
+    max_steps: int | None = None,
+) -> list[np.ndarray]:
+    """Every ``rgb_array`` frame of one seeded episode of ``policy`` (single env).
+
+    The first frame is the reset state, then one per step: an episode of L steps gives
+    L + 1 frames (fewer when ``max_steps`` < L cuts it: ``max_steps`` + 1).
+    """
+    import gymnasium as gym
+
+    env = gym.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
+    obs, _ = env.reset(seed=seed)
+    frames = [np.asarray(env.render())]
+    steps = 0
+    while max_steps is None or steps < max_steps:
+        obs, _, terminated, truncated, _ = env.step(policy(obs[None])[0])
+        frames.append(np.asarray(env.render()))
+        steps += 1
+        if terminated or truncated:
+            break
+    env.close()
+    return frames
+
+
+#: Video formats :func:`write_video` writes.
+VIDEO_SUFFIXES = (".mp4", ".gif")
+
+
+def write_video(frames: Sequence[np.ndarray], out: Path, fps: float) -> Path:
+    """Write ``frames`` as an mp4 (imageio's ffmpeg, from the dev extra) or a gif (Pillow).
+
+    Raises:
+        ValueError: For another suffix than .mp4 or .gif, or no frames.
+    """
+    if out.suffix.lower() not in VIDEO_SUFFIXES:
+        raise ValueError(f"video must end in {' or '.join(VIDEO_SUFFIXES)}, got {out.name!r}")
+    if not frames:
+        raise ValueError("no frames to write")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.suffix.lower() == ".gif":
+        from PIL import Image
+
+        images = [Image.fromarray(frame) for frame in frames]
+        # optimize=False and disposal=1 keep one GIF frame per env frame (Pillow would
+        # otherwise merge frames that happen to be identical).
+        images[0].save(
+            out,
+            save_all=True,
+            append_images=images[1:],
+            duration=round(1000 / fps),
+            loop=0,
+            optimize=False,
+            disposal=1,
+        )
+        return out
+    import imageio.v2 as imageio
+
+    # macro_block_size=1: the frames' size need not be a multiple of 16.
+    imageio.mimsave(out, list(frames), fps=fps, macro_block_size=1)
+    return out

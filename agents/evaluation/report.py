@@ -1,0 +1,84 @@
+"""The scenarios of the results pages and the actuator-authority sweep."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from agents.artifacts.cards import read_card
+from agents.artifacts.shipped import MODELS_DIR
+from agents.envs import ENV_IDS, scene_title
+from agents.evaluation.pictures import baseline_levels, learning_curve
+from agents.evaluation.results import (
+    Evaluation,
+    curve_metric,
+    evaluate_policies,
+)
+from agents.seeds import TEST_SEED
+
+
+def committed_scenarios(directory: Path = MODELS_DIR) -> tuple[tuple[str, int], ...]:
+    """(environment id, number of trailers) of every committed model's card, in the scene
+    table's order, then by n: the scenarios the README reports."""
+    found = set()
+    for path in directory.glob("*.zip"):
+        card = read_card(path)
+        env_id, n = card.get("env_id"), card.get("env_kwargs", {}).get("n_trailers")
+        if env_id in ENV_IDS and isinstance(n, int):
+            found.add((env_id, n))
+    return tuple(sorted(found, key=lambda scenario: (ENV_IDS.index(scenario[0]), scenario[1])))
+
+
+#: (environment id, number of trailers) of the README's results.
+SCENARIOS: tuple[tuple[str, int], ...] = committed_scenarios()
+
+
+#: The scenario whose margins and frames are drawn.
+HEADLINE = ("trailer_env/Reverse-v1", 2)
+
+
+#: Actuator settings of the authority sweep (ConvoyParams / EnvSettings overrides).
+AUTHORITY_SWEEP: tuple[dict[str, float], ...] = (
+    {},
+    {"s_max": 1.0},
+    {"rail_accel_max": 8.0},
+    {"s_max": 1.0, "rail_accel_max": 8.0},
+    {"mu": 1.0},
+)
+
+
+def authority_table(episodes: int, seed: int = TEST_SEED) -> str:
+    """The LQR baseline's safe rate on Reverse-v0 as the actuator gets stronger (Markdown).
+
+    Defaults: mass mu = 0.5, stroke s_max = 0.5 m, acceleration bound 4 m/s^2.
+    """
+    env_id = "trailer_env/Reverse-v0"
+    lines = [
+        "| actuator (changes from the defaults) | n = 2 safe | n = 3 safe |",
+        "|---|---|---|",
+    ]
+    for changes in AUTHORITY_SWEEP:
+        rates = []
+        for n in (2, 3):
+            env_kwargs = {"n_trailers": n, **changes}
+            (evaluation,) = evaluate_policies(["lqr"], env_id, env_kwargs, episodes, seed)
+            rates.append(f"{100 * evaluation.summary['safe_rate']:.0f}%")
+        name = ", ".join(f"{key} = {value:g}" for key, value in changes.items()) or "defaults"
+        lines.append(f"| {name} | {rates[0]} | {rates[1]} |")
+    return "\n".join(lines) + "\n"
+
+
+def curve_panel(
+    env_id: str, n: int, evaluations: list[Evaluation]
+) -> tuple[str, dict[str, Path], dict[str, float], str]:
+    """One panel of the learning-curve grid: the models' curves and the baselines' levels."""
+    metric = curve_metric(env_id)
+    curves = {}
+    for evaluation in evaluations:
+        curve = learning_curve(evaluation)
+        if evaluation.card and curve is not None:
+            name = str(evaluation.card.get("algo", evaluation.label)).upper()
+            if evaluation.card.get("recipe") == "dagger":
+                name = "DAgger (PPO policy)"
+            curves[name] = curve
+    levels = baseline_levels(evaluations, metric)
+    return f"{scene_title(env_id)}, n = {n}", curves, levels, metric

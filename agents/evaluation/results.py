@@ -1,0 +1,154 @@
+"""Evaluating policies on the same seeded episodes, and the results as JSON-ready data."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from agents.artifacts.shipped import resolve_model, seed_models
+from agents.envs import headline_metric, scene_baselines
+from agents.evaluation.metrics import EpisodeResults, rollout, summarize
+from agents.policies.baselines import Policy
+from agents.policies.registry import is_model_spec, load_policy, model_card, policy_label
+from agents.seeds import TEST_SEED
+
+
+@dataclass
+class Evaluation:
+    """One policy's evaluation: its label, spec, model card (if any), results and policy."""
+
+    label: str
+    spec: str
+    card: dict[str, Any]
+    results: EpisodeResults
+    policy: Policy | None = None
+    #: Per training seed (a committed model's siblings in ``agents/models/seeds/``): its
+    #: card's seed and the same episodes' summary.
+    seed_summaries: list[tuple[int | None, dict[str, Any]]] | None = None
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """Aggregate metrics (:func:`agents.evaluation.metrics.summarize`)."""
+        return summarize(self.results)
+
+    def seed_spread(self, metric: str = "safe_rate") -> tuple[float, float, float, float] | None:
+        """(mean, sd, min, max) of ``metric`` over the training seeds, or None without them."""
+        if not self.seed_summaries:
+            return None
+        values = np.array([summary[metric] for _, summary in self.seed_summaries])
+        return float(values.mean()), float(values.std()), float(values.min()), float(values.max())
+
+
+def curve_metric(env_id: str) -> str:
+    """The headline rate of a scene, as its core declares it (``headline_metric``)."""
+    return headline_metric(env_id)
+
+
+def default_baselines(env_id: str) -> list[str]:
+    """The baselines that fit ``env_id``, as its core declares them (``baselines``)."""
+    return list(scene_baselines(env_id))
+
+
+def load_policies(
+    specs: Sequence[str],
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    seed: int = TEST_SEED,
+    *,
+    trust_pickle: bool = False,
+    force: bool = False,
+) -> list[tuple[str, Policy]]:
+    """Load every spec first (so a bad one fails before any episode runs): (spec, policy).
+
+    Shipped models' stems are resolved to their paths
+    (:func:`agents.artifacts.shipped.resolve_model`).
+    """
+    return [
+        (
+            resolve_model(spec),
+            load_policy(
+                spec, env_id, env_kwargs, seed=seed, trust_pickle=trust_pickle, force=force
+            ),
+        )
+        for spec in specs
+    ]
+
+
+def evaluate_policies(
+    specs: Sequence[str],
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    episodes: int,
+    seed: int = TEST_SEED,
+    *,
+    trust_pickle: bool = False,
+    force: bool = False,
+    with_seeds: bool = True,
+) -> list[Evaluation]:
+    """Evaluate each policy spec on the same ``episodes`` seeded episodes.
+
+    Args:
+        trust_pickle, force: As for :func:`agents.policies.registry.load_policy`.
+        with_seeds: Also evaluate every training seed of a committed model
+            (:func:`seed_models`) on the same episodes.
+    """
+    evaluations = []
+    loaded = load_policies(specs, env_id, env_kwargs, seed, trust_pickle=trust_pickle, force=force)
+    for spec, policy in loaded:
+        results = rollout(policy, env_id, episodes, seed, env_kwargs)
+        siblings = seed_models(spec) if with_seeds else []
+        seed_summaries = None
+        if siblings:
+            seed_summaries = []
+            for sibling, sibling_policy in load_policies(
+                [str(path) for path in siblings], env_id, env_kwargs, seed,
+                trust_pickle=trust_pickle, force=force,
+            ):  # fmt: skip
+                sibling_results = rollout(sibling_policy, env_id, episodes, seed, env_kwargs)
+                seed_summaries.append((model_card(sibling).get("seed"), summarize(sibling_results)))
+        evaluations.append(
+            Evaluation(policy_label(spec), spec, model_card(spec), results, policy, seed_summaries)
+        )
+    return evaluations
+
+
+def results_document(
+    evaluations: Sequence[Evaluation],
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    episodes: int,
+    seed: int,
+) -> dict[str, Any]:
+    """Everything an evaluation found, as JSON-ready data (no timings: deterministic)."""
+    return {
+        "env_id": env_id,
+        "env_kwargs": env_kwargs,
+        "episodes": episodes,
+        "seeds": [seed, seed + episodes - 1],
+        "safe": "never in the singular band, never folded, never stopped reversing",
+        "policies": [
+            {
+                "name": evaluation.label,
+                "kind": "model" if is_model_spec(evaluation.spec) else "baseline",
+                "training": {
+                    key: evaluation.card[key]
+                    for key in ("algo", "seed", "budget", "timesteps", "wall_time_s", "n_envs")
+                    if key in evaluation.card
+                },
+                **evaluation.summary,
+                **(
+                    {}
+                    if evaluation.seed_summaries is None
+                    else {
+                        "training_seeds": [
+                            {"seed": seed, **summary} for seed, summary in evaluation.seed_summaries
+                        ]
+                    }
+                ),
+            }
+            for evaluation in evaluations
+        ],
+    }

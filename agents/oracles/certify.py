@@ -1,0 +1,225 @@
+"""Certify a scene's ceiling: which test starts some controller can keep safe.
+
+Command line (:mod:`agents.commands.certify`)::
+
+    python -m agents.certify --env trailer_env/Reverse-v1 --n-trailers 2 \
+        --seeds 1000-1099 --out out/certify/reverse-v1-n2 [--overwrite]
+
+For every seed it runs the feasibility screen (:mod:`agents.oracles.screen`, a linear
+programme on the linearised convoy) and the planner (:mod:`agents.oracles.planner`, on the
+real nonlinear model, all starts in one batch; the starts it did not keep safe are
+planned again with new planner seeds, ``--restarts`` times at most), then replays the
+planner's action sequence open-loop in a fresh single env (``gym.make``, ``reset(seed=seed)``). Each
+start is then:
+
+* ``feasible``: the replay was safe (never folded, never left the task, never in the
+  singular band) for the full episode; the sequence is written as
+  ``actions/seed_<seed>.npy`` (float64, one action per step: feasibility is a
+  closed-loop property and its record must be the exact trace; open-loop over 20 s
+  the unstable convoy amplifies a float32 rounding by about e^20);
+* ``not recoverable``: the screen found no recovery within the rail's stroke (a
+  statement about the linearisation);
+* ``open``: neither.
+
+The ceiling is the feasible fraction (a lower bound on what any controller can reach;
+``1 - not recoverable`` is the screen's upper estimate). Writes ``certificate.json``
+(per start: seed, status, screen stroke fraction, planner length) and
+``certificate.md``. An existing ``--out`` is refused unless ``--overwrite``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.artifacts.certificates import (
+    CERTIFICATES_DIR,
+    FEASIBLE,
+    NOT_RECOVERABLE,
+    OPEN,
+    committed_certificate,
+)
+from agents.envs import env_settings
+from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
+from agents.oracles.screen import DEFAULT_HORIZON, screen_start
+from trailer_env.registry import core_class_of
+from trailer_env.vector import seed_generators
+
+#: Default number of planner restarts on the starts a pass did not keep safe.
+DEFAULT_RESTARTS = 3
+
+
+@dataclass(frozen=True)
+class Replay:
+    """An open-loop replay's outcome in a fresh env."""
+
+    safe: bool
+    length: int
+
+
+def replay(env_id: str, env_kwargs: dict[str, Any], seed: int, actions: np.ndarray) -> Replay:
+    """Play ``actions`` (steps,) or (steps, action_dim) open-loop from ``reset(seed=seed)``.
+
+    Safe: never in the singular band, not terminated as a failure, and every action
+    played (the episode reached the truncation or ran out of actions).
+    """
+    env = gym.make(env_id, **env_kwargs)
+    env.reset(seed=seed)
+    sequence = np.asarray(actions, dtype=np.float64).reshape(len(actions), -1)
+    length = 0
+    safe = True
+    for action in sequence:
+        _, _, terminated, truncated, info = env.step(action)
+        length += 1
+        if info["cost"] > 0.0 or (terminated and not info["is_success"]):
+            safe = False
+            break
+        if terminated or truncated:
+            break
+    env.close()
+    return Replay(safe, length)
+
+
+def certify(
+    env_id: str,
+    n_trailers: int,
+    seeds: list[int],
+    config: PlannerConfig | None = None,
+    screen_horizon: float = DEFAULT_HORIZON,
+    restarts: int = 0,
+) -> dict[str, Any]:
+    """Screen, plan and replay every seed; returns the certificate (with the action records).
+
+    ``restarts``: the starts the planner did not keep safe are planned again, up to
+    this many times, each time in one batch of those starts with the next planner seed
+    (the search is random, and near the edge of the basin its outcome is too).
+
+    The returned dict holds ``starts`` (one entry per seed) and ``actions`` (seed ->
+    float64 array of the feasible starts' sequences, not JSON).
+    """
+    if isinstance(restarts, bool) or not isinstance(restarts, int) or restarts < 0:
+        raise ValueError(f"restarts must be an integer >= 0, got {restarts!r}")
+    env_kwargs = {"n_trailers": n_trailers}
+    settings = env_settings(env_kwargs)
+    core_class = core_class_of(env_id)
+    count = len(seeds)
+    started = time.perf_counter()
+    core = core_class(settings, count)
+    core.reset_rows(np.arange(count), seed_generators(seeds, count, None))
+    strokes = [
+        screen_start(settings, core.z[i], s=core.act[i, 1], s_dot=core.act[i, 3],
+                     horizon=screen_horizon).stroke_fraction
+        for i in range(count)
+    ]  # fmt: skip
+    screen_time = time.perf_counter() - started
+    config = config or PlannerConfig()
+    planner = SamplingPlanner(core_class, settings, count, config)
+    started = time.perf_counter()
+    steps = core_class.max_episode_steps
+    planned = plan_episodes(core, planner, steps)
+    first_pass_time = time.perf_counter() - started
+    first_pass_safe = int(planned.safe.sum())
+    simulated = planner.simulated_steps
+    attempts = np.ones(count, dtype=np.int64)
+    for restart in range(1, restarts + 1):
+        rows = np.flatnonzero(~planned.safe)
+        if rows.size == 0:
+            break
+        retry_core = core_class(settings, rows.size)
+        retry_core.reset_rows(
+            np.arange(rows.size), seed_generators([seeds[i] for i in rows], rows.size, None)
+        )
+        retry_config = dataclasses.replace(config, seed=config.seed + restart)
+        retry_planner = SamplingPlanner(core_class, settings, rows.size, retry_config)
+        retried = plan_episodes(retry_core, retry_planner, steps)
+        simulated += retry_planner.simulated_steps
+        attempts[rows] += 1
+        saved = rows[retried.safe]
+        for field in ("actions", "lengths", "failed", "band_steps"):
+            getattr(planned, field)[saved] = getattr(retried, field)[retried.safe]
+    planner_time = time.perf_counter() - started
+    starts = []
+    actions = {}
+    for i, seed in enumerate(seeds):
+        sequence = planned.actions[i, : planned.lengths[i]]
+        outcome = replay(env_id, env_kwargs, seed, sequence) if planned.safe[i] else None
+        feasible = (
+            outcome is not None and outcome.safe and outcome.length == core_class.max_episode_steps
+        )
+        recoverable = bool(np.isfinite(strokes[i]) and strokes[i] <= 1.0)
+        status = FEASIBLE if feasible else (OPEN if recoverable else NOT_RECOVERABLE)
+        if feasible:
+            actions[seed] = sequence.astype(np.float64)
+        starts.append(
+            {
+                "seed": seed,
+                "status": status,
+                "screen_stroke_fraction": None if not np.isfinite(strokes[i]) else strokes[i],
+                "planner_safe": bool(planned.safe[i]),
+                "planner_length": int(planned.lengths[i]),
+                "planner_attempts": int(attempts[i]),
+                "replay_safe": None if outcome is None else outcome.safe,
+            }
+        )
+    feasible_count = sum(start["status"] == FEASIBLE for start in starts)
+    unrecoverable = sum(start["status"] == NOT_RECOVERABLE for start in starts)
+    return {
+        "env_id": env_id,
+        "env_kwargs": env_kwargs,
+        "seeds": [min(seeds), max(seeds)],
+        "episodes": count,
+        "planner": {
+            **{
+                key: getattr(planner.config, key)
+                for key in ("samples", "horizon", "tail", "iterations", "elites", "seed")
+            },
+            "restarts": restarts,
+            "first_pass_safe": first_pass_safe,
+            "first_pass_wall_time_s": round(first_pass_time, 1),
+            "simulated_steps_per_episode": simulated / count,
+            "wall_time_s": round(planner_time, 1),
+        },
+        "screen": {"horizon_s": screen_horizon, "wall_time_s": round(screen_time, 1)},
+        "feasible": feasible_count,
+        "not_recoverable": unrecoverable,
+        "open": count - feasible_count - unrecoverable,
+        "ceiling": feasible_count / count,
+        "screen_upper_estimate": 1.0 - unrecoverable / count,
+        "starts": starts,
+        "actions": actions,
+    }
+
+
+
+
+def ceiling_note(
+    env_id: str, n_trailers: int, episodes: int, seed: int, directory: Path = CERTIFICATES_DIR
+) -> str:
+    """The ceiling line under a results table: the certified share of the episodes' starts.
+
+    Only starts the certificate covers are counted; episodes outside it say so.
+    """
+    certificate = committed_certificate(env_id, n_trailers, directory)
+    if certificate is None:
+        return "ceiling: not certified (no planner for this scene, or `agents.certify` not run)"
+    statuses = {start["seed"]: start["status"] for start in certificate["starts"]}
+    wanted = range(seed, seed + episodes)
+    first, last = certificate["seeds"]
+    if any(episode_seed not in statuses for episode_seed in wanted):
+        return (
+            f"ceiling: certified on seeds {first}-{last} "
+            f"({100 * certificate['ceiling']:.0f}% feasible), not on these episodes"
+        )
+    feasible = sum(statuses[episode_seed] == FEASIBLE for episode_seed in wanted)
+    unrecoverable = sum(statuses[episode_seed] == NOT_RECOVERABLE for episode_seed in wanted)
+    return (
+        f"ceiling: {feasible}/{episodes} starts certified feasible (the planner's actions "
+        f"replayed open-loop, `python -m agents.certify`); {unrecoverable} not recoverable "
+        f"(screen), {episodes - feasible - unrecoverable} open"
+    )

@@ -1,0 +1,138 @@
+"""The policy registry: a baseline by name, a saved model by path or shipped stem.
+
+``load_policy("lqr", ...)`` and ``load_policy("agents/models/sac_reverse_n2.zip", ...)``
+both return a batched :data:`agents.policies.baselines.Policy`. A saved model may carry a
+*model card*, a JSON file beside it (same stem; names in :mod:`agents.artifacts`), that
+records the algorithm, environment, seed, budget and wall time of its training.
+Models load without unpickling anything unless the caller trusts the file
+(:mod:`agents.artifacts`); RLlib checkpoints come from :mod:`agents.training.rllib`.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from agents.artifacts.cards import read_card
+from agents.artifacts.run_folder import RLLIB_CHECKPOINT
+from agents.artifacts.shipped import resolve_model, shipped_models
+from agents.envs import (
+    check_env_id,
+    env_settings,
+    make_vector_env,
+)
+from agents.policies.baselines import BASELINES, Policy, make_baseline
+from agents.policies.sb3 import ModelPolicy, load_model, load_stats
+
+
+def is_model_spec(spec: str) -> bool:
+    """Whether ``spec`` names a model (file, shipped stem or RLlib folder), not a baseline."""
+    if spec in BASELINES:
+        return False
+    return (
+        spec.endswith(".zip")
+        or "/" in spec
+        or Path(spec).suffix != ""
+        or (resolve_model(spec) != spec or Path(spec).is_dir())
+    )
+
+
+def policy_label(spec: str) -> str:
+    """Short name of a policy spec for tables: the baseline name or the model's file stem."""
+    if not is_model_spec(spec):
+        return spec
+    path = Path(resolve_model(spec))
+    if path.is_dir() and path.name == RLLIB_CHECKPOINT:
+        return path.resolve().parent.name  # an RLlib run's checkpoint: the run's name
+    return path.stem
+
+
+def check_card(card: dict[str, Any], spec: str, env_id: str, env_kwargs: dict[str, Any]) -> None:
+    """Refuse a model whose card names another environment id or number of trailers.
+
+    Raises:
+        ValueError: On a mismatch (observations of equal length do not make two scenes
+            alike: a Reverse-v0 model and Dock-v0 both see 8 numbers with n = 2).
+    """
+    if not card:
+        return
+    trained_id = card.get("env_id")
+    trained_n = card.get("env_kwargs", {}).get("n_trailers")
+    wanted_n = env_settings(env_kwargs).n_trailers
+    if (trained_id is not None and trained_id != env_id) or (
+        trained_n is not None and trained_n != wanted_n
+    ):
+        raise ValueError(
+            f"model {spec} was trained on {trained_id} with n_trailers = {trained_n}, not "
+            f"{env_id} with n_trailers = {wanted_n}; pass --force to evaluate it anyway"
+        )
+
+
+def model_card(spec: str) -> dict[str, Any]:
+    """The card of a model spec (SB3 zip or RLlib checkpoint); empty for a baseline."""
+    if not is_model_spec(spec):
+        return {}
+    path = Path(resolve_model(spec))
+    if path.is_dir():
+        from agents.artifacts.rllib_files import read_rllib_card
+
+        return read_rllib_card(path)
+    return read_card(path)
+
+
+def load_policy(
+    spec: str,
+    env_id: str,
+    env_kwargs: dict[str, Any] | None = None,
+    seed: int | None = 0,
+    *,
+    trust_pickle: bool = False,
+    force: bool = False,
+) -> Policy:
+    """A batched policy from a baseline name, a model path, a shipped model's stem or an
+    RLlib checkpoint folder.
+
+    Args:
+        spec: A baseline name (:data:`agents.policies.baselines.BASELINES`), a ``.zip`` model
+            path, the stem of a shipped model (:func:`resolve_model`), or an RLlib
+            checkpoint folder (:mod:`agents.training.rllib`).
+        env_id: The environment it will act in.
+        env_kwargs: The environment's keyword arguments (``n_trailers`` ...).
+        seed: Seed of the random baseline.
+        trust_pickle: Allow unpickling the file's pickled parts (see :mod:`agents.artifacts`).
+        force: Evaluate a model whose card names another env id or n.
+
+    Raises:
+        ValueError: Unknown name, unknown environment, a model whose card or
+            observation space does not fit the environment, a damaged file, or one
+            that needs unpickling without ``trust_pickle``.
+        FileNotFoundError: A model path that does not exist.
+    """
+    check_env_id(env_id)
+    kwargs = env_kwargs or {}
+    spec = resolve_model(spec)
+    if not is_model_spec(spec):
+        if spec not in BASELINES:
+            raise ValueError(
+                f"unknown policy {spec!r}: give a baseline ({', '.join(BASELINES)}), "
+                f"a shipped model ({', '.join(shipped_models())}) "
+                "or the path of a saved model (.zip) or RLlib checkpoint"
+            )
+        return make_baseline(spec, env_settings(kwargs), env_id, seed)
+    path = Path(spec)
+    probe = make_vector_env(env_id, 1, kwargs)
+    if path.is_dir():
+        from agents.artifacts.rllib_files import is_rllib_checkpoint, read_rllib_card
+        from agents.policies.rllib import load_rllib_policy
+
+        if not is_rllib_checkpoint(path):
+            raise ValueError(f"{path} is a folder but not an RLlib checkpoint")
+        if not force:
+            check_card(read_rllib_card(path), spec, env_id, kwargs)
+        return load_rllib_policy(
+            path, probe.single_observation_space, probe.single_action_space, trust_pickle
+        )
+    if not force:
+        check_card(read_card(path), spec, env_id, kwargs)
+    model = load_model(path, env_id=env_id, env_kwargs=kwargs, trust_pickle=trust_pickle)
+    return ModelPolicy(model, load_stats(path, model.observation_space, trust_pickle))

@@ -1,0 +1,91 @@
+"""An RLlib run's exported policy as a batched policy (tensors only; pickles only if trusted)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS, read_rllib_card
+from agents.policies.baselines import Policy
+
+
+class RLlibPolicy:
+    """A trained RLlib PPO module's deterministic action (the Gaussian's mean), batched.
+
+    Actions are clipped to the action space, as RLlib's module-to-env connector does.
+    """
+
+    def __init__(self, module: Any, low: np.ndarray, high: np.ndarray) -> None:
+        self.module = module
+        self.low = low
+        self.high = high
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        import torch
+        from ray.rllib.core.columns import Columns
+
+        batch = torch.as_tensor(np.atleast_2d(obs), dtype=torch.float32)
+        with torch.no_grad():
+            output = self.module.forward_inference({Columns.OBS: batch})
+        inputs = output[Columns.ACTION_DIST_INPUTS].numpy()
+        mean = inputs[:, : self.low.size]
+        return np.clip(mean, self.low, self.high).astype(np.float32)
+
+
+def load_rllib_policy(
+    path: Path, observation_space: Any, action_space: Any, trust_pickle: bool = False
+) -> Policy:
+    """The policy of an RLlib checkpoint folder, built for the given spaces.
+
+    Reads the pickle-free export (:data:`POLICY_WEIGHTS`, :data:`POLICY_CARD`); a
+    checkpoint without one (made by RLlib directly) is read through RLlib's pickled
+    module files only when ``trust_pickle`` is true.
+
+    Raises:
+        ValueError: If the checkpoint does not fit the spaces, has no pickle-free export
+            and ``trust_pickle`` is false, or its weights cannot be read.
+    """
+    import torch
+    from ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import (
+        DefaultPPOTorchRLModule,
+    )
+    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
+    from ray.rllib.core.rl_module.rl_module import RLModule, RLModuleSpec
+
+    low = np.asarray(action_space.low, dtype=np.float32)
+    high = np.asarray(action_space.high, dtype=np.float32)
+    card = read_rllib_card(path)
+    if not card:
+        if not trust_pickle:
+            raise ValueError(
+                f"{path} has no pickle-free policy export ({POLICY_CARD}); its RLlib "
+                "files are pickles, loaded only with --trust-pickle"
+            )
+        module_dir = path / "learner_group" / "learner" / "rl_module" / "default_policy"
+        return RLlibPolicy(RLModule.from_checkpoint(str(module_dir)), low, high)
+    try:
+        saved_shape = tuple(card["spaces"]["observation_shape"])
+        hiddens = [int(width) for width in card["hyperparams"]["fcnet_hiddens"]]
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"{path}: malformed {POLICY_CARD} ({error!r})") from None
+    if saved_shape != tuple(observation_space.shape):
+        raise ValueError(
+            f"RLlib policy {path} expects observations of shape {saved_shape}, "
+            f"but the environment gives {tuple(observation_space.shape)}"
+        )
+    module: Any = RLModuleSpec(
+        module_class=DefaultPPOTorchRLModule,
+        observation_space=observation_space,
+        action_space=action_space,
+        model_config=DefaultModelConfig(fcnet_hiddens=hiddens),
+        inference_only=card.get("inference_only", True),
+    ).build()
+    try:
+        state = torch.load(path / POLICY_WEIGHTS, map_location="cpu", weights_only=True)
+        module.load_state_dict(state)
+    except Exception as error:  # torch raises several types for a damaged file
+        raise ValueError(f"cannot read the weights of {path / POLICY_WEIGHTS}: {error}") from None
+    module.eval()
+    return RLlibPolicy(module, low, high)

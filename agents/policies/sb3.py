@@ -1,0 +1,138 @@
+"""stable-baselines3 models as batched policies: loading (no pickles unless trusted) and acting."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.artifacts.cards import read_card
+from agents.artifacts.paths import pickled_stats_path, stats_path
+from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError, read_sb3_data
+from agents.artifacts.stats import frozen_normalizer, load_pickled_stats, read_stats
+from agents.envs import make_vector_env
+
+
+def limit_torch_threads(threads: int = 1) -> None:
+    """Use ``threads`` torch threads: small policies on a shared 2-core machine run 10-30x
+    faster on one thread than on several competing with the simulation and other jobs."""
+    import torch
+
+    torch.set_num_threads(threads)
+
+
+def load_stats(model_path: Path, observation_space: Any = None, trust_pickle: bool = False) -> Any:
+    """The read-only ``VecNormalize`` saved with ``model_path`` (no env), or None.
+
+    Reads ``stats_path(model_path)`` (JSON). A legacy pickled file is unpickled only
+    with ``trust_pickle``.
+
+    Raises:
+        ValueError: On a damaged statistics file, statistics that do not fit
+            ``observation_space``, or a pickled one without ``trust_pickle``.
+    """
+    path = stats_path(model_path)
+    if path.is_file():
+        if observation_space is None:
+            import gymnasium as gym
+
+            mean = read_stats(path)["obs_rms"]["mean"]
+            observation_space = gym.spaces.Box(-np.inf, np.inf, np.shape(mean), np.float32)
+        return frozen_normalizer(read_stats(path), observation_space)
+    pickled = pickled_stats_path(model_path)
+    if pickled is None:
+        return None
+    if not trust_pickle:
+        raise UnsafeFileError(
+            f"the observation statistics of {model_path} are a pickle ({pickled}); "
+            "pass --trust-pickle to load them only if you trust the file"
+        )
+    return load_pickled_stats(pickled)
+
+
+def detect_algo(model_path: Path) -> str:
+    """The algorithm that saved ``model_path``: from its card, else from the policy class.
+
+    Raises:
+        ValueError: If the file is not a stable-baselines3 zip of PPO, SAC or TD3.
+    """
+    algo = read_card(model_path).get("algo")
+    if algo in ALGOS:
+        return str(algo)
+    data = read_sb3_data(model_path)
+    if not isinstance(data.get("policy_class", {}), dict):
+        raise ValueError(f"{model_path} is not a stable-baselines3 model: unexpected data")
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    for name in ("sac", "td3"):
+        if f".{name}." in module:
+            return name
+    if module.endswith("common.policies"):
+        return "ppo"  # actor-critic policies (PPO, A2C) predict the same way
+    raise ValueError(f"{model_path}: cannot tell the algorithm from policy module {module!r}")
+
+
+class ModelPolicy:
+    """A model's deterministic action, batched.
+
+    Args:
+        model: A stable-baselines3 algorithm.
+        stats: The ``VecNormalize`` whose observation statistics the model was trained
+            with (None: raw observations). Used read-only.
+    """
+
+    def __init__(self, model: Any, stats: Any = None) -> None:
+        self.model = model
+        self.stats = stats
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        batch = np.atleast_2d(obs)
+        if self.stats is not None:
+            batch = self.stats.normalize_obs(batch)
+        actions, _ = self.model.predict(batch, deterministic=True)
+        return np.asarray(actions, dtype=np.float32)
+
+
+def load_model(
+    model_path: Path | str,
+    algo: str | None = None,
+    *,
+    env_id: str | None = None,
+    env_kwargs: dict[str, Any] | None = None,
+    trust_pickle: bool = False,
+) -> Any:
+    """Load a saved model on the CPU (the algorithm detected unless given) without pickles.
+
+    The spaces that replace the file's pickled ones are those of ``env_id`` with
+    ``env_kwargs``; by default the model card's environment (see
+    :mod:`agents.artifacts` for what is and is not unpickled).
+
+    Raises:
+        FileNotFoundError: If the file does not exist.
+        ValueError: If it is not a loadable model of a known algorithm, or it needs
+            unpickling and ``trust_pickle`` is false.
+    """
+    from agents.artifacts.sb3_zip import load_sb3
+
+    path = Path(model_path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no model file {path}")
+    algo = algo or detect_algo(path)
+    card = read_card(path)
+    env_id = env_id or card.get("env_id")
+    if env_id is None and not trust_pickle:
+        raise ValueError(
+            f"{path} has no model card naming its environment: give the environment, "
+            "or pass --trust-pickle to read the spaces from the file's pickles"
+        )
+    if env_id is None:
+        return load_sb3(path, algo, None, None, trust_pickle=True)
+    kwargs = env_kwargs if env_kwargs is not None else card.get("env_kwargs", {})
+    probe = make_vector_env(env_id, 1, kwargs)
+    return load_sb3(
+        path,
+        algo,
+        probe.single_observation_space,
+        probe.single_action_space,
+        trust_pickle=trust_pickle,
+    )

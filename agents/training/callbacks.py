@@ -1,0 +1,183 @@
+"""Periodic safety evaluation during training: a CSV learning curve and the best model.
+
+Every ``eval_freq`` environment steps :class:`SafetyEvalCallback` plays
+``episodes`` seeded episodes of the deterministic policy in one native batch
+(:func:`agents.evaluation.metrics.rollout`), appends a row to ``<run>/evaluations.csv``, logs
+the numbers (``eval/...``, TensorBoard when installed) and keeps the best model so
+far in ``<run>/best_model.zip``. Validation seeds are disjoint from the test seeds
+used by :mod:`agents.commands.evaluate` (see :data:`VALIDATION_SEED`), so choosing the best
+model does not peek at the reported numbers.
+"""
+
+from __future__ import annotations
+
+import csv
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+
+from agents.artifacts.cards import read_card, write_card
+from agents.artifacts.curves import CURVE_COLUMNS, read_curve
+from agents.artifacts.paths import card_path, stats_path
+from agents.artifacts.run_folder import BEST_MODEL, CURVE_FILE
+from agents.artifacts.stats import save_stats
+from agents.evaluation.metrics import rollout, summarize
+from agents.policies.sb3 import ModelPolicy
+from agents.seeds import VALIDATION_SEED
+
+
+def score(summary: Mapping[str, Any]) -> tuple[float, float, float]:
+    """Ranking of an evaluation: safe rate, then success rate, then mean return."""
+    return summary["safe_rate"], summary["success_rate"], summary["mean_return"]
+
+
+class StatsCheckpointCallback(CheckpointCallback):
+    """SB3's ``CheckpointCallback`` with the observation statistics saved as JSON.
+
+    SB3 pickles them (``save_vecnormalize``); this writes
+    ``<prefix>_vecnormalize_<k>_steps.json`` beside each ``<prefix>_<k>_steps.zip``
+    instead (:func:`agents.artifacts.stats.save_stats`). The replay buffer of SAC/TD3
+    (``save_replay_buffer``) stays SB3's pickle: resuming from it needs ``--trust-pickle``.
+    """
+
+    def __init__(
+        self, save_freq: int, save_path: str, name_prefix: str, save_replay_buffer: bool
+    ) -> None:
+        super().__init__(
+            save_freq=save_freq,
+            save_path=save_path,
+            name_prefix=name_prefix,
+            save_replay_buffer=save_replay_buffer,
+            save_vecnormalize=False,
+        )
+
+    def _on_step(self) -> bool:
+        saving = self.n_calls % self.save_freq == 0
+        result = super()._on_step()
+        stats = self.model.get_vec_normalize_env()
+        if saving and stats is not None:
+            save_stats(stats, stats_path(Path(self._checkpoint_path(extension="zip"))))
+        return result
+
+
+class SafetyEvalCallback(BaseCallback):
+    """Evaluate the policy every ``eval_freq`` steps on seeded episodes; keep the best model.
+
+    Args:
+        env_id: Environment of the evaluation.
+        env_kwargs: Its keyword arguments (``n_trailers`` ...).
+        run_dir: Where ``evaluations.csv`` and ``best_model.zip`` go.
+        eval_freq: Environment steps between evaluations (>= 1).
+        episodes: Episodes per evaluation.
+        seed: Episode ``i`` is seeded ``seed + i``.
+        resume_from: The step count of the checkpoint a resumed run starts from: rows of
+            ``evaluations.csv`` after it belong to the abandoned continuation and are
+            dropped, and so is a best model selected after it.
+        verbose: 1 prints one line per evaluation.
+    """
+
+    def __init__(
+        self,
+        env_id: str,
+        env_kwargs: dict[str, Any],
+        run_dir: Path,
+        eval_freq: int,
+        episodes: int = 50,
+        seed: int = VALIDATION_SEED,
+        resume_from: int | None = None,
+        verbose: int = 1,
+    ) -> None:
+        super().__init__(verbose)
+        self.env_id = env_id
+        self.env_kwargs = env_kwargs
+        self.run_dir = run_dir
+        self.eval_freq = max(1, int(eval_freq))
+        self.episodes = episodes
+        self.seed = seed
+        self.curve_path = run_dir / CURVE_FILE
+        self.best_path = run_dir / BEST_MODEL
+        previous = read_curve(self.curve_path) if resume_from is not None else []
+        if resume_from is not None:
+            previous = [row for row in previous if row["timesteps"] <= resume_from]
+            self._write_rows(previous)
+            selected = read_card(self.best_path).get("selected_at_timesteps")
+            if selected is None or selected > resume_from:
+                for path in (self.best_path, card_path(self.best_path), stats_path(self.best_path)):
+                    path.unlink(missing_ok=True)
+        self.wall_offset = previous[-1]["wall_s"] if previous else 0.0
+        self.best: tuple[float, float, float] | None = None
+        if previous and self.best_path.is_file():
+            self.best = max(score(row) for row in previous)
+        self._evaluated_at = {int(row["timesteps"]) for row in previous}
+        self._next_eval = 0
+        self._start = time.perf_counter()
+
+    def _on_training_start(self) -> None:
+        self._start = time.perf_counter()
+        steps = self.num_timesteps
+        self._next_eval = (steps // self.eval_freq + 1) * self.eval_freq
+        if steps not in self._evaluated_at:
+            self.evaluate()
+
+    def _on_rollout_start(self) -> None:
+        # The policy changes only between rollouts (after each PPO update, after each
+        # SAC step), so evaluations happen here and never twice for the same weights.
+        if self.num_timesteps >= self._next_eval:
+            self._next_eval = (self.num_timesteps // self.eval_freq + 1) * self.eval_freq
+            self.evaluate()
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_training_end(self) -> None:
+        if self.num_timesteps not in self._evaluated_at:
+            self.evaluate()
+
+    def _write_rows(self, rows: list[dict[str, Any]], append: bool = False) -> None:
+        """Write (or append) rows of evaluations.csv, with the header when the file starts."""
+        self.run_dir.mkdir(parents=True, exist_ok=True)
+        header = not (append and self.curve_path.is_file())
+        with self.curve_path.open("a" if append else "w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=CURVE_COLUMNS)
+            if header:
+                writer.writeheader()
+            writer.writerows(rows)
+
+    @property
+    def wall_seconds(self) -> float:
+        """Training wall time of the run so far, earlier sessions (before a resume) included."""
+        return self.wall_offset + time.perf_counter() - self._start
+
+    def evaluate(self) -> dict[str, Any]:
+        """Run one evaluation now; returns its summary."""
+        stats = self.model.get_vec_normalize_env()
+        results = rollout(
+            ModelPolicy(self.model, stats), self.env_id, self.episodes, self.seed, self.env_kwargs
+        )
+        summary = summarize(results)
+        steps = int(self.num_timesteps)
+        row = {"timesteps": steps, "wall_s": round(self.wall_seconds, 2)}
+        row.update({key: summary[key] for key in CURVE_COLUMNS[2:]})
+        self._write_rows([row], append=True)
+        self._evaluated_at.add(steps)
+        for key in CURVE_COLUMNS[2:]:
+            self.logger.record(f"eval/{key}", summary[key])
+        self.logger.dump(steps)
+        if self.best is None or score(summary) > self.best:
+            self.best = score(summary)
+            self.model.save(self.best_path)
+            if stats is not None:
+                save_stats(stats, stats_path(self.best_path))
+            write_card(self.best_path, {"selected_at_timesteps": steps, "validation": row})
+        if self.verbose:
+            print(
+                f"[eval] {steps:>9d} steps  return {summary['mean_return']:8.1f}  "
+                f"safe {summary['safe_rate']:.2f}  success {summary['success_rate']:.2f}  "
+                f"jackknife {summary['jackknife_rate']:.2f}  "
+                f"band {summary['band_time_fraction']:.3f}  ({row['wall_s']:.0f} s)",
+                flush=True,
+            )
+        return summary

@@ -1,0 +1,295 @@
+"""Hyperparameters in the rl-zoo3 YAML format (``agents/hyperparams/<algo>.yml``).
+
+The files follow rl-baselines3-zoo's conventions so that
+``python -m rl_zoo3.train --gym-packages trailer_env --env trailer_env/Reverse-v0
+--algo ppo --conf-file agents/hyperparams/ppo.yml`` reads them too: one entry per
+environment id, with ``n_envs``, ``n_timesteps``, ``policy``, ``env_kwargs``,
+``normalize``, ``policy_kwargs`` as a Python expression string (``"dict(net_arch=[64,
+64])"``), learning-rate schedules as ``lin_<initial value>``, ``train_freq`` as a list,
+and the algorithm's own keyword arguments.
+
+:func:`load_hyperparams` turns an entry into what :mod:`agents.commands.train` needs. It does
+not ``eval`` anything: ``policy_kwargs`` is parsed by :func:`parse_policy_kwargs`,
+which accepts literals, ``dict(...)`` and the activations ``nn.ReLU`` / ``nn.Tanh``.
+"""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
+
+#: Activation functions allowed in policy_kwargs strings.
+_ACTIVATIONS = ("ReLU", "Tanh", "ELU", "LeakyReLU", "SiLU", "GELU")
+
+
+@dataclass
+class Hyperparams:
+    """One environment's entry of an rl-zoo3 hyperparameter file, preprocessed.
+
+    Attributes:
+        n_envs: Number of environments in the training batch.
+        n_timesteps: Default training budget (environment steps).
+        policy: Policy name, e.g. "MlpPolicy".
+        env_kwargs: Keyword arguments of the environment.
+        normalize: Keyword arguments of ``VecNormalize`` (observation normalisation), or
+            None. rl-zoo3's ``normalize: true`` means both observations and rewards;
+            a string is parsed like ``policy_kwargs``.
+        action_noise_std: Gaussian exploration noise (rl-zoo3's ``noise_type: normal``,
+            ``noise_std``) for TD3, or None.
+        algo_kwargs: Everything else, ready for the algorithm's constructor.
+    """
+
+    n_envs: int = 1
+    n_timesteps: int = 100_000
+    policy: str = "MlpPolicy"
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    normalize: dict[str, Any] | None = None
+    action_noise_std: float | None = None
+    algo_kwargs: dict[str, Any] = field(default_factory=dict)
+
+
+def _literal(node: ast.expr) -> Any:
+    """Evaluate a policy_kwargs expression node: literals, dict(...), nn.<activation>."""
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict":
+        if node.args:
+            raise ValueError("dict(...) in policy_kwargs takes keyword arguments only")
+        return {str(keyword.arg): _literal(keyword.value) for keyword in node.keywords}
+    if (
+        isinstance(node, ast.Attribute)
+        and isinstance(node.value, ast.Name)
+        and node.value.id == "nn"
+        and node.attr in _ACTIVATIONS
+    ):
+        import torch.nn
+
+        return getattr(torch.nn, node.attr)
+    if isinstance(node, ast.Dict):
+        pairs = zip(node.keys, node.values, strict=True)
+        return {_literal(key): _literal(value) for key, value in pairs if key is not None}
+    if isinstance(node, (ast.List, ast.Tuple)):
+        items = [_literal(item) for item in node.elts]
+        return items if isinstance(node, ast.List) else tuple(items)
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
+        return -_literal(node.operand)
+    if isinstance(node, ast.Constant):
+        return node.value
+    raise ValueError(f"unsupported expression in policy_kwargs: {ast.unparse(node)!r}")
+
+
+def parse_policy_kwargs(text: str | dict[str, Any]) -> dict[str, Any]:
+    """Parse an rl-zoo3 ``policy_kwargs`` string such as ``"dict(net_arch=[64, 64])"``.
+
+    Raises:
+        ValueError: If the string is not a dict of literals and allowed activations.
+    """
+    if isinstance(text, dict):
+        return text
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError as error:
+        raise ValueError(f"policy_kwargs is not a Python expression: {text!r}") from error
+    value = _literal(tree.body)
+    if not isinstance(value, dict):
+        raise ValueError(f"policy_kwargs must be a dict, got {text!r}")
+    return value
+
+
+def linear_schedule(initial: float) -> Any:
+    """rl-zoo3's ``lin_<x>``: decay linearly from ``initial`` to 0 over the training."""
+
+    def schedule(progress_remaining: float) -> float:
+        return progress_remaining * initial
+
+    return schedule
+
+
+def _schedule(key: str, value: Any) -> Any:
+    if isinstance(value, str):
+        kind, _, initial = value.partition("_")
+        if kind != "lin":
+            raise ValueError(f"{key}: unknown schedule {value!r} (only lin_<value> is supported)")
+        try:
+            return linear_schedule(float(initial))
+        except ValueError:
+            raise ValueError(f"{key}: bad schedule {value!r}") from None
+    return value
+
+
+def hyperparams_file(algo: str, directory: Path = HYPERPARAMS_DIR) -> Path:
+    """The YAML file of ``algo``.
+
+    Raises:
+        FileNotFoundError: If there is none.
+    """
+    path = directory / f"{algo}.yml"
+    if not path.is_file():
+        raise FileNotFoundError(f"no hyperparameter file {path}")
+    return path
+
+
+def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> Hyperparams:
+    """Read and preprocess ``env_id``'s entry of ``<directory>/<algo>.yml``.
+
+    Raises:
+        FileNotFoundError: If the algorithm has no file.
+        KeyError: If the file has no entry for ``env_id``.
+        ValueError: On a value the trainer cannot use.
+    """
+    path = hyperparams_file(algo, directory)
+    try:
+        entries = yaml.safe_load(path.read_text())
+    except (yaml.YAMLError, UnicodeDecodeError) as error:
+        raise ValueError(f"{path} is not valid YAML: {error}") from None
+    if not isinstance(entries, dict):
+        raise ValueError(f"{path} must map environment ids to entries")
+    if env_id not in entries:
+        raise KeyError(f"{path} has no entry for {env_id}; entries: {sorted(map(str, entries))}")
+    if not isinstance(entries[env_id], dict):
+        raise ValueError(f"{path}: the entry for {env_id} must be a mapping")
+    raw = dict(entries[env_id])
+    try:
+        result = Hyperparams(
+            n_envs=int(raw.pop("n_envs", 1)),
+            n_timesteps=int(float(raw.pop("n_timesteps", 100_000))),
+            policy=str(raw.pop("policy", "MlpPolicy")),
+            env_kwargs=dict(raw.pop("env_kwargs", None) or {}),
+        )
+    except (TypeError, ValueError, OverflowError) as error:
+        raise ValueError(f"{path}: bad n_envs, n_timesteps or env_kwargs: {error}") from None
+    if result.n_envs < 1 or result.n_timesteps < 1:
+        raise ValueError(f"{path}: n_envs and n_timesteps must be >= 1")
+    normalize = raw.pop("normalize", False)
+    if isinstance(normalize, str):
+        result.normalize = parse_policy_kwargs(normalize)
+    elif isinstance(normalize, dict):
+        result.normalize = dict(normalize)
+    elif normalize:
+        result.normalize = {}
+    if "policy_kwargs" in raw:
+        raw["policy_kwargs"] = parse_policy_kwargs(raw["policy_kwargs"])
+    for key in ("learning_rate", "clip_range"):
+        if key in raw:
+            raw[key] = _schedule(key, raw[key])
+    if isinstance(raw.get("train_freq"), list):
+        raw["train_freq"] = tuple(raw["train_freq"])
+    if "noise_type" in raw:
+        if str(raw.pop("noise_type")).strip() != "normal":
+            raise ValueError(f"{path}: only noise_type 'normal' is supported")
+        result.action_noise_std = float(raw.pop("noise_std"))
+    for unsupported in ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback"):
+        if unsupported in raw:
+            raise ValueError(f"{path}: {unsupported!r} is not supported by agents.train")
+    result.algo_kwargs = raw
+    return result
+
+
+def jsonable(value: Any) -> Any:
+    """Hyperparameter values as JSON (schedules and classes by name)."""
+    if isinstance(value, dict):
+        return {str(key): jsonable(item) for key, item in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(item) for item in value]
+    if isinstance(value, (bool, int, float, str)) or value is None:
+        return value
+    return getattr(value, "__name__", repr(value))
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """What one training run was asked to do: behind the CLI, ``config.json`` and the cards.
+
+    Build it with :meth:`resolve` (the command's values over the hyperparameter file's);
+    :meth:`document` is the record written to ``config.json`` and into every model card.
+
+    Attributes:
+        env_id: A trailer_env id.
+        algo: "ppo", "sac" or "td3".
+        n_trailers: Number of trailers (over the file's ``env_kwargs``).
+        seed: Seed of the model and of the training environments (env i gets seed + i).
+        budget: Total training budget in environment steps.
+        n_envs: Environments in the training batch (RLlib: all runners together).
+        hyperparams: The hyperparameter file's entry.
+        backend: "sb3" or "rllib".
+        command: The command line that started the run.
+    """
+
+    env_id: str
+    algo: str
+    n_trailers: int
+    seed: int
+    budget: int
+    n_envs: int
+    hyperparams: Hyperparams
+    backend: str = "sb3"
+    command: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.backend not in ("sb3", "rllib"):
+            raise ValueError(f"backend must be 'sb3' or 'rllib', got {self.backend!r}")
+        if self.budget < 1 or self.n_envs < 1:
+            raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
+
+    @classmethod
+    def resolve(
+        cls,
+        env_id: str,
+        algo: str,
+        n_trailers: int,
+        seed: int,
+        hyperparams: Hyperparams,
+        *,
+        timesteps: int | None = None,
+        n_envs: int | None = None,
+        backend: str = "sb3",
+        command: tuple[str, ...] | list[str] = (),
+    ) -> TrainConfig:
+        """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's."""
+        return cls(
+            env_id=env_id,
+            algo=algo,
+            n_trailers=n_trailers,
+            seed=seed,
+            budget=int(timesteps if timesteps is not None else hyperparams.n_timesteps),
+            n_envs=int(n_envs if n_envs is not None else hyperparams.n_envs),
+            hyperparams=hyperparams,
+            backend=backend,
+            command=tuple(command),
+        )
+
+    @property
+    def env_kwargs(self) -> dict[str, Any]:
+        """The environment's keyword arguments: the file's, with this run's ``n_trailers``."""
+        return {**self.hyperparams.env_kwargs, "n_trailers": self.n_trailers}
+
+    def document(self) -> dict[str, Any]:
+        """The run's record (JSON-ready) for ``config.json`` and the model cards.
+
+        An SB3 run records the file's policy, algorithm arguments and normalisation; an
+        RLlib run records ``backend`` (its trainer adds the RLlib settings it resolved).
+        """
+        record: dict[str, Any] = {
+            "algo": self.algo,
+            "env_id": self.env_id,
+            "env_kwargs": self.env_kwargs,
+            "seed": self.seed,
+            "budget": self.budget,
+            "n_envs": self.n_envs,
+            "command": list(self.command),
+        }
+        if self.backend == "sb3":
+            record.update(
+                {
+                    "policy": self.hyperparams.policy,
+                    "hyperparams": jsonable(self.hyperparams.algo_kwargs),
+                    "normalize": self.hyperparams.normalize,
+                }
+            )
+        else:
+            record["backend"] = self.backend
+        return record

@@ -1,0 +1,364 @@
+"""Distributed PPO on Ray RLlib (the ``rllib`` extra): ``agents.train --backend rllib``.
+
+Usage::
+
+    python -m agents.train --backend rllib --env trailer_env/Reverse-v0 --algo ppo \
+        --num-env-runners 2 --timesteps 200000 [--address ray://head:10001 | auto]
+
+Without ``--address`` a local Ray is started (``ray.init`` with ``num_cpus=2``, or one
+per runner when there are more, no dashboard, worker output not echoed) and shut down
+on exit, even after an error; its session's logs are copied to the run folder's
+``ray_logs/`` first (the session itself stays under Ray's /tmp folder: its unix
+sockets need a short path). With ``--address`` the driver joins that cluster and only
+disconnects at the end (the logs stay on the cluster).
+
+How the env runners find the environment: :func:`register_trailer_env` registers
+the creator :func:`make_rllib_env` under :data:`RLLIB_ENV_NAME` with
+``ray.tune.registry.register_env``. Ray stores the creator by reference to this
+module, so a worker process that never imported ``trailer_env`` imports
+``agents.training.rllib`` (and with it ``trailer_env``) when it builds its env: the
+``agents`` package must be importable on every node (``pip install`` the project
+there, or pass ``runtime_env={"working_dir": ...}``).
+
+The native batched env serves each runner: RLlib's new API stack builds a
+runner's envs with ``gym.make_vec(..., vectorization_mode=config.gym_env_vectorize_mode)``
+and, for a registered creator, registers ``vector_entry_point=creator(ctx | {"num_envs": k})``;
+with ``gym_env_vectorize_mode="vector_entry_point"`` each runner therefore steps
+one :class:`trailer_env.vector.ConvoyVectorEnv` of ``num_envs_per_env_runner``
+convoys (one kernel call per step), not k Python envs.
+
+The run folder has the same layout as an SB3 run: ``config.json``, ``progress.csv``
+(one row per training iteration), ``checkpoint/`` (RLlib's checkpoint, for
+``Algorithm.from_checkpoint``) and, inside it, a pickle-free export of the policy
+that :mod:`agents.commands.evaluate` reads: ``policy_weights.pt`` (tensors only, loaded with
+``torch.load(weights_only=True)``) and ``policy_card.json`` (the model card: spaces,
+network, training record). RLlib's own checkpoint files are pickles; they are only
+read with ``--trust-pickle``.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import shutil
+import time
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.artifacts.cards import write_json
+from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS
+from agents.artifacts.run_folder import PROGRESS_FILE, RLLIB_CHECKPOINT, write_config
+from agents.training.config import Hyperparams, TrainConfig
+
+#: The name under which :func:`register_trailer_env` registers the env creator.
+RLLIB_ENV_NAME = "trailer_env_rllib"
+
+
+#: Algorithms the RLlib backend trains.
+RLLIB_ALGOS = ("ppo",)
+
+
+def make_rllib_env(env_config: Mapping[str, Any]) -> Any:
+    """RLlib's env creator: the native batch when RLlib asks for ``num_envs``, else one env.
+
+    Args:
+        env_config: ``{"env_id": ..., **env_kwargs}``, plus ``num_envs`` when RLlib builds
+            a runner's vector env (RLlib passes an ``EnvContext``, a dict subclass).
+    """
+    import gymnasium as gym
+
+    import trailer_env  # noqa: F401  (registers the ids in this worker process)
+
+    kwargs = dict(env_config)
+    env_id = str(kwargs.pop("env_id"))
+    num_envs = kwargs.pop("num_envs", None)
+    if num_envs is None:
+        return gym.make(env_id, **kwargs)
+    return gym.make_vec(
+        env_id, num_envs=int(num_envs), vectorization_mode="vector_entry_point", **kwargs
+    )
+
+
+def register_trailer_env() -> str:
+    """Register :func:`make_rllib_env` with Ray Tune's registry; returns its name."""
+    from ray.tune.registry import register_env
+
+    register_env(RLLIB_ENV_NAME, make_rllib_env)
+    return RLLIB_ENV_NAME
+
+
+def ppo_config(
+    env_id: str,
+    env_kwargs: dict[str, Any],
+    hp: Hyperparams,
+    seed: int,
+    num_env_runners: int,
+    envs_per_runner: int,
+) -> Any:
+    """An RLlib ``PPOConfig`` equivalent to the SB3 hyperparameters ``hp`` (new API stack).
+
+    The SB3 batch (``n_envs`` x ``n_steps`` steps per update) becomes the learner's
+    train batch; ``batch_size`` the minibatch; ``n_epochs``, ``gamma``, ``gae_lambda``,
+    ``clip_range``, ``ent_coef`` and a constant ``learning_rate`` carry over, and
+    ``policy_kwargs["net_arch"]`` becomes ``fcnet_hiddens``. Observations are not
+    normalised (RLlib has no VecNormalize): u and omega enter unscaled, of order 1 m/s
+    and 1 rad/s in the scenes' states; the other entries lie in [-1, 1].
+    """
+    from ray.rllib.algorithms.ppo import PPOConfig
+    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
+
+    kwargs = hp.algo_kwargs
+    steps_per_update = int(hp.n_envs * kwargs.get("n_steps", 2048))
+    learning_rate = kwargs.get("learning_rate", 3e-4)
+    if callable(learning_rate):
+        learning_rate = learning_rate(1.0)
+    clip = kwargs.get("clip_range", 0.2)
+    if callable(clip):
+        clip = clip(1.0)
+    net_arch = kwargs.get("policy_kwargs", {}).get("net_arch", [64, 64])
+    runners = max(num_env_runners, 1)
+    fragment = max(math.ceil(steps_per_update / (runners * envs_per_runner)), 1)
+    return (
+        PPOConfig()
+        .environment(env=register_trailer_env(), env_config={"env_id": env_id, **env_kwargs})
+        .env_runners(
+            num_env_runners=num_env_runners,
+            num_envs_per_env_runner=envs_per_runner,
+            gym_env_vectorize_mode="vector_entry_point",
+            rollout_fragment_length=fragment,
+            num_cpus_per_env_runner=1,
+        )
+        .learners(num_learners=0)
+        .training(
+            train_batch_size_per_learner=fragment * runners * envs_per_runner,
+            minibatch_size=int(kwargs.get("batch_size", 64)),
+            num_epochs=int(kwargs.get("n_epochs", 10)),
+            lr=float(learning_rate),
+            gamma=float(kwargs.get("gamma", 0.99)),
+            lambda_=float(kwargs.get("gae_lambda", 0.95)),
+            clip_param=float(clip),
+            entropy_coeff=float(kwargs.get("ent_coef", 0.0)),
+        )
+        .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=list(net_arch)))
+        .debugging(seed=seed)
+        .reporting(metrics_num_episodes_for_smoothing=20)
+    )
+
+
+def _runner_env(runner: Any) -> tuple[str, bool]:
+    """An env runner's env class and whether it is the native batch (runs on the runner)."""
+    from trailer_env.vector import ConvoyVectorEnv
+
+    env = runner.env.unwrapped
+    return type(env).__name__, isinstance(env, ConvoyVectorEnv)
+
+
+def _ray_init(address: str | None, num_env_runners: int) -> tuple[bool, Path | None]:
+    """Start a local Ray (or join ``address``).
+
+    Returns whether this call connected (and so must shut down) and, for a local Ray
+    it started, the session's log folder.
+    """
+    import ray
+
+    if ray.is_initialized():
+        return False, None
+    if address is not None:
+        try:
+            ray.init(address=address, include_dashboard=False, log_to_driver=False)
+        except (ConnectionError, RuntimeError) as error:
+            raise ConnectionError(
+                f"cannot connect to the Ray cluster at {address}: {str(error).splitlines()[0]} "
+                "(a cluster with token authentication, Ray's default, also needs "
+                "RAY_AUTH_MODE=token and its token in ~/.ray/auth_token or RAY_AUTH_TOKEN)"
+            ) from None
+        return True, None
+    context: Any = ray.init(
+        # "local": a new instance even when `ray start` left a cluster on this machine
+        # (plain ray.init() would join that one, where num_cpus is not allowed).
+        address="local",
+        # Each runner reserves one CPU; the learner runs in this process. Two logical
+        # CPUs at least (Ray's own tasks), more only when more runners must be placed.
+        num_cpus=max(2, num_env_runners),
+        include_dashboard=False,
+        log_to_driver=False,
+        configure_logging=False,
+    )
+    return True, Path(context.address_info["session_dir"]) / "logs"
+
+
+def _shutdown(started: bool, logs: Path | None, run_dir: Path) -> None:
+    """Copy the local Ray session's logs into ``run_dir/ray_logs``, then shut Ray down."""
+    import ray
+
+    if logs is not None and logs.is_dir():
+        # Ray's session folder stays under /tmp: its unix sockets need a short path.
+        shutil.copytree(logs, run_dir / "ray_logs", dirs_exist_ok=True)
+    if started:
+        ray.shutdown()
+
+
+def _env_steps(result: Mapping[str, Any]) -> int:
+    runners = result.get("env_runners", {})
+    return int(
+        result.get(
+            "num_env_steps_sampled_lifetime", runners.get("num_env_steps_sampled_lifetime", 0)
+        )
+    )
+
+
+def train_rllib(
+    config: TrainConfig,
+    run_dir: Path,
+    *,
+    num_env_runners: int = 1,
+    address: str | None = None,
+    verbose: int = 1,
+) -> dict[str, Any]:
+    """Train PPO on Ray RLlib until ``config.budget`` env steps; returns the run's record.
+
+    Args:
+        config: What to train (backend "rllib"); ``config.n_envs`` convoys in all,
+            split evenly across the runners' native batches.
+        run_dir: Run folder.
+        num_env_runners: Remote env runners (0: the driver samples itself).
+        address: A running Ray cluster (``ray start --head`` prints it; "auto" finds a
+            local one); None starts a local Ray and shuts it down at the end.
+
+    Training stops after the first iteration that reaches the budget.
+
+    Raises:
+        ValueError: For an algorithm other than PPO or a negative runner count.
+        ConnectionError: If ``address`` cannot be reached.
+    """
+    if config.algo not in RLLIB_ALGOS:
+        raise ValueError(f"the rllib backend trains {list(RLLIB_ALGOS)}, not {config.algo!r}")
+    if num_env_runners < 0:
+        raise ValueError(f"num_env_runners must be >= 0, got {num_env_runners}")
+
+    env_kwargs = config.env_kwargs
+    budget = config.budget
+    per_runner = max(config.n_envs // max(num_env_runners, 1), 1)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    started_ray, ray_logs = _ray_init(address, num_env_runners)
+    try:
+        rllib_config = ppo_config(
+            config.env_id, env_kwargs, config.hyperparams, config.seed, num_env_runners, per_runner
+        )
+        algorithm = rllib_config.build_algo()
+        runner_envs = (
+            algorithm.env_runner_group.foreach_env_runner(_runner_env, local_env_runner=False)
+            if num_env_runners > 0
+            else [_runner_env(algorithm.env_runner)]
+        )
+        record: dict[str, Any] = {
+            **config.document(),
+            "n_envs": per_runner * max(num_env_runners, 1),
+            "num_env_runners": num_env_runners,
+            "envs_per_runner": per_runner,
+            "address": address,
+            # What each runner steps: (class name, is a native ConvoyVectorEnv batch).
+            "runner_envs": runner_envs,
+            "hyperparams": {
+                "train_batch_size": rllib_config.train_batch_size_per_learner,
+                "minibatch_size": rllib_config.minibatch_size,
+                "num_epochs": rllib_config.num_epochs,
+                "lr": rllib_config.lr,
+                "gamma": rllib_config.gamma,
+                "lambda": rllib_config.lambda_,
+                "clip_param": rllib_config.clip_param,
+                "entropy_coeff": rllib_config.entropy_coeff,
+                "fcnet_hiddens": list(rllib_config.model_config["fcnet_hiddens"]),
+            },
+        }
+        write_config(run_dir, record)
+        rows: list[dict[str, Any]] = []
+        started = time.perf_counter()
+        steps = 0
+        while steps < budget:
+            result = algorithm.train()
+            steps = _env_steps(result)
+            runners = result.get("env_runners", {})
+            timers = result.get("timers", {})
+            mean_return = float(runners.get("episode_return_mean", float("nan")))
+            rows.append(
+                {
+                    "iteration": len(rows) + 1,
+                    "timesteps": steps,
+                    "wall_s": round(time.perf_counter() - started, 2),
+                    "episode_return_mean": mean_return,
+                    "episode_len_mean": float(runners.get("episode_len_mean", float("nan"))),
+                    "num_episodes": int(runners.get("num_episodes_lifetime", 0)),
+                    # RLlib's own timers, smoothed across iterations (so not summable into
+                    # a wall time): sampling on the runners, the PPO update in the learner.
+                    "sample_s": float(timers.get("env_runner_sampling_timer", float("nan"))),
+                    "learn_s": float(timers.get("learner_update_timer", float("nan"))),
+                }
+            )
+            if verbose:
+                print(
+                    f"[rllib] {steps:>9d} steps  return {mean_return:8.1f}  "
+                    f"({rows[-1]['wall_s']:.0f} s)",
+                    flush=True,
+                )
+        wall = time.perf_counter() - started
+        with (run_dir / PROGRESS_FILE).open("w", newline="") as handle:
+            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+        checkpoint = run_dir / RLLIB_CHECKPOINT
+        algorithm.save_to_path(str(checkpoint.resolve()))
+        record.update(
+            {
+                "timesteps": steps,
+                "wall_time_s": round(wall, 1),
+                "env_steps_per_s": round(steps / wall, 1),
+                "episode_return_mean": rows[-1]["episode_return_mean"],
+            }
+        )
+        export_policy(algorithm, checkpoint, record)
+        write_config(run_dir, record)
+        algorithm.stop()
+        return record
+    finally:
+        _shutdown(started_ray, ray_logs, run_dir)
+
+
+def learner_policy_state(algorithm: Any) -> dict[str, Any]:
+    """The trained policy's weights (inference part, as tensors) from the learner.
+
+    Read from the learner group, whose module is the one being optimised (the env
+    runners hold copies synchronised after each iteration).
+    """
+    import torch
+    from ray.rllib.core import COMPONENT_LEARNER, COMPONENT_RL_MODULE, DEFAULT_MODULE_ID
+
+    path = f"{COMPONENT_LEARNER}/{COMPONENT_RL_MODULE}/{DEFAULT_MODULE_ID}"
+    state = algorithm.learner_group.get_state(components=path, inference_only=True)
+    weights = state[COMPONENT_LEARNER][COMPONENT_RL_MODULE][DEFAULT_MODULE_ID]
+    return {key: torch.as_tensor(np.asarray(value)) for key, value in weights.items()}
+
+
+def export_policy(algorithm: Any, checkpoint: Path, card: dict[str, Any]) -> None:
+    """Write the pickle-free policy export (weights + card) into ``checkpoint``."""
+    import torch
+
+    checkpoint.mkdir(parents=True, exist_ok=True)
+    torch.save(learner_policy_state(algorithm), checkpoint / POLICY_WEIGHTS)
+    module = algorithm.get_module()
+    spaces = {
+        "observation_shape": list(module.observation_space.shape),
+        "action_shape": list(module.action_space.shape),
+        "action_low": np.asarray(module.action_space.low, dtype=float).tolist(),
+        "action_high": np.asarray(module.action_space.high, dtype=float).tolist(),
+    }
+    document = {
+        **card,
+        "module": "DefaultPPOTorchRLModule",
+        "inference_only": True,
+        "spaces": spaces,
+    }
+    write_json(checkpoint / POLICY_CARD, document)

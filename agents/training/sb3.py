@@ -1,0 +1,169 @@
+"""Training a stable-baselines3 agent through the native batch (the library of agents.train)."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.artifacts.cards import read_card, write_card
+from agents.artifacts.paths import pickled_stats_path, replay_buffer_path, stats_path
+from agents.artifacts.run_folder import (
+    BEST_MODEL,
+    CHECKPOINTS,
+    FINAL_MODEL,
+    write_config,
+)
+from agents.artifacts.sb3_zip import UnsafeFileError, algo_class, load_sb3
+from agents.artifacts.stats import load_pickled_stats, read_stats, restore_stats, save_stats
+from agents.envs import env_settings, make_sb3_env
+from agents.training.config import TrainConfig
+
+
+def _progress_bar_available() -> bool:
+    return all(importlib.util.find_spec(name) is not None for name in ("tqdm", "rich"))
+
+
+def train(
+    config: TrainConfig,
+    run_dir: Path,
+    *,
+    resume: Path | None = None,
+    eval_freq: int | None = None,
+    eval_episodes: int = 50,
+    checkpoint_freq: int | None = None,
+    progress_bar: bool = True,
+    verbose: int = 1,
+    trust_pickle: bool = False,
+) -> Any:
+    """Train (or resume) an SB3 agent; returns the model. See the module docstring for outputs.
+
+    Args:
+        config: What to train (:meth:`agents.training.config.TrainConfig.resolve`).
+        run_dir: Run folder.
+        resume: Checkpoint to continue from.
+        eval_freq, eval_episodes, checkpoint_freq: Evaluation and checkpoint schedule.
+        progress_bar: Show SB3's progress bar (needs tqdm and rich).
+        verbose: 1 prints one line per evaluation.
+        trust_pickle: Allow unpickling ``resume``'s pickled parts (serialized entries,
+            replay buffer, legacy statistics); otherwise they are replaced or refused
+            (:mod:`agents.artifacts`).
+
+    Raises:
+        ValueError: If ``resume`` cannot be loaded safely (or at all).
+    """
+    from stable_baselines3.common.logger import configure
+    from stable_baselines3.common.noise import NormalActionNoise
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from agents.training.callbacks import SafetyEvalCallback, StatsCheckpointCallback
+
+    hp = config.hyperparams
+    algo, seed, budget, batch = config.algo, config.seed, config.budget, config.n_envs
+    env_kwargs = config.env_kwargs
+    settings = env_settings(env_kwargs)  # fail early on bad settings
+    run_dir.mkdir(parents=True, exist_ok=True)
+    start_steps = 0
+    venv = make_sb3_env(config.env_id, batch, env_kwargs, seed=seed)
+    if hp.normalize is not None:
+        normalize = {"gamma": hp.algo_kwargs.get("gamma", 0.99), **hp.normalize}
+        venv = VecNormalize(venv, **normalize)
+        if resume is not None:
+            _restore_checkpoint_stats(venv, resume, trust_pickle)
+    kwargs = dict(hp.algo_kwargs)
+    if hp.action_noise_std is not None:
+        dim = settings.action_dim
+        kwargs["action_noise"] = NormalActionNoise(
+            np.zeros(dim), hp.action_noise_std * np.ones(dim)
+        )
+    if resume is not None:
+        model = load_sb3(
+            resume,
+            algo,
+            venv.observation_space,
+            venv.action_space,
+            env=venv,
+            algo_kwargs=kwargs,
+            trust_pickle=trust_pickle,
+        )
+        start_steps = int(model.num_timesteps)
+        # Fresh starting states, not a replay of the first session's.
+        venv.seed(seed + start_steps)
+        model.set_random_seed(seed + start_steps)
+        buffer = replay_buffer_path(resume)
+        if buffer is not None and hasattr(model, "load_replay_buffer"):
+            if not trust_pickle:
+                raise UnsafeFileError(
+                    f"the replay buffer {buffer} is a pickle; pass --trust-pickle to load it"
+                )
+            model.load_replay_buffer(buffer)
+    else:
+        model = algo_class(algo)(hp.policy, venv, seed=seed, device="cpu", verbose=0, **kwargs)
+    outputs = ["csv"]
+    if importlib.util.find_spec("tensorboard") is not None:
+        outputs.append("tensorboard")
+    model.set_logger(configure(str(run_dir / "logs" / f"from_{start_steps}"), outputs))
+    record = config.document()
+    write_config(run_dir, record)
+    remaining = budget - start_steps
+    if remaining <= 0:
+        if verbose:
+            print(f"{resume} is already at {start_steps} >= {budget} steps: nothing to train")
+        return model
+    evaluator = SafetyEvalCallback(
+        config.env_id,
+        env_kwargs,
+        run_dir,
+        eval_freq=eval_freq or max(budget // 20, batch),
+        episodes=eval_episodes,
+        resume_from=start_steps if resume is not None else None,
+        verbose=verbose,
+    )
+    checkpoints = StatsCheckpointCallback(
+        save_freq=max((checkpoint_freq or max(budget // 5, batch)) // batch, 1),
+        save_path=str(run_dir / CHECKPOINTS),
+        name_prefix=algo,
+        save_replay_buffer=algo in ("sac", "td3"),
+    )
+    model.learn(
+        total_timesteps=remaining,
+        callback=[evaluator, checkpoints],
+        reset_num_timesteps=resume is None,
+        progress_bar=progress_bar and _progress_bar_available(),
+    )
+    wall = round(evaluator.wall_seconds, 1)
+    record.update({"timesteps": int(model.num_timesteps), "wall_time_s": wall})
+    final = run_dir / FINAL_MODEL
+    model.save(final)
+    stats = model.get_vec_normalize_env()
+    if stats is not None:
+        save_stats(stats, stats_path(final))
+    write_card(final, record)
+    best = run_dir / BEST_MODEL
+    if best.is_file():
+        write_card(best, {**record, **read_card(best)})
+    return model
+
+
+def _restore_checkpoint_stats(venv: Any, checkpoint: Path, trust_pickle: bool) -> None:
+    """Put ``checkpoint``'s observation statistics into the (training) ``VecNormalize``.
+
+    Raises:
+        UnsafeFileError: If they exist only as a pickle and ``trust_pickle`` is false.
+    """
+    saved = stats_path(checkpoint)
+    if saved.is_file():
+        restore_stats(venv, read_stats(saved))
+        return
+    pickled = pickled_stats_path(checkpoint)
+    if pickled is None:
+        return
+    if not trust_pickle:
+        raise UnsafeFileError(
+            f"the statistics {pickled} are a pickle; pass --trust-pickle to load them"
+        )
+    loaded = load_pickled_stats(pickled)
+    for key in ("obs_rms", "ret_rms", "clip_obs", "clip_reward", "epsilon"):
+        setattr(venv, key, getattr(loaded, key))

@@ -1,0 +1,110 @@
+"""Training-seed siblings of committed models, the spread column, and the ceiling line."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.artifacts.certificates import committed_certificate
+from agents.artifacts.shipped import seed_models
+from agents.evaluation.metrics import EpisodeResults
+from agents.evaluation.results import Evaluation
+from agents.evaluation.tables import seeds_note, training_note
+from agents.oracles.certify import ceiling_note
+
+V1 = "trailer_env/Reverse-v1"
+
+
+def _results(safe: list[bool]) -> EpisodeResults:
+    count = len(safe)
+    ok = np.array(safe)
+    return EpisodeResults(
+        seeds=np.arange(count),
+        returns=np.zeros(count),
+        lengths=np.full(count, 400),
+        jackknifed=~ok,
+        success=ok,
+        failed=~ok,
+        band_steps=np.zeros(count, dtype=np.int64),
+        min_margin=np.ones(count),
+        actuator_work=np.zeros(count),
+        margins=np.ones(count),
+    )
+
+
+def test_seed_models_are_the_numbered_siblings(tmp_path: Path) -> None:
+    seeds = tmp_path / "seeds"
+    seeds.mkdir()
+    for name in ("x_s0", "x_s1", "x_s10", "x_sfoo", "x_s2_old", "y_s0"):
+        (seeds / f"{name}.zip").write_bytes(b"")
+    found = seed_models(str(tmp_path / "x.zip"), directory=seeds)
+    assert [path.stem for path in found] == ["x_s0", "x_s1", "x_s10"]
+    # A model of the same name elsewhere (a retrained one) is not the committed model.
+    assert seed_models(str(tmp_path / "elsewhere" / "x.zip"), directory=seeds) == []
+    assert seed_models("lqr", directory=seeds) == []
+
+
+def test_seeds_note_reports_mean_sd_and_range() -> None:
+    summaries = [
+        (seed, {"safe_rate": rate})
+        for seed, rate in ((0, 0.94), (1, 0.96), (2, 0.98))
+    ]  # fmt: skip
+    evaluation = Evaluation("m", "m.zip", {}, _results([True]), None, summaries)
+    mean, sd, low, high = evaluation.seed_spread() or (0, 0, 0, 0)
+    assert mean == pytest.approx(0.96) and sd == pytest.approx(np.std([0.94, 0.96, 0.98]))
+    assert (low, high) == (0.94, 0.98)
+    assert seeds_note(evaluation) == "96 ± 2% (94-98, 3 seeds)"
+    assert seeds_note(Evaluation("lqr", "lqr", {}, _results([True]))) == "-"
+    assert training_note({}, "mpc").startswith("oracle")
+    card = {"algo": "ppo", "recipe": "dagger", "seed": 1, "timesteps": 614_400,
+            "selected_at_iteration": 3, "wall_time_s": 500}  # fmt: skip
+    assert training_note(card) == (
+        "PPO policy by DAgger from mpc, seed 1, 0.614M labels (kept iteration 3), 500 s"
+    )
+
+
+def _certificate(folder: Path, statuses: list[str], env_id: str = V1, n: int = 2) -> None:
+    starts = [{"seed": 1000 + i, "status": status} for i, status in enumerate(statuses)]
+    feasible = statuses.count("feasible")
+    document = {
+        "env_id": env_id,
+        "env_kwargs": {"n_trailers": n},
+        "seeds": [1000, 999 + len(statuses)],
+        "ceiling": feasible / len(statuses),
+        "starts": starts,
+    }
+    folder.mkdir(exist_ok=True)
+    (folder / "reverse_v1_n2.json").write_text(json.dumps(document))
+
+
+def test_ceiling_note_counts_the_evaluated_starts(tmp_path: Path) -> None:
+    _certificate(tmp_path, ["feasible", "open", "feasible", "not recoverable"])
+    note = ceiling_note(V1, 2, 4, 1000, directory=tmp_path)
+    assert note.startswith("ceiling: 2/4 starts certified feasible")
+    assert "1 not recoverable (screen), 1 open" in note
+    assert ceiling_note(V1, 2, 1, 1002, directory=tmp_path).startswith("ceiling: 1/1")
+    outside = ceiling_note(V1, 2, 4, 1002, directory=tmp_path)
+    assert "certified on seeds 1000-1003 (50% feasible), not on these episodes" in outside
+    assert "not certified" in ceiling_note(V1, 3, 4, 1000, directory=tmp_path)
+
+
+def test_a_certificate_of_another_scene_is_refused(tmp_path: Path) -> None:
+    _certificate(tmp_path, ["feasible"], env_id="trailer_env/Reverse-v0")
+    with pytest.raises(ValueError, match="not a certificate of trailer_env/Reverse-v1"):
+        committed_certificate(V1, 2, directory=tmp_path)
+    (tmp_path / "reverse_v1_n2.json").write_text("{")
+    with pytest.raises(ValueError, match="not JSON"):
+        committed_certificate(V1, 2, directory=tmp_path)
+
+
+def test_committed_certificates_meet_the_ceiling_targets() -> None:
+    for n in (1, 2, 3):
+        certificate = committed_certificate(V1, n)
+        assert certificate is not None, n
+        assert certificate["episodes"] == 100 and certificate["seeds"] == [1000, 1099]
+        assert certificate["feasible"] >= 99, n
+        strokes = [start["screen_stroke_fraction"] for start in certificate["starts"]]
+        assert max(strokes) <= 0.8, n

@@ -1,0 +1,65 @@
+"""The certification command: statuses, float64 records that replay, refusal to overwrite."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.artifacts.certificates import FEASIBLE, NOT_RECOVERABLE, write_certificate
+from agents.commands.certify import main, parse_seeds
+from agents.oracles.certify import certify, replay
+from agents.oracles.planner import PlannerConfig
+
+V1 = "trailer_env/Reverse-v1"
+SMALL = PlannerConfig(samples=4, elites=1, iterations=1, tail=30)
+
+
+def test_parse_seeds() -> None:
+    assert parse_seeds("1000-1003") == [1000, 1001, 1002, 1003]
+    assert parse_seeds("5") == [5]
+    assert parse_seeds("1,4-5") == [1, 4, 5]
+    with pytest.raises(ValueError, match="empty"):
+        parse_seeds("9-3")
+
+
+def test_certified_sequence_replays_identically(tmp_path: Path) -> None:
+    certificate = certify(V1, 1, [2000, 2002], SMALL)
+    assert certificate["feasible"] == 2
+    assert certificate["ceiling"] == 1.0
+    write_certificate(certificate, tmp_path / "cert", overwrite=False)
+    document = json.loads((tmp_path / "cert" / "certificate.json").read_text())
+    start = document["starts"][0]
+    assert start["status"] == FEASIBLE
+    sequence = np.load(tmp_path / "cert" / start["actions_file"], allow_pickle=False)
+    assert sequence.dtype == np.float64
+    assert sequence.shape == (400,)
+    first = replay(V1, {"n_trailers": 1}, 2000, sequence)
+    second = replay(V1, {"n_trailers": 1}, 2000, sequence)
+    assert first.safe and second.safe
+    assert first.length == second.length == 400
+
+
+def test_refuses_to_overwrite(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "cert"
+    out.mkdir()
+    with pytest.raises(SystemExit) as error:
+        main(["--env", V1, "--n-trailers", "1", "--seeds", "2000", "--out", str(out)])
+    assert error.value.code == 2
+    assert "--overwrite" in capsys.readouterr().err
+    with pytest.raises(FileExistsError):
+        write_certificate({"starts": [], "actions": {}}, out, overwrite=False)
+
+
+def test_restarts_plan_only_the_starts_not_kept_safe() -> None:
+    # Reverse-v0, n = 3: seed 2004 needs 1.5 strokes (not recoverable), 2009 needs 0.33.
+    certificate = certify("trailer_env/Reverse-v0", 3, [2004, 2009], SMALL, restarts=2)
+    hard, easy = certificate["starts"]
+    assert hard["status"] == NOT_RECOVERABLE and hard["planner_attempts"] == 3
+    assert easy["status"] == FEASIBLE and easy["planner_attempts"] == 1
+    assert certificate["planner"]["restarts"] == 2
+    assert certificate["planner"]["first_pass_safe"] == 1
+    with pytest.raises(ValueError, match="restarts"):
+        certify(V1, 1, [2000], SMALL, restarts=-1)

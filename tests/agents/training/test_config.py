@@ -1,0 +1,52 @@
+"""The rl-zoo3 hyperparameter files and their parser."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import torch.nn
+
+from agents.envs import ENV_IDS
+from agents.training.config import HYPERPARAMS_DIR, load_hyperparams, parse_policy_kwargs
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_every_scene_has_hyperparameters(algo: str, env_id: str) -> None:
+    hp = load_hyperparams(algo, env_id)
+    assert hp.n_envs >= 1 and hp.n_timesteps >= 1000
+    assert hp.policy == "MlpPolicy"
+    assert hp.env_kwargs == {"n_trailers": 2}
+    assert hp.algo_kwargs["policy_kwargs"]["net_arch"] == [64, 64]
+    assert hp.normalize == {"norm_obs": True, "norm_reward": False}
+
+
+def test_policy_kwargs_strings_parse_without_eval() -> None:
+    parsed = parse_policy_kwargs(
+        "dict(net_arch=dict(pi=[64, 64], vf=[32]), log_std_init=-1.0, activation_fn=nn.Tanh)"
+    )
+    assert parsed == {
+        "net_arch": {"pi": [64, 64], "vf": [32]},
+        "log_std_init": -1.0,
+        "activation_fn": torch.nn.Tanh,
+    }
+    with pytest.raises(ValueError, match="unsupported expression"):
+        parse_policy_kwargs("dict(x=__import__('os').getcwd())")
+    with pytest.raises(ValueError, match="must be a dict"):
+        parse_policy_kwargs("[1, 2]")
+
+
+def test_linear_schedule_and_unknown_entries(tmp_path: Path) -> None:
+    (tmp_path / "ppo.yml").write_text(
+        "trailer_env/Reverse-v0:\n  n_timesteps: !!float 1e4\n  learning_rate: lin_0.001\n"
+    )
+    hp = load_hyperparams("ppo", "trailer_env/Reverse-v0", tmp_path)
+    schedule = hp.algo_kwargs["learning_rate"]
+    assert schedule(1.0) == pytest.approx(1e-3) and schedule(0.5) == pytest.approx(5e-4)
+    assert hp.n_timesteps == 10_000 and hp.normalize is None
+    with pytest.raises(KeyError, match="no entry for trailer_env/Dock-v0"):
+        load_hyperparams("ppo", "trailer_env/Dock-v0", tmp_path)
+    with pytest.raises(FileNotFoundError, match=r"sac\.yml"):
+        load_hyperparams("sac", "trailer_env/Reverse-v0", tmp_path)
+    assert (HYPERPARAMS_DIR / "ppo.yml").is_file()

@@ -1,0 +1,73 @@
+"""DAgger from the planner: the run folder, a model that loads like any PPO model, bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.artifacts.curves import read_curve
+from agents.commands.imitate import main
+from agents.envs import env_settings
+from agents.oracles.planner import PlannerConfig, SamplingPlanner
+from agents.policies.registry import load_policy
+from agents.training.imitate import ImitationConfig, collect, imitate
+from trailer_env.scenes.reverse_v1 import ReverseV1Core
+from trailer_env.vector import ConvoyVectorEnv
+
+V1 = "trailer_env/Reverse-v1"
+
+
+def test_collect_labels_every_visited_state_with_the_planner() -> None:
+    settings = env_settings({"n_trailers": 1})
+    envs = ConvoyVectorEnv(ReverseV1Core, 3, autoreset_mode="same_step", n_trailers=1)
+    config = PlannerConfig(samples=4, elites=1, iterations=1, tail=10)
+    planner = SamplingPlanner(ReverseV1Core, settings, 3, config)
+    obs, labels = collect(envs, planner, None, seed=5)
+    assert obs.shape == (400 * 3, envs.single_observation_space.shape[0])
+    assert labels.shape == (400 * 3, 1)
+    assert np.all(np.abs(labels) <= 1.0)
+    # The first labels are the planner's decisions at the seeded starts.
+    fresh = ConvoyVectorEnv(ReverseV1Core, 3, autoreset_mode="same_step", n_trailers=1)
+    first_obs, _ = fresh.reset(seed=5)
+    np.testing.assert_array_equal(obs[:3], first_obs)
+    again = SamplingPlanner(ReverseV1Core, settings, 3, config)
+    np.testing.assert_array_equal(labels[:3, 0], again.plan(fresh.core.z, fresh.core.act)[:, 0])
+
+
+def test_imitation_run_writes_a_loadable_ppo_model(tmp_path: Path) -> None:
+    config = ImitationConfig(
+        V1, 1, iterations=2, episodes=4, epochs=2, validation_episodes=4, net_arch=(16,)
+    )
+    record = imitate(config, tmp_path / "run", verbose=0)
+    assert record["recipe"] == "dagger" and record["algo"] == "ppo"
+    assert record["timesteps"] == 2 * 4 * 400
+    curve = read_curve(tmp_path / "run" / "evaluations.csv")
+    assert [row["iteration"] for row in curve] == [0.0, 1.0]
+    assert [row["timesteps"] for row in curve] == [1600.0, 3200.0]
+    card = json.loads((tmp_path / "run" / "best_model.json").read_text())
+    assert card["env_id"] == V1 and card["env_kwargs"] == {"n_trailers": 1}
+    assert 0.0 <= card["validation"]["safe_rate"] <= 1.0
+    policy = load_policy(str(tmp_path / "run" / "best_model.zip"), V1, {"n_trailers": 1})
+    actions = policy(np.zeros((5, 6), dtype=np.float32))
+    assert actions.shape == (5, 1) and np.all(np.isfinite(actions))
+
+
+def test_bad_configurations_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(ValueError, match="no planner"):
+        ImitationConfig("trailer_env/Dock-v0", 1)
+    with pytest.raises(ValueError, match="iterations"):
+        ImitationConfig(V1, 1, iterations=0)
+    with pytest.raises(ValueError, match="n_trailers"):
+        ImitationConfig(V1, -1)
+    with pytest.raises(TypeError, match="episodes"):
+        ImitationConfig(V1, 1, episodes=2.5)  # type: ignore[arg-type]
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text("{}")
+    with pytest.raises(SystemExit) as error:
+        main(["--n-trailers", "1", "--run-dir", str(run)])
+    assert error.value.code == 2
+    assert "--overwrite" in capsys.readouterr().err

@@ -1,0 +1,128 @@
+"""The Ray RLlib backend: a short PPO run with one remote env runner on a local Ray (~20 s)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("ray.rllib")
+
+import gymnasium as gym
+
+from agents.artifacts.curves import read_curve
+from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS
+from agents.commands import evaluate, train
+from agents.policies.rllib import load_rllib_policy
+from agents.training.rllib import make_rllib_env
+from trailer_env.vector import ConvoyVectorEnv
+
+REVERSE = "trailer_env/Reverse-v0"
+
+#: One PPO iteration = 8 convoys x 128 steps; two iterations reach 2000 steps.
+TINY_PPO = """\
+trailer_env/Reverse-v0:
+  n_envs: 8
+  n_timesteps: 2000
+  policy: MlpPolicy
+  n_steps: 128
+  batch_size: 256
+  n_epochs: 2
+  learning_rate: !!float 1e-3
+  gamma: 0.99
+  policy_kwargs: "dict(net_arch=[32, 32])"
+  env_kwargs:
+    n_trailers: 1
+"""
+
+
+def test_the_creator_builds_the_native_batch_or_one_env() -> None:
+    batch = make_rllib_env({"env_id": REVERSE, "n_trailers": 2, "num_envs": 5})
+    assert isinstance(batch.unwrapped, ConvoyVectorEnv) and batch.num_envs == 5
+    single = make_rllib_env({"env_id": REVERSE, "n_trailers": 2})
+    assert isinstance(single, gym.Env) and single.observation_space.shape == (8,)
+
+
+def test_rllib_trains_with_a_remote_runner_and_its_checkpoint_evaluates(tmp_path: Path) -> None:
+    import ray
+
+    (tmp_path / "hp").mkdir()
+    (tmp_path / "hp" / "ppo.yml").write_text(TINY_PPO)
+    run = tmp_path / "run"
+    argv = ["--backend", "rllib", "--env", REVERSE, "--algo", "ppo", "--n-trailers", "1",
+            "--num-env-runners", "1", "--timesteps", "2000", "--hyperparams",
+            str(tmp_path / "hp"), "--run-dir", str(run), "--quiet"]  # fmt: skip
+    assert train.main(argv) == 0
+    assert not ray.is_initialized()  # the local Ray it started is shut down
+    assert any((run / "ray_logs").iterdir())  # with its logs kept in the run folder
+    config = json.loads((run / "config.json").read_text())
+    assert config["backend"] == "rllib" and config["num_env_runners"] == 1
+    # The remote runner stepped the native batched env, not 8 Python envs.
+    ((env_class, native),) = config["runner_envs"]
+    assert native and env_class.endswith("VectorEnv")
+    assert 2000 <= config["timesteps"] < 2000 + 1024 + 8  # one iteration ~ 1024 steps
+    assert np.isfinite(config["episode_return_mean"]) and config["env_steps_per_s"] > 0
+    rows = read_curve(run / "progress.csv")
+    assert len(rows) == 2 and rows[-1]["timesteps"] == config["timesteps"]
+    # Each episode of Reverse-v0 earns about 1 per step until it folds (~50 steps here).
+    assert all(0 < row["episode_return_mean"] < 400 for row in rows)
+    checkpoint = run / "checkpoint"
+    assert (checkpoint / "rllib_checkpoint.json").is_file()
+    assert (checkpoint / POLICY_WEIGHTS).is_file() and (checkpoint / POLICY_CARD).is_file()
+
+    out = tmp_path / "eval"
+    argv = ["--n-trailers", "1", "--policy", str(checkpoint), "zero", "--episodes", "10"]
+    assert evaluate.main([*argv, "--no-plots", "--out", str(out)]) == 0
+    document = json.loads((out / "results.json").read_text())
+    model = document["policies"][0]
+    assert model["name"] == "run" and model["kind"] == "model"
+    assert model["training"]["algo"] == "ppo" and model["training"]["timesteps"] > 2000
+    assert np.isfinite(model["mean_return"]) and 0.0 <= model["safe_rate"] <= 1.0
+    # Same seeds, same numbers: the evaluation of the checkpoint is deterministic.
+    assert evaluate.main([*argv, "--no-plots", "--out", str(tmp_path / "again")]) == 0
+    assert (tmp_path / "again" / "results.json").read_bytes() == (out / "results.json").read_bytes()
+
+    # The pickle-free export holds the learner's weights: RLlib's own (pickled)
+    # checkpoint of the learner module, read with trust, acts identically.
+    env = gym.make(REVERSE, n_trailers=1)
+    spaces = (env.observation_space, env.action_space)
+    safe = load_rllib_policy(checkpoint, *spaces)
+    (checkpoint / POLICY_CARD).rename(tmp_path / "card.json")
+    with pytest.raises(ValueError, match="--trust-pickle"):
+        load_rllib_policy(checkpoint, *spaces)
+    trusted = load_rllib_policy(checkpoint, *spaces, trust_pickle=True)
+    obs = np.random.default_rng(0).uniform(-0.3, 0.3, (32, 6)).astype(np.float32)
+    np.testing.assert_allclose(safe(obs), trusted(obs), rtol=0, atol=1e-6)
+    assert np.all(np.abs(safe(obs)) <= 1.0)
+
+
+def test_rllib_options_are_checked(capsys: pytest.CaptureFixture[str]) -> None:
+    for argv, message in (
+        (["--algo", "sac"], "argument --algo: --backend rllib trains ppo, not sac"),
+        (["--algo", "ppo", "--num-env-runners", "-1"], "argument --num-env-runners"),
+    ):
+        with pytest.raises(SystemExit) as raised:
+            train.main(["--backend", "rllib", "--env", REVERSE, *argv])
+        assert raised.value.code == 2 and message in capsys.readouterr().err
+
+
+def test_an_unreachable_cluster_exits_2_naming_the_address(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import ray
+
+    def refuse(*args: object, **kwargs: object) -> None:
+        raise ConnectionError("Failed to connect to Ray cluster at 10.0.0.9:6379")
+
+    # (a real unreachable address makes Ray retry for minutes before it gives up)
+    monkeypatch.setattr(ray, "init", refuse)
+    argv = ["--backend", "rllib", "--env", REVERSE, "--algo", "ppo", "--address",
+            "10.0.0.9:6379", "--run-dir", str(tmp_path / "run")]  # fmt: skip
+    with pytest.raises(SystemExit) as raised:
+        train.main(argv)
+    err = capsys.readouterr().err
+    assert raised.value.code == 2
+    assert "argument --address: cannot connect to the Ray cluster at 10.0.0.9:6379" in err
+    assert "RAY_AUTH_MODE=token" in err
