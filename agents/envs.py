@@ -10,6 +10,9 @@ from trailer_env.registry import ENVIRONMENTS, core_class_of, env_class_of
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 from trailer_env.vector import ConvoyVectorEnv
 
+#: The headline scene: the commands' default environment.
+HEADLINE_ENV_ID = "trailer_env/Reverse-v1"
+
 #: The registered ids, e.g. "trailer_env/Reverse-v0" (the scene table's order).
 ENV_IDS: tuple[str, ...] = tuple(ENVIRONMENTS)
 

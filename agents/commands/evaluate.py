@@ -2,12 +2,15 @@
 
 Usage::
 
-    python -m agents.evaluate --env trailer_env/Reverse-v0 --n-trailers 2 \
-        --policy zero random lqr ppo_reverse_n2 --episodes 100 --out out/eval
+    python -m agents.evaluate --env trailer_env/Reverse-v1 --n-trailers 2 \
+        --policy zero lqr dagger_reverse_v1_n2 my_policy:act --episodes 100 --out out/eval
 
-A policy is a baseline name, the stem of a shipped model (``ppo_reverse_n2`` is the
-installed package's ``agents/models/ppo_reverse_n2.zip``, from any folder), a model
-zip's path or an RLlib checkpoint folder (``runs/<run>/checkpoint``). Model files are
+A policy is a baseline name, the stem of a shipped model (``dagger_reverse_v1_n2`` is
+the installed package's ``agents/models/dagger_reverse_v1_n2.zip``, from any folder), a
+model zip's path, an RLlib checkpoint folder (``runs/<run>/checkpoint``) or
+``module:name``, a batched callable of your own (observations (K, obs_dim) -> actions,
+imported from the working folder; the episodes are the benchmark protocol's,
+:mod:`trailer_env.benchmark`). Model files are
 loaded without unpickling anything unless ``--trust-pickle``
 (:mod:`agents.artifacts`), and a model whose card names another environment id or
 number of trailers is refused unless ``--force``. ``--video PATH.mp4|.gif`` also
@@ -33,7 +36,7 @@ from pathlib import Path
 
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
-from agents.envs import check_env_id, env_settings
+from agents.envs import HEADLINE_ENV_ID, check_env_id, env_settings
 from agents.evaluation.pictures import write_pictures
 from agents.evaluation.results import (
     curve_metric,
@@ -53,7 +56,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m agents.evaluate",
         description="Evaluate baselines and saved agents over seeded episodes.",
     )
-    cli.add_env(parser, default="trailer_env/Reverse-v0")
+    cli.add_env(parser, default=HEADLINE_ENV_ID)
     cli.add_n_trailers(parser)
     parser.add_argument(
         "--policy",
@@ -61,7 +64,8 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="POLICY",
         help=f"baselines ({', '.join(BASELINES)}), shipped models by stem "
-        "(e.g. ppo_reverse_n2), model paths (.zip) and/or RLlib checkpoint folders; "
+        "(e.g. dagger_reverse_v1_n2), model paths (.zip), RLlib checkpoint folders and/or "
+        "module:name, a batched callable of your own (imported from the working folder); "
         "default: the scene's baselines and its committed models",
     )
     cli.add_episodes(parser, 100, "episodes (default 100)")

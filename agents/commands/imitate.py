@@ -13,6 +13,7 @@ from agents.artifacts.run_folder import (
     export_model,
 )
 from agents.commands import options as cli
+from agents.envs import HEADLINE_ENV_ID
 from agents.oracles.planner import PlannerConfig
 from agents.policies.sb3 import limit_torch_threads
 from agents.training.imitate import ImitationConfig, imitate
@@ -22,7 +23,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="python -m agents.imitate", description=(__doc__ or "").split("\n")[0]
     )
-    cli.add_env(parser, default="trailer_env/Reverse-v1")
+    cli.add_env(parser, default=HEADLINE_ENV_ID)
     cli.add_n_trailers(parser)
     cli.add_seed(parser, 0, "seed of the network, the training episodes and the planner")
     parser.add_argument("--iterations", type=cli.at_least(1), default=6, help="DAgger iterations")

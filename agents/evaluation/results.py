@@ -12,7 +12,13 @@ from agents.artifacts.shipped import resolve_model, seed_models
 from agents.envs import headline_metric, scene_baselines
 from agents.evaluation.metrics import EpisodeResults, rollout, summarize
 from agents.policies.baselines import Policy
-from agents.policies.registry import is_model_spec, load_policy, model_card, policy_label
+from agents.policies.registry import (
+    is_callable_spec,
+    is_model_spec,
+    load_policy,
+    model_card,
+    policy_label,
+)
 from agents.seeds import TEST_SEED
 
 
@@ -132,7 +138,7 @@ def results_document(
         "policies": [
             {
                 "name": evaluation.label,
-                "kind": "model" if is_model_spec(evaluation.spec) else "baseline",
+                "kind": spec_kind(evaluation.spec),
                 "training": {
                     key: evaluation.card[key]
                     for key in ("algo", "seed", "budget", "timesteps", "wall_time_s", "n_envs")
@@ -152,3 +158,10 @@ def results_document(
             for evaluation in evaluations
         ],
     }
+
+
+def spec_kind(spec: str) -> str:
+    """ "model", "callable" (``module:name``) or "baseline", for the results' JSON."""
+    if is_model_spec(spec):
+        return "model"
+    return "callable" if is_callable_spec(spec) else "baseline"

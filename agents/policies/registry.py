@@ -1,4 +1,5 @@
-"""The policy registry: a baseline by name, a saved model by path or shipped stem.
+"""The policy registry: a baseline by name, a saved model by path or shipped stem, or a
+callable of your own as ``module:name``.
 
 ``load_policy("lqr", ...)`` and ``load_policy("agents/models/sac_reverse_n2.zip", ...)``
 both return a batched :data:`agents.policies.baselines.Policy`. A saved model may carry a
@@ -10,6 +11,8 @@ Models load without unpickling anything unless the caller trusts the file
 
 from __future__ import annotations
 
+import importlib
+import re
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +27,39 @@ from agents.envs import (
 from agents.policies.baselines import BASELINES, Policy, make_baseline
 from agents.policies.sb3 import ModelPolicy, load_model, load_stats
 
+#: ``package.module:attribute`` (the form of console-script entry points).
+_CALLABLE_SPEC = re.compile(r"[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*:[A-Za-z_][\w]*")
+
+
+def is_callable_spec(spec: str) -> bool:
+    """Whether ``spec`` names a Python callable as ``module:name`` (e.g. ``my_policy:act``)."""
+    return _CALLABLE_SPEC.fullmatch(spec) is not None and not Path(spec).exists()
+
+
+def load_callable(spec: str) -> Policy:
+    """The batched policy ``module:name`` names (the module imported from ``sys.path``,
+    which holds the working folder under ``python -m``): a callable mapping observations
+    (K, obs_dim) to actions (see :func:`trailer_env.benchmark.per_observation`).
+
+    Importing runs the module's code: name only modules you trust, as for any import.
+
+    Raises:
+        ValueError: If the module cannot be imported or has no such callable.
+    """
+    module_name, _, attribute = spec.partition(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as error:
+        raise ValueError(f"policy {spec!r}: cannot import {module_name!r}: {error}") from None
+    policy = getattr(module, attribute, None)
+    if not callable(policy):
+        raise ValueError(f"policy {spec!r}: {module_name} has no callable {attribute!r}")
+    return policy
+
 
 def is_model_spec(spec: str) -> bool:
     """Whether ``spec`` names a model (file, shipped stem or RLlib folder), not a baseline."""
-    if spec in BASELINES:
+    if spec in BASELINES or is_callable_spec(spec):
         return False
     return (
         spec.endswith(".zip")
@@ -94,8 +126,9 @@ def load_policy(
 
     Args:
         spec: A baseline name (:data:`agents.policies.baselines.BASELINES`), a ``.zip`` model
-            path, the stem of a shipped model (:func:`resolve_model`), or an RLlib
-            checkpoint folder (:mod:`agents.training.rllib`).
+            path, the stem of a shipped model (:func:`resolve_model`), an RLlib
+            checkpoint folder (:mod:`agents.training.rllib`), or ``module:name``, a
+            batched callable of your own (:func:`load_callable`).
         env_id: The environment it will act in.
         env_kwargs: The environment's keyword arguments (``n_trailers`` ...).
         seed: Seed of the random baseline.
@@ -110,6 +143,8 @@ def load_policy(
     """
     check_env_id(env_id)
     kwargs = env_kwargs or {}
+    if is_callable_spec(spec):
+        return load_callable(spec)
     spec = resolve_model(spec)
     if not is_model_spec(spec):
         if spec not in BASELINES:

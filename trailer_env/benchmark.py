@@ -1,0 +1,353 @@
+"""The benchmark protocol, and one call that scores any policy on it.
+
+A policy from any stack (a Python callable, an SB3 model, a TorchRL module, an RLlib
+policy) is scored on exactly the episodes the project's own tables use::
+
+    from trailer_env.benchmark import score
+
+    result = score(my_policy, "trailer_env/Reverse-v1", n_trailers=2, out="out/score")
+    print(result.markdown)          # the standard table row
+    result.summary["safe_rate"]     # the headline metric, with its 95 % interval
+
+``my_policy`` maps a batch of observations, shape (K, obs_dim), to a batch of actions,
+(K, action_dim) (or (K,) for a 1-D action); wrap a function of one observation with
+:func:`per_observation`. All K episodes run in one native vector env, episode ``i``
+seeded ``seed + i``, each to its end; a deterministic policy gives the same JSON on
+every run.
+
+Protocol ``trailer_env-benchmark/1`` (:data:`PROTOCOL`):
+
+===============================  =================================================
+what                             value
+===============================  =================================================
+tasks (:data:`TASKS`)            Reverse-v1 n = 1, 2, 3; Dock-v0 n = 1, 2;
+                                 Coast-v0 n = 1, 2; Heading-v0 n = 2
+episodes, seeds                  100 episodes, seeds 1000..1099 (the test seeds)
+environment                      default keywords except ``n_trailers``
+headline metric                  the scene's ``headline_metric``: ``safe_rate`` on
+                                 Reverse, ``success_rate`` on the others
+interval                         Wilson score interval, 95 %
+===============================  =================================================
+
+Per episode (:class:`EpisodeResults`), from ``info`` and termination:
+
+* ``returns``: sum of the rewards;
+* ``jackknifed``: the episode ended by folding (the ``jackknifed`` flag on the
+  terminating step);
+* ``success``: the env's ``is_success`` on the last step;
+* ``failed``: terminated without success: a fold, or a scene's other failure (Reverse
+  ends an episode as a failure when the convoy stops reversing);
+* ``band_steps``: steps in the singular band (``cost`` > 0, i.e.
+  ``singular_margin < singular_band``);
+* ``min_margin``: the smallest ``singular_margin`` seen, the starting state included;
+* ``actuator_work``: the actuator's work over the episode (J).
+
+An episode is *safe* when it never enters the singular band and is not terminated as a
+failure. The singular margin is min over k < n of abs(cos alpha_k): it looks at the
+hitches between consecutive trailers and never at the last hitch, so with one trailer
+the margin is identically 1 and "safe" reduces to "not folded, not stopped".
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+PROTOCOL = "trailer_env-benchmark/1"
+#: First seed of the test episodes.
+TEST_SEED = 1000
+#: Episodes per task.
+EPISODES = 100
+#: (environment id, number of trailers) of the protocol's tasks.
+TASKS: tuple[tuple[str, int], ...] = (
+    ("trailer_env/Reverse-v1", 1),
+    ("trailer_env/Reverse-v1", 2),
+    ("trailer_env/Reverse-v1", 3),
+    ("trailer_env/Dock-v0", 1),
+    ("trailer_env/Dock-v0", 2),
+    ("trailer_env/Coast-v0", 1),
+    ("trailer_env/Coast-v0", 2),
+    ("trailer_env/Heading-v0", 2),
+)
+#: Episodes one call may run (one environment each, all in memory at once).
+MAX_EPISODES = 100_000
+
+#: A batched policy: observations (K, obs_dim) -> actions (K, action_dim) or (K,).
+Policy = Callable[[np.ndarray], np.ndarray]
+
+
+@dataclass(frozen=True)
+class EpisodeResults:
+    """Per-episode results of a batch of seeded episodes (arrays of length K)."""
+
+    seeds: np.ndarray
+    returns: np.ndarray
+    lengths: np.ndarray
+    jackknifed: np.ndarray
+    success: np.ndarray
+    failed: np.ndarray
+    band_steps: np.ndarray
+    min_margin: np.ndarray
+    actuator_work: np.ndarray
+    #: Every step's singular margin, all episodes concatenated (for histograms).
+    margins: np.ndarray
+
+    @property
+    def safe(self) -> np.ndarray:
+        """Episodes that never entered the singular band and were not failures."""
+        return (self.band_steps == 0) & ~self.jackknifed & ~self.failed
+
+    @property
+    def band_fraction(self) -> np.ndarray:
+        """Fraction of each episode's steps spent in the singular band."""
+        return self.band_steps / np.maximum(self.lengths, 1)
+
+
+def per_observation(act: Callable[[np.ndarray], Any]) -> Policy:
+    """A batched policy from a function of one observation (called once per row)."""
+
+    def batched(obs: np.ndarray) -> np.ndarray:
+        return np.stack([np.asarray(act(row), dtype=np.float64) for row in obs])
+
+    return batched
+
+
+def _check_episodes_and_seed(episodes: Any, seed: Any) -> None:
+    for name, value in (("episodes", episodes), ("seed", seed)):
+        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+    if not 1 <= episodes <= MAX_EPISODES:
+        raise ValueError(f"episodes must be in 1..{MAX_EPISODES}, got {episodes}")
+    if not 0 <= seed <= 2**32 - 1 - episodes:
+        raise ValueError(f"seed must be in 0..2**32 - 1 - episodes, got {seed}")
+
+
+def rollout(
+    policy: Policy,
+    env_id: str,
+    episodes: int,
+    seed: int,
+    env_kwargs: dict[str, Any] | None = None,
+) -> EpisodeResults:
+    """Play ``episodes`` seeded episodes of ``policy`` at once on the native vector env.
+
+    Args:
+        policy: Batched policy (observations (K, obs_dim) -> actions).
+        env_id: A trailer_env id.
+        episodes: Number of episodes K, 1 .. :data:`MAX_EPISODES` (one environment each).
+        seed: Episode ``i`` starts from the state drawn with seed ``seed + i``.
+        env_kwargs: Keyword arguments of ``gym.make`` (``n_trailers`` ...).
+
+    Returns:
+        The per-episode results; deterministic for a deterministic policy and seed.
+
+    Raises:
+        TypeError, ValueError: On a bad count, seed, id or keyword (before any env exists).
+    """
+    import gymnasium as gym
+
+    from trailer_env.vector import ConvoyVectorEnv
+
+    _check_episodes_and_seed(episodes, seed)
+    made = gym.make_vec(
+        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
+    )
+    envs = made.unwrapped
+    if not isinstance(envs, ConvoyVectorEnv):  # pragma: no cover - registration guarantees it
+        raise TypeError(f"{env_id} did not build a ConvoyVectorEnv")
+    obs, info = envs.reset(seed=seed)
+    running = np.ones(episodes, dtype=bool)
+    returns = np.zeros(episodes)
+    lengths = np.zeros(episodes, dtype=np.int64)
+    jackknifed = np.zeros(episodes, dtype=bool)
+    success = np.asarray(info["is_success"], dtype=bool).copy()
+    failed = np.zeros(episodes, dtype=bool)
+    band_steps = np.zeros(episodes, dtype=np.int64)
+    min_margin = np.asarray(info["singular_margin"], dtype=np.float64).copy()
+    work = np.zeros(episodes)
+    margins: list[np.ndarray] = []
+    for _ in range(envs.max_episode_steps):
+        obs, reward, terminated, truncated, info = envs.step(policy(obs))
+        rows = running.copy()  # the environments whose episode this step belongs to
+        returns[rows] += reward[rows]
+        lengths[rows] += 1
+        margin = info["singular_margin"]
+        min_margin[rows] = np.minimum(min_margin[rows], margin[rows])
+        band_steps[rows] += info["cost"][rows] > 0.0
+        success[rows] = info["is_success"][rows]
+        work[rows] = info["actuator_work"][rows]
+        jackknifed[rows] = terminated[rows] & info["jackknifed"][rows]
+        failed[rows] = terminated[rows] & ~info["is_success"][rows]
+        margins.append(margin[rows])
+        running &= ~(terminated | truncated)
+        if not running.any():
+            break
+    envs.close()
+    return EpisodeResults(
+        seeds=seed + np.arange(episodes),
+        returns=returns,
+        lengths=lengths,
+        jackknifed=jackknifed,
+        success=success,
+        failed=failed,
+        band_steps=band_steps,
+        min_margin=min_margin,
+        actuator_work=work,
+        margins=np.concatenate(margins) if margins else np.ones(0),
+    )
+
+
+def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval (95 % by default) of a binomial proportion."""
+    if trials == 0:
+        return 0.0, 1.0
+    p = successes / trials
+    denominator = 1.0 + z**2 / trials
+    centre = (p + z**2 / (2 * trials)) / denominator
+    half = z * np.sqrt(p * (1 - p) / trials + z**2 / (4 * trials**2)) / denominator
+    return float(max(0.0, centre - half)), float(min(1.0, centre + half))
+
+
+def summarize(results: EpisodeResults) -> dict[str, Any]:
+    """Aggregate metrics (plain Python numbers, rounded so JSON files diff cleanly).
+
+    Keys: ``episodes``, ``mean_return``, ``std_return``, ``mean_length``,
+    ``jackknife_rate``, ``failure_rate`` (terminated without success), ``safe_rate``
+    (never in the band, no failure) with its 95 % Wilson interval ``safe_rate_ci``,
+    ``band_time_fraction`` (mean over episodes), ``min_margin_mean``,
+    ``min_margin_worst``, ``success_rate``, ``mean_abs_actuator_work``.
+    """
+    count = int(results.returns.size)
+    safe = int(results.safe.sum())
+
+    def rounded(value: float) -> float:
+        return round(float(value), 6)
+
+    return {
+        "episodes": count,
+        "mean_return": rounded(results.returns.mean()),
+        "std_return": rounded(results.returns.std()),
+        "mean_length": rounded(results.lengths.mean()),
+        "jackknife_rate": rounded(results.jackknifed.mean()),
+        "failure_rate": rounded(results.failed.mean()),
+        "safe_rate": rounded(safe / count),
+        "safe_rate_ci": [rounded(bound) for bound in wilson_interval(safe, count)],
+        "band_time_fraction": rounded(results.band_fraction.mean()),
+        "min_margin_mean": rounded(results.min_margin.mean()),
+        "min_margin_worst": rounded(results.min_margin.min()),
+        "success_rate": rounded(results.success.mean()),
+        "mean_abs_actuator_work": rounded(np.abs(results.actuator_work).mean()),
+    }
+
+
+@dataclass(frozen=True)
+class Score:
+    """A policy's score on one task of the protocol."""
+
+    document: dict[str, Any]
+    results: EpisodeResults
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        """The metrics (:func:`summarize`)."""
+        return dict(self.document["metrics"])
+
+    @property
+    def markdown(self) -> str:
+        """The standard table: header and this policy's row."""
+        s = self.summary
+        metric = self.document["headline_metric"]
+        low, high = self.document["headline_ci"]
+        return (
+            f"{self.document['env_id']}, n = {self.document['n_trailers']}: "
+            f"{s['episodes']} episodes, seeds {self.document['seeds'][0]}.."
+            f"{self.document['seeds'][1]} ({PROTOCOL})\n\n"
+            f"| policy | {metric.removesuffix('_rate')} [95% CI] | return (mean ± sd) "
+            "| jackknife | time in band | min margin (mean / worst) |\n"
+            "|---|---|---|---|---|---|\n"
+            f"| {self.document['policy']} | {100 * s[metric]:.0f}% "
+            f"[{100 * low:.0f}, {100 * high:.0f}] "
+            f"| {s['mean_return']:.1f} ± {s['std_return']:.1f} "
+            f"| {100 * s['jackknife_rate']:.0f}% | {100 * s['band_time_fraction']:.1f}% "
+            f"| {s['min_margin_mean']:.2f} / {s['min_margin_worst']:.2f} |\n"
+        )
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    if path.is_symlink():
+        raise ValueError(f"{path} is a symbolic link; refusing to write through it")
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w") as stream:
+            stream.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
+
+
+def score(
+    policy: Policy,
+    env_id: str,
+    n_trailers: int = 2,
+    *,
+    name: str = "policy",
+    episodes: int = EPISODES,
+    seed: int = TEST_SEED,
+    out: str | os.PathLike[str] | None = None,
+    overwrite: bool = False,
+) -> Score:
+    """Score a batched policy on the protocol's episodes of ``env_id`` with ``n_trailers``.
+
+    Args:
+        policy: Observations (K, obs_dim) -> actions; see :func:`per_observation`.
+        env_id: A trailer_env id (the protocol's tasks are :data:`TASKS`; any id works).
+        n_trailers: Number of trailers.
+        name: The policy's name in the table and the JSON.
+        episodes, seed: The protocol's by default (100 episodes from seed 1000); other
+            values are recorded in the JSON and mark the score as off-protocol.
+        out: A folder to write ``score.json`` and ``score.md`` into (created if absent;
+            existing files are refused unless ``overwrite``).
+
+    Raises:
+        TypeError, ValueError: On a bad id, count, seed or keyword, or an ``out`` that
+            holds a score already (checked before any episode runs).
+    """
+    from trailer_env.registry import core_class_of
+
+    core = core_class_of(env_id)
+    _check_episodes_and_seed(episodes, seed)
+    folder = None if out is None else Path(out)
+    if folder is not None:
+        if folder.exists() and not folder.is_dir():
+            raise ValueError(f"out={str(folder)!r} is not a folder")
+        for file in ("score.json", "score.md"):
+            if (folder / file).exists() and not overwrite:
+                raise ValueError(f"{folder / file} exists; pass overwrite=True to replace it")
+    results = rollout(policy, env_id, episodes, seed, {"n_trailers": n_trailers})
+    document = {
+        "protocol": PROTOCOL,
+        "on_protocol": (env_id, n_trailers) in TASKS and (episodes, seed) == (EPISODES, TEST_SEED),
+        "policy": name,
+        "env_id": env_id,
+        "n_trailers": n_trailers,
+        "episodes": episodes,
+        "seeds": [seed, seed + episodes - 1],
+        "headline_metric": core.headline_metric,
+        "metrics": summarize(results),
+    }
+    hits = int((results.safe if core.headline_metric == "safe_rate" else results.success).sum())
+    document["headline_ci"] = [round(bound, 6) for bound in wilson_interval(hits, episodes)]
+    result = Score(document, results)
+    if folder is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+        _write_atomic(folder / "score.json", json.dumps(document, indent=2, sort_keys=True) + "\n")
+        _write_atomic(folder / "score.md", result.markdown)
+    return result
