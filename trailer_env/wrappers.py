@@ -1,0 +1,140 @@
+"""Views of a trailer_env env in other libraries' conventions.
+
+* :class:`SafetyStep`: safety-gymnasium's step, ``(obs, reward, cost, terminated,
+  truncated, info)``, with the cost that ``info["cost"]`` carries (1 inside the
+  singular band, else 0);
+* :class:`GoalConditioned`: Gymnasium-Robotics' goal-conditioned form for the goal
+  scenes (Dock-v0, Heading-v0): ``Dict`` observations with ``observation``,
+  ``achieved_goal`` and ``desired_goal``, and a vectorised ``compute_reward`` that
+  hindsight relabelling (SB3's ``HerReplayBuffer``) calls on any goal.
+"""
+
+from __future__ import annotations
+
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+
+from trailer_env.scenes.dock import SUCCESS_HEADING, SUCCESS_RADIUS, DockCore
+from trailer_env.scenes.heading import HEADING_TOLERANCE, HeadingCore
+
+
+class SafetyStep(gym.Wrapper[Any, Any, Any, Any]):
+    """safety-gymnasium's step signature: ``step`` returns the cost as its third value.
+
+    ``reset`` is unchanged. The cost is ``info["cost"]`` (also left in ``info``).
+    """
+
+    def step(  # type: ignore[override]
+        self, action: Any
+    ) -> tuple[Any, SupportsFloat, float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        return obs, reward, float(info["cost"]), terminated, truncated, info
+
+
+def _angle_features(angle: np.ndarray) -> np.ndarray:
+    return np.stack([np.sin(angle), np.cos(angle)], axis=-1)
+
+
+def _angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The angle between two (sin, cos) features, in [0, pi]."""
+    cross = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    dot = a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1]
+    return np.abs(np.arctan2(cross, dot))
+
+
+class GoalConditioned(gym.Wrapper[dict[str, np.ndarray], Any, Any, Any]):
+    """Dock-v0 or Heading-v0 as a goal-conditioned env with a sparse reward.
+
+    Observation (``Dict``, float32):
+
+    * ``observation``: the scene's observation without its goal-relative task features
+      (u, omega, the hitches' sin and cos, the mass; indices 0 .. 2n + 3);
+    * ``achieved_goal``: Dock: the last axle's (x, y, sin h, cos h) in the plane;
+      Heading: the cart's (sin theta, cos theta);
+    * ``desired_goal``: the same quantities of the dock pose or the target heading.
+
+    Reward: :meth:`compute_reward`, 0 where the achieved goal is within the scene's
+    success tolerance of the desired one (Dock: 0.3 m and 0.15 rad; Heading: 0.03 rad,
+    without the scene's 1 s hold), else -1. It replaces the scene's shaped reward;
+    termination, truncation and ``info`` are the scene's (``info["scene_reward"]`` keeps
+    its reward).
+
+    Raises:
+        ValueError: For an env of another scene.
+    """
+
+    def __init__(self, env: gym.Env[Any, Any]) -> None:
+        super().__init__(env)
+        core = env.unwrapped.core  # type: ignore[attr-defined]
+        if not isinstance(core, (DockCore, HeadingCore)):
+            raise ValueError(
+                "GoalConditioned needs trailer_env/Dock-v0 or trailer_env/Heading-v0, "
+                f"got a {type(core).__name__}"
+            )
+        self._core = core
+        self._dock = isinstance(core, DockCore)
+        goal_size = 4 if self._dock else 2
+        goal = gym.spaces.Box(-np.inf, np.inf, (goal_size,), np.float32)
+        base = env.observation_space
+        assert isinstance(base, gym.spaces.Box)
+        self.observation_space = gym.spaces.Dict(
+            {
+                "observation": gym.spaces.Box(
+                    base.low[: core.n_common], base.high[: core.n_common], dtype=np.float32
+                ),
+                "achieved_goal": goal,
+                "desired_goal": goal,
+            }
+        )
+
+    def _goals(self) -> tuple[np.ndarray, np.ndarray]:
+        core = self._core
+        if isinstance(core, DockCore):
+            x, y, heading = core.last_body_pose(slice(0, 1))
+            achieved = np.concatenate([x, y, _angle_features(heading)[0]])
+            target = core.target[0]
+            desired = np.concatenate([target[:2], _angle_features(target[2])])
+        else:
+            achieved = _angle_features(core.z[0, core.n + 4])
+            desired = _angle_features(core.target_heading[0])
+        return achieved.astype(np.float32), desired.astype(np.float32)
+
+    def _observation(self, obs: np.ndarray) -> dict[str, np.ndarray]:
+        achieved, desired = self._goals()
+        return {
+            "observation": np.asarray(obs[: self._core.n_common], dtype=np.float32),
+            "achieved_goal": achieved,
+            "desired_goal": desired,
+        }
+
+    def compute_reward(
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any
+    ) -> np.ndarray:
+        """0 where the goals agree within the scene's tolerance, else -1 (vectorised over
+        leading axes; ``info`` is unused)."""
+        achieved = np.asarray(achieved_goal, dtype=np.float64)
+        desired = np.asarray(desired_goal, dtype=np.float64)
+        if self._dock:
+            close = np.linalg.norm(achieved[..., :2] - desired[..., :2], axis=-1) < SUCCESS_RADIUS
+            close &= _angle_between(achieved[..., 2:], desired[..., 2:]) < SUCCESS_HEADING
+        else:
+            close = _angle_between(achieved, desired) < HEADING_TOLERANCE
+        return np.where(close, 0.0, -1.0).astype(np.float32)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        return self._observation(obs), info
+
+    def step(
+        self, action: Any
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        goal_obs = self._observation(obs)
+        info = {**info, "scene_reward": float(reward)}
+        achieved, desired = goal_obs["achieved_goal"], goal_obs["desired_goal"]
+        sparse = float(self.compute_reward(achieved, desired, info))
+        return goal_obs, sparse, terminated, truncated, info
