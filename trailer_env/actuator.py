@@ -133,31 +133,6 @@ def first_non_finite_row(action: np.ndarray, rows: np.ndarray) -> int:
     return -1
 
 
-@njit(cache=True)
-def apply_actions(
-    action: np.ndarray,
-    act: np.ndarray,
-    mode: int,
-    b: float,
-    s_max: float,
-    accel_max: float,
-    dt: float,
-    frequency: float,
-) -> int:
-    """Write the guarded accelerations for ``action`` (B, 1 or 2) into ``act[:, 4:6]``.
-
-    ``act`` rows are (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot). Actions are
-    clipped to [-1, 1]. Returns -1, or the index of the first row holding a
-    non-finite action (then nothing is written).
-    """
-    bad = first_non_finite_row(action, np.arange(action.shape[0]))
-    if bad >= 0:
-        return bad
-    for i in range(action.shape[0]):
-        apply_action_row(action, i, act, mode, b, s_max, accel_max, dt, frequency)
-    return -1
-
-
 @njit(cache=True, nogil=True)
 def clamp_row_to_rail(act: np.ndarray, i: int, b: float, s_max: float) -> None:
     """Remove rounding-level excursions past the rail's ends (the guard keeps them below 1e-15)."""

@@ -23,7 +23,6 @@ episodes from folding where the zero action folds them all.
 
 from __future__ import annotations
 
-import functools
 import warnings
 from typing import Any
 
@@ -31,7 +30,7 @@ import numpy as np
 import scipy.linalg
 
 from dynamics import rhs
-from trailer_env.settings import EnvSettings, settings_from_kwargs
+from trailer_env.settings import EnvSettings
 
 #: Speeds (m/s) at which the regulator is designed; gains are interpolated in between.
 DESIGN_SPEEDS = np.array([0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0])
@@ -137,29 +136,6 @@ class LQRController:
         return actions[0] if np.ndim(obs) == 1 else actions
 
 
-@functools.lru_cache(maxsize=16)
-def _cached_lqr(settings: EnvSettings) -> LQRController:
-    return LQRController(settings)
-
-
-def lqr_policy(
-    obs: np.ndarray, n_trailers: int = 2, settings: EnvSettings | None = None
-) -> np.ndarray:
-    """The LQR controller's action for ``obs`` (default settings for ``n_trailers`` if none).
-
-    Example:
-        >>> import gymnasium as gym, trailer_env
-        >>> env = gym.make("trailer_env/Reverse-v0", n_trailers=2)
-        >>> obs, _ = env.reset(seed=0)
-        >>> action = lqr_policy(obs, n_trailers=2)
-        >>> action.shape
-        (1,)
-    """
-    if settings is None:
-        settings = settings_from_kwargs(n_trailers=int(n_trailers))
-    return _cached_lqr(settings)(obs)
-
-
 def heading_policy(obs: np.ndarray, n_trailers: int = 2, gain: float = 8.0) -> np.ndarray:
     """A proportional baseline for Heading-v0 (servo mode): move the mass against the heading error.
 
@@ -178,6 +154,5 @@ __all__ = [
     "LQRController",
     "heading_policy",
     "linearise",
-    "lqr_policy",
     "regulator_gain",
 ]
