@@ -117,19 +117,17 @@ class LQRController:
         n = self.n
         batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
         alpha = np.arctan2(batch[:, 2 : 2 + n], batch[:, 2 + n : 2 + 2 * n])
-        planar = settings.action_mode == "planar"
+        actuator = settings.actuator
+        planar = actuator.planar
         lateral = 2 + 2 * n + (1 if planar else 0)
         lateral_speed = lateral + (2 if planar else 1)
         s = batch[:, lateral] * params.s_max
         s_dot = batch[:, lateral_speed] * settings.rail_speed_max
         state = np.column_stack([batch[:, 1], alpha, s, s_dot])
         accel = -np.sum(self.gains(batch[:, 0]) * state, axis=1)
-        if settings.action_mode == "accel":
-            command = accel / settings.rail_accel_max
-        else:
-            frequency = settings.servo_frequency
-            target = s + (accel + 4.0 * frequency * s_dot) / (4.0 * frequency**2)
-            command = target / params.s_max
+        command = actuator.command_for_accel(
+            accel, s, s_dot, params.s_max, settings.rail_accel_max, settings.servo_frequency
+        )
         command = np.clip(command, -1.0, 1.0)
         actions = np.column_stack([np.zeros_like(command), command]) if planar else command[:, None]
         actions = actions.astype(np.float32)

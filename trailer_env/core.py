@@ -61,7 +61,6 @@ from typing import Any, ClassVar
 import numpy as np
 
 from dynamics.jit import pack_params
-from trailer_env.actuator import MODE_CODES
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.kernels import (
     PARALLEL_MIN_ROWS,
@@ -171,9 +170,10 @@ class ConvoyCore:
         self.n = settings.n_trailers
         self.batch_size = int(batch_size)
         self.with_pose = self.uses_pose or track_pose
-        self.planar = settings.action_mode == "planar"
+        actuator = settings.actuator
+        self.planar = actuator.planar
         n, size = self.n, self.batch_size
-        self.n_common = 2 + 2 * n + (4 if self.planar else 2)
+        self.n_common = 2 + 2 * n + actuator.mass_features
         self.obs_dim = self.n_common + self.n_task_features
         self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
         self.act = np.zeros((size, 6))
@@ -199,7 +199,6 @@ class ConvoyCore:
         self._fused = type(integrator) is RK4Integrator
         preserve_energy = isinstance(integrator, RK4Integrator) and integrator.preserve_energy
         self._packed = pack_params(self.params)
-        self._mode = MODE_CODES[settings.action_mode]
         self._all_rows = np.arange(size, dtype=np.int64)
         self._z_backup = np.empty_like(self.z)
         self._act_backup = np.empty_like(self.act)
@@ -219,7 +218,7 @@ class ConvoyCore:
         # Kernel arguments fixed for the core's life, packed once (a single env's step is a
         # few microseconds).
         self.step_config = StepConfig(
-            mode=self._mode,
+            mode=actuator.code,
             b=float(self._b),
             s_max=float(self._s_max),
             accel_max=float(settings.rail_accel_max),
