@@ -21,9 +21,9 @@ from numpy.typing import ArrayLike
 from dynamics import _kernel
 from dynamics.model import (
     FloatArray,
-    actuator_array,
     check_state,
     finite_result,
+    planar_actuator,
     rail_actuator,
 )
 from dynamics.params import ConvoyParams, bounded_integer, real_number
@@ -341,15 +341,7 @@ def step_rk4_planar(
         z,
         dt,
         substeps,
-        lambda shape: actuator_array(
-            shape,
-            xi=xi,
-            eta=eta,
-            xi_dot=xi_dot,
-            eta_dot=eta_dot,
-            xi_ddot=xi_ddot,
-            eta_ddot=eta_ddot,
-        ),
+        lambda shape: planar_actuator(shape, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot),
         preserve_energy,
     )
 

@@ -97,15 +97,31 @@ def check_state(params: ConvoyParams, z: ArrayLike, name: str = "z") -> tuple[Fl
     return array, array.shape[-1] == n + 5
 
 
-def actuator_array(batch_shape: tuple[int, ...], **values: ArrayLike) -> FloatArray:
-    """Broadcast the six mass coordinates to ``(prod(batch_shape), 6)``.
-
-    Keyword order must be xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot.
+def planar_actuator(
+    batch_shape: tuple[int, ...],
+    xi: ArrayLike,
+    eta: ArrayLike,
+    xi_dot: ArrayLike = 0.0,
+    eta_dot: ArrayLike = 0.0,
+    xi_ddot: ArrayLike = 0.0,
+    eta_ddot: ArrayLike = 0.0,
+) -> FloatArray:
+    """The mass at body coordinates (xi, eta), broadcast to ``(prod(batch_shape), 6)``.
 
     Raises:
         ValueError: If a value does not broadcast to the batch or is not finite.
     """
-    return _actuator_columns(batch_shape, list(values.items()))
+    return _actuator_columns(
+        batch_shape,
+        [
+            ("xi", xi),
+            ("eta", eta),
+            ("xi_dot", xi_dot),
+            ("eta_dot", eta_dot),
+            ("xi_ddot", xi_ddot),
+            ("eta_ddot", eta_ddot),
+        ],
+    )
 
 
 def _actuator_columns(
@@ -203,15 +219,7 @@ def rhs_planar(
     midpoint; ``params.b`` is ignored.
     """
     array, with_pose = check_state(params, z)
-    act = actuator_array(
-        array.shape[:-1],
-        xi=xi,
-        eta=eta,
-        xi_dot=xi_dot,
-        eta_dot=eta_dot,
-        xi_ddot=xi_ddot,
-        eta_ddot=eta_ddot,
-    )
+    act = planar_actuator(array.shape[:-1], xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)
     return _rhs(params, array, with_pose, act)
 
 
@@ -244,9 +252,7 @@ def energy_planar(
 ) -> FloatArray:
     """Kinetic energy with the mass at body coordinates (xi, eta)."""
     array, _ = check_state(params, z)
-    act = actuator_array(
-        array.shape[:-1], xi=xi, eta=eta, xi_dot=xi_dot, eta_dot=eta_dot, xi_ddot=0.0, eta_ddot=0.0
-    )
+    act = planar_actuator(array.shape[:-1], xi, eta, xi_dot, eta_dot)
     return _energy(params, array, act)
 
 

@@ -5,7 +5,8 @@ acceleration is what enters the dynamics; it is held constant over each control
 period ``dt`` (zero-order hold), so within a period the mass's position is an
 exact quadratic in time, which :class:`dynamics.Stepper` integrates exactly.
 
-Action modes (``EnvSettings.action_mode``); actions outside [-1, 1] are clipped:
+Action modes (``EnvSettings.action_mode``, one entry each in :data:`ACTUATORS`); actions
+outside [-1, 1] are clipped:
 
 * ``"servo"`` (default): the action ``a`` is a target position ``s* = a s_max``.
   A servo with natural frequency ``w = min(servo_bandwidth, 0.25 / dt)`` tracks
@@ -35,11 +36,15 @@ from __future__ import annotations
 
 import math
 import os
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Literal
 
 import numpy as np
 from numba import njit
 
-MODE_CODES = {"servo": 0, "accel": 1, "planar": 2}
+#: The action modes, the keys of :data:`ACTUATORS` in its order.
+ActionMode = Literal["servo", "accel", "planar"]
 
 #: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
 SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
@@ -94,6 +99,107 @@ def servo_accel(
     return guard_accel(4.0 * frequency * (desired - v), s, v, s_max, accel_max, dt)
 
 
+def servo_target_for_accel(
+    accel: np.ndarray, s: np.ndarray, v: np.ndarray, frequency: float
+) -> np.ndarray:
+    """The servo target whose linear law, ``4 w (w (target - s) - v)``, asks for ``accel``.
+
+    The inverse of :func:`servo_accel` where it is linear (small errors, no clipping): what
+    a controller that designs an acceleration commands in servo mode.
+    """
+    return s + (accel + 4.0 * frequency * v) / (4.0 * frequency**2)
+
+
+# ----------------------------------------------------------------- the modes
+# Each mode: a jitted row function writing act[i, 4:6] from the finite action[i] (same
+# arguments for every mode), the inverse a controller needs (an acceleration -> the
+# action on the lateral axis), and an entry in ACTUATORS.
+
+
+@njit(cache=True, nogil=True)
+def servo_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
+              accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
+    """"servo": the action is the target position ``a s_max`` on the rail."""
+    command = min(max(action[i, 0], -1.0), 1.0)
+    act[i, 5] = servo_accel(command * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt,
+                            frequency)  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def accel_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
+              accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
+    """"accel": the action is the rail acceleration ``a A``, through the guard."""
+    command = min(max(action[i, 0], -1.0), 1.0)
+    act[i, 5] = guard_accel(command * accel_max, act[i, 1], act[i, 3], s_max, accel_max, dt)
+
+
+@njit(cache=True, nogil=True)
+def planar_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
+               accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
+    """"planar": axis 0 is a target ``xi - b = a_0 s_max``, axis 1 ``eta = a_1 s_max``."""
+    command = min(max(action[i, 0], -1.0), 1.0)
+    act[i, 4] = servo_accel(
+        command * s_max, act[i, 0] - b, act[i, 2], s_max, accel_max, dt, frequency
+    )
+    lateral = min(max(action[i, 1], -1.0), 1.0)
+    act[i, 5] = servo_accel(lateral * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt,
+                            frequency)  # fmt: skip
+
+
+def _servo_command(accel: np.ndarray, s: np.ndarray, v: np.ndarray, s_max: float,
+                   accel_max: float, frequency: float) -> np.ndarray:  # fmt: skip
+    return servo_target_for_accel(accel, s, v, frequency) / s_max
+
+
+def _accel_command(accel: np.ndarray, s: np.ndarray, v: np.ndarray, s_max: float,
+                   accel_max: float, frequency: float) -> np.ndarray:  # fmt: skip
+    return accel / accel_max
+
+
+@dataclass(frozen=True)
+class Actuator:
+    """One action mode.
+
+    Attributes:
+        row: The jitted ``row(action, i, act, b, s_max, accel_max, dt, frequency)`` that
+            writes the guarded accelerations of the finite ``action[i]`` into ``act[i, 4:6]``.
+        command_for_accel: ``(accel, s, s_dot, s_max, accel_max, frequency) -> action``
+            on the lateral axis for a wanted lateral acceleration (controllers).
+        action_dim: The action's length.
+        planar: Whether the mass moves in the cart's plane (both axes) rather than on the rail.
+        mass_features: Observation entries that describe the mass (2 on the rail, 4 planar).
+    """
+
+    row: Any
+    command_for_accel: Callable[..., np.ndarray]
+    action_dim: int = 1
+    planar: bool = False
+
+    @property
+    def mass_features(self) -> int:
+        """Observation entries of the mass: (s, s_dot), or (xi, eta, xi_dot, eta_dot) planar."""
+        return 4 if self.planar else 2
+
+    @property
+    def code(self) -> int:
+        """Its integer in the compiled step: its position in :data:`ACTUATORS`."""
+        return list(ACTUATORS.values()).index(self)
+
+
+#: The one table of action modes (:data:`ActionMode`): name -> actuator. A new mode is a
+#: row function (and its ``command_for_accel``), an entry here, and its line in
+#: :func:`apply_action_row` (compiled code cannot look functions up in a dict).
+ACTUATORS: dict[str, Actuator] = {
+    "servo": Actuator(servo_row, _servo_command),
+    "accel": Actuator(accel_row, _accel_command),
+    "planar": Actuator(planar_row, _servo_command, action_dim=2, planar=True),
+}
+
+_SERVO = ACTUATORS["servo"].code
+_ACCEL = ACTUATORS["accel"].code
+_PLANAR = ACTUATORS["planar"].code
+
+
 @njit(cache=True, nogil=True)
 def apply_action_row(
     action: np.ndarray,
@@ -106,21 +212,13 @@ def apply_action_row(
     dt: float,
     frequency: float,
 ) -> None:
-    """Write the guarded accelerations for the finite ``action[i]`` into ``act[i, 4:6]``."""
-    command = min(max(action[i, 0], -1.0), 1.0)
-    s = act[i, 1]
-    v = act[i, 3]
-    if mode == 0:
-        act[i, 5] = servo_accel(command * s_max, s, v, s_max, accel_max, dt, frequency)
-    elif mode == 1:
-        act[i, 5] = guard_accel(command * accel_max, s, v, s_max, accel_max, dt)
-    else:
-        # Planar: axis 0 is xi about b, axis 1 is eta.
-        act[i, 4] = servo_accel(
-            command * s_max, act[i, 0] - b, act[i, 2], s_max, accel_max, dt, frequency
-        )
-        lateral = min(max(action[i, 1], -1.0), 1.0)
-        act[i, 5] = servo_accel(lateral * s_max, s, v, s_max, accel_max, dt, frequency)
+    """The row function of the actuator whose code is ``mode`` (:data:`ACTUATORS`)."""
+    if mode == _SERVO:
+        servo_row(action, i, act, b, s_max, accel_max, dt, frequency)
+    elif mode == _ACCEL:
+        accel_row(action, i, act, b, s_max, accel_max, dt, frequency)
+    elif mode == _PLANAR:
+        planar_row(action, i, act, b, s_max, accel_max, dt, frequency)
 
 
 @njit(cache=True, nogil=True)
@@ -130,31 +228,6 @@ def first_non_finite_row(action: np.ndarray, rows: np.ndarray) -> int:
         for j in range(action.shape[1]):
             if not math.isfinite(action[i, j]):
                 return i
-    return -1
-
-
-@njit(cache=True)
-def apply_actions(
-    action: np.ndarray,
-    act: np.ndarray,
-    mode: int,
-    b: float,
-    s_max: float,
-    accel_max: float,
-    dt: float,
-    frequency: float,
-) -> int:
-    """Write the guarded accelerations for ``action`` (B, 1 or 2) into ``act[:, 4:6]``.
-
-    ``act`` rows are (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot). Actions are
-    clipped to [-1, 1]. Returns -1, or the index of the first row holding a
-    non-finite action (then nothing is written).
-    """
-    bad = first_non_finite_row(action, np.arange(action.shape[0]))
-    if bad >= 0:
-        return bad
-    for i in range(action.shape[0]):
-        apply_action_row(action, i, act, mode, b, s_max, accel_max, dt, frequency)
     return -1
 
 

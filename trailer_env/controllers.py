@@ -23,7 +23,6 @@ episodes from folding where the zero action folds them all.
 
 from __future__ import annotations
 
-import functools
 import warnings
 from typing import Any
 
@@ -31,7 +30,7 @@ import numpy as np
 import scipy.linalg
 
 from dynamics import rhs
-from trailer_env.settings import EnvSettings, settings_from_kwargs
+from trailer_env.settings import EnvSettings
 
 #: Speeds (m/s) at which the regulator is designed; gains are interpolated in between.
 DESIGN_SPEEDS = np.array([0.1, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0])
@@ -118,46 +117,21 @@ class LQRController:
         n = self.n
         batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
         alpha = np.arctan2(batch[:, 2 : 2 + n], batch[:, 2 + n : 2 + 2 * n])
-        planar = settings.action_mode == "planar"
+        actuator = settings.actuator
+        planar = actuator.planar
         lateral = 2 + 2 * n + (1 if planar else 0)
         lateral_speed = lateral + (2 if planar else 1)
         s = batch[:, lateral] * params.s_max
         s_dot = batch[:, lateral_speed] * settings.rail_speed_max
         state = np.column_stack([batch[:, 1], alpha, s, s_dot])
         accel = -np.sum(self.gains(batch[:, 0]) * state, axis=1)
-        if settings.action_mode == "accel":
-            command = accel / settings.rail_accel_max
-        else:
-            frequency = settings.servo_frequency
-            target = s + (accel + 4.0 * frequency * s_dot) / (4.0 * frequency**2)
-            command = target / params.s_max
+        command = actuator.command_for_accel(
+            accel, s, s_dot, params.s_max, settings.rail_accel_max, settings.servo_frequency
+        )
         command = np.clip(command, -1.0, 1.0)
         actions = np.column_stack([np.zeros_like(command), command]) if planar else command[:, None]
         actions = actions.astype(np.float32)
         return actions[0] if np.ndim(obs) == 1 else actions
-
-
-@functools.lru_cache(maxsize=16)
-def _cached_lqr(settings: EnvSettings) -> LQRController:
-    return LQRController(settings)
-
-
-def lqr_policy(
-    obs: np.ndarray, n_trailers: int = 2, settings: EnvSettings | None = None
-) -> np.ndarray:
-    """The LQR controller's action for ``obs`` (default settings for ``n_trailers`` if none).
-
-    Example:
-        >>> import gymnasium as gym, trailer_env
-        >>> env = gym.make("trailer_env/Reverse-v0", n_trailers=2)
-        >>> obs, _ = env.reset(seed=0)
-        >>> action = lqr_policy(obs, n_trailers=2)
-        >>> action.shape
-        (1,)
-    """
-    if settings is None:
-        settings = settings_from_kwargs(n_trailers=int(n_trailers))
-    return _cached_lqr(settings)(obs)
 
 
 def heading_policy(obs: np.ndarray, n_trailers: int = 2, gain: float = 8.0) -> np.ndarray:
@@ -178,6 +152,5 @@ __all__ = [
     "LQRController",
     "heading_policy",
     "linearise",
-    "lqr_policy",
     "regulator_gain",
 ]

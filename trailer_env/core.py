@@ -13,9 +13,11 @@ default integrators ("rk4", "rk4-energy"; :func:`trailer_env.kernels.step_serial
 4. where the scene provides :attr:`ConvoyCore.scene_kernel` (a jitted function that
    calls the step kernel, then its reward and termination formulas), those too.
 
-Then, in Python: the scene's ``_update_task`` and, for scenes without a scene kernel (or
-when the step was not fused), the hooks ``_advance``, ``_is_success``, ``_is_failed``,
-``_is_terminated``, ``_reward``. ``"dopri5"`` takes three calls: the actuator and auto
+Then, in Python: the scene's ``_update_task`` and, for scenes without a scene kernel, the
+hooks ``_advance``, ``_is_success``, ``_is_failed``, ``_is_terminated``, ``_reward``.
+When the step was not fused (``"dopri5"``), a scene with a scene kernel has its
+:attr:`ConvoyCore.scene_outcome` called instead: the same compiled formulas, written
+once. ``"dopri5"`` takes three calls: the actuator and auto
 rule, the integrator, the observations; its fold test sees the state at control instants
 only (DOPRI5's own steps are not visible from here).
 
@@ -59,10 +61,12 @@ from typing import Any, ClassVar
 import numpy as np
 
 from dynamics.jit import pack_params
-from trailer_env.actuator import MODE_CODES
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.kernels import (
     PARALLEL_MIN_ROWS,
+    StepConfig,
+    StepOutputs,
+    StepState,
     clamp_rows_to_rail,
     observe,
     prepare_step,
@@ -70,6 +74,7 @@ from trailer_env.kernels import (
     step_serial,
 )
 from trailer_env.settings import EnvSettings
+from trailer_env.shaping import shaped_rewards
 
 #: The ``info`` keys of every environment and the core arrays behind them (None:
 #: ``actuator_work``, derived as ``energy - energy0``); the single env, the vector env
@@ -145,8 +150,11 @@ class ConvoyCore:
     #: with its first six arguments, then ``outcome`` if no action was refused, and
     #: returns the step's result: one call per step. Batches of PARALLEL_MIN_ROWS rows or
     #: more call ``step_parallel`` and then ``outcome`` (two calls: a cached function that
-    #: calls a parallel one can crash numba when loaded from its disk cache). None: the
-    #: Python hooks compute them. Assign both as ``staticmethod(function)``.
+    #: calls a parallel one can crash numba when loaded from its disk cache); an unfused
+    #: step ("dopri5") calls ``outcome`` on every row after the integrator. None: the
+    #: Python hooks compute them. Assign both as ``staticmethod(function)``; ``config``,
+    #: ``state``, ``outputs`` and ``scene`` arrive as plain tuples of the named tuples'
+    #: fields (:mod:`trailer_env.kernels`).
     scene_kernel: ClassVar[Any] = None
     scene_outcome: ClassVar[Any] = None
 
@@ -162,9 +170,10 @@ class ConvoyCore:
         self.n = settings.n_trailers
         self.batch_size = int(batch_size)
         self.with_pose = self.uses_pose or track_pose
-        self.planar = settings.action_mode == "planar"
+        actuator = settings.actuator
+        self.planar = actuator.planar
         n, size = self.n, self.batch_size
-        self.n_common = 2 + 2 * n + (4 if self.planar else 2)
+        self.n_common = 2 + 2 * n + actuator.mass_features
         self.obs_dim = self.n_common + self.n_task_features
         self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
         self.act = np.zeros((size, 6))
@@ -190,7 +199,6 @@ class ConvoyCore:
         self._fused = type(integrator) is RK4Integrator
         preserve_energy = isinstance(integrator, RK4Integrator) and integrator.preserve_energy
         self._packed = pack_params(self.params)
-        self._mode = MODE_CODES[settings.action_mode]
         self._all_rows = np.arange(size, dtype=np.int64)
         self._z_backup = np.empty_like(self.z)
         self._act_backup = np.empty_like(self.act)
@@ -209,27 +217,53 @@ class ConvoyCore:
         )
         # Kernel arguments fixed for the core's life, packed once (a single env's step is a
         # few microseconds).
-        self._config = (
-            self._mode, float(self._b), float(self._s_max), float(settings.rail_accel_max),
-            float(settings.dt), float(settings.servo_frequency), bool(fidelity.auto),
-            fidelity.auto_settings(self.params, settings.dt, self.planar), self._packed, n,
-            self.with_pose, preserve_energy, self.planar, observe_settings,
-        )  # fmt: skip
-        self._state = (
-            self.z, self.act, self.substeps, self._z_backup, self._act_backup,
-            np.full(size, np.nan), self.accuracy_exceeded,
-        )  # fmt: skip
+        self.step_config = StepConfig(
+            mode=actuator.code,
+            b=float(self._b),
+            s_max=float(self._s_max),
+            accel_max=float(settings.rail_accel_max),
+            dt=float(settings.dt),
+            frequency=float(settings.servo_frequency),
+            auto=bool(fidelity.auto),
+            auto_settings=fidelity.auto_settings(self.params, settings.dt, self.planar),
+            pv=self._packed,
+            n=n,
+            with_pose=self.with_pose,
+            preserve_energy=preserve_energy,
+            planar=self.planar,
+            obs_settings=observe_settings,
+        )
+        self.step_state = StepState(
+            z=self.z,
+            act=self.act,
+            substeps=self.substeps,
+            z_backup=self._z_backup,
+            act_backup=self._act_backup,
+            target_energy=np.full(size, np.nan),
+            exceeded=self.accuracy_exceeded,
+        )
         #: sin(alpha_k), then cos(alpha_k), of every row's current state (float64, (B, 2n)).
         self.hitch_trig = np.zeros((size, 2 * n))
-        self._outputs = (
-            self.obs, self.singular_margin, self.cost, self.jackknifed, self.energy,
-            self._nonfinite, self.hitch_trig,
-        )  # fmt: skip
+        self.step_outputs = StepOutputs(
+            obs=self.obs,
+            margin=self.singular_margin,
+            cost=self.cost,
+            jackknifed=self.jackknifed,
+            energy=self.energy,
+            nonfinite=self._nonfinite,
+            hitch_trig=self.hitch_trig,
+        )
+        # What the kernels are passed: the same fields as plain tuples, which numba unboxes
+        # faster (trailer_env.kernels' docstring).
+        self._config = tuple(self.step_config)
+        self._state = tuple(self.step_state)
+        self._outputs = tuple(self.step_outputs)
         self._observe_args = (n, self.planar, observe_settings, self._packed, self._outputs)
         self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
 
     def _scene_arguments(self) -> tuple:
-        """The scene kernel's last argument (arrays it reads and writes), built once."""
+        """The scene kernel's last argument (a named tuple of the arrays and constants its
+        formulas read and write), built once; passed to the kernels as a plain tuple."""
         return ()
 
     # ----------------------------------------------------------------- hooks
@@ -396,20 +430,24 @@ class ConvoyCore:
             return self._unfused_step(action, rows, prepare)
         parallel = rows.size >= PARALLEL_MIN_ROWS
         if self.scene_kernel is not None:
-            if self._scene is None:
-                self._scene = self._scene_arguments()
+            scene = self._scene_tuple()
             if not parallel:
                 return self.scene_kernel(
-                    action, rows, prepare, self._config, self._state, self._outputs,
-                    self._scene,
-                )  # fmt: skip
+                    action, rows, prepare, self._config, self._state, self._outputs, scene
+                )
             result = step_parallel(action, rows, prepare, self._config, self._state,
                                    self._outputs)  # fmt: skip
             if result[0] < 0:
-                self.scene_outcome(rows, self._outputs, self._scene)
+                self.scene_outcome(rows, self._outputs, scene)
             return result
         kernel = step_parallel if parallel else step_serial
         return kernel(action, rows, prepare, self._config, self._state, self._outputs)
+
+    def _scene_tuple(self) -> tuple:
+        """:meth:`_scene_arguments` as the plain tuple the kernels take, built once."""
+        if self._scene is None:
+            self._scene = tuple(self._scene_arguments())
+        return self._scene
 
     def _unfused_step(self, action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:
         over = 0
@@ -453,7 +491,10 @@ class ConvoyCore:
                 stacklevel=3,
             )
         self._update_task(slice(None))
-        if self.scene_kernel is None or not self._fused:  # the kernel did not run the formulas
+        if self.scene_outcome is not None:
+            if not self._fused:  # the same compiled formulas the fused step runs
+                self.scene_outcome(self._all_rows, self._outputs, self._scene_tuple())
+        else:
             self._advance()
             self.success[:] = self._is_success()
             self.failed[:] = self._is_failed()
@@ -535,6 +576,11 @@ class ShapedCore(ConvoyCore):
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         super().__init__(settings, batch_size, track_pose=track_pose)
         self.previous_potential = np.zeros(self.batch_size)
+        #: The constants of :func:`trailer_env.shaping.shaped_reward`, in its order.
+        self.shaping_penalties = np.array(
+            [self.time_penalty, self.band_penalty, self.success_bonus, self.fold_penalty,
+             self.failure_penalty], dtype=np.float64,
+        )  # fmt: skip
 
     def _potential(self) -> np.ndarray:
         """Potential of every row's current state (higher is closer to the goal)."""
@@ -545,14 +591,8 @@ class ShapedCore(ConvoyCore):
 
     def _reward(self) -> np.ndarray:
         potential = self._potential()
-        reward = (
-            potential
-            - self.previous_potential
-            - self.time_penalty
-            - self.band_penalty * self.cost
-            + self.success_bonus * self.success
-            - self.fold_penalty * self.jackknifed
-            - self.failure_penalty * self.failed
-        )
+        reward = np.empty(self.batch_size)
+        shaped_rewards(potential, self.previous_potential, self.cost, self.success,
+                       self.jackknifed, self.failed, self.shaping_penalties, reward)  # fmt: skip
         self.previous_potential[:] = potential
         return reward

@@ -23,9 +23,8 @@ Integrators:
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -45,61 +44,16 @@ from trailer_env.substeps import (
 MAX_FIXED_SUBSTEPS = 10_000
 
 
-class BatchIntegrator(Protocol):
-    """What the environments call once per control step, for the whole batch."""
-
-    def step(self, z: np.ndarray, act: np.ndarray, dt: float, substeps: np.ndarray) -> None:
-        """Advance ``z`` (B, width) and the mass state ``act`` (B, 6) by ``dt`` in place."""
-
-
-IntegratorFactory = Callable[[ConvoyParams, bool, "Fidelity"], BatchIntegrator]
-
-
-@dataclass(frozen=True)
-class IntegratorSpec:
-    """One of the integrators a :class:`Fidelity` can name.
-
-    Attributes:
-        factory: ``factory(params, with_pose, fidelity)`` builds the batch integrator.
-        conserved_energy_only: Valid only when the energy is conserved (``mu = 0``).
-        uses_substeps: False for an adaptive integrator that chooses its own steps
-            (the environments then pass ``substeps`` = 1 and it reads ``fidelity.tolerance``).
-    """
-
-    factory: IntegratorFactory
-    conserved_energy_only: bool = False
-    uses_substeps: bool = True
-
-
 class RK4Integrator(Stepper):
-    """:class:`dynamics.Stepper` holding its NaN energy targets (the default, "at the start
-    of each call") across calls: allocating them per call costs a single environment's
-    step about 1.4 us of its ~7."""
+    """:class:`dynamics.Stepper` as the environments use it: the marker of the fused step.
 
-    def __init__(
-        self, params: ConvoyParams, *, with_pose: bool = False, preserve_energy: bool = False
-    ) -> None:
-        super().__init__(params, with_pose=with_pose, preserve_energy=preserve_energy)
-        self._no_targets = np.full(0, np.nan)
-
-    def step(
-        self,
-        z: np.ndarray,
-        act: np.ndarray,
-        dt: float,
-        substeps: np.ndarray,
-        target_energy: np.ndarray | None = None,
-    ) -> None:
-        """:meth:`dynamics.Stepper.step`."""
-        if target_energy is None:
-            if self._no_targets.shape[0] != z.shape[0]:
-                self._no_targets = np.full(z.shape[0], np.nan)
-            target_energy = self._no_targets
-        super().step(z, act, dt, substeps, target_energy)
+    Its RK4 runs inside the step kernel (:func:`trailer_env.kernels.step_serial`), never
+    through :meth:`step`; the core reads only ``preserve_energy``.
+    """
 
 
 class AdaptiveIntegrator:
-    """DOPRI5 behind the :class:`BatchIntegrator` interface (``substeps`` is ignored).
+    """DOPRI5 for the batch, stepped outside the step kernel (``substeps`` is ignored).
 
     Every row keeps its step size from one call to the next. A row whose
     integration fails (too many steps, step size underflow) is set to NaN, which
@@ -120,26 +74,9 @@ class AdaptiveIntegrator:
             z[failed] = np.nan
 
 
-_INTEGRATORS: dict[str, IntegratorSpec] = {
-    "rk4": IntegratorSpec(lambda params, with_pose, _: RK4Integrator(params, with_pose=with_pose)),
-    "rk4-energy": IntegratorSpec(
-        lambda params, with_pose, _: RK4Integrator(
-            params, with_pose=with_pose, preserve_energy=True
-        ),
-        conserved_energy_only=True,
-    ),
-    "dopri5": IntegratorSpec(
-        lambda params, with_pose, fidelity: AdaptiveIntegrator(
-            params, with_pose, fidelity.tolerance
-        ),
-        uses_substeps=False,
-    ),
-}
-
-
-def integrator_names() -> tuple[str, ...]:
-    """Names accepted by ``Fidelity.integrator``."""
-    return tuple(_INTEGRATORS)
+#: The integrators a :class:`Fidelity` can name; "dopri5" chooses its own steps.
+_INTEGRATORS = ("rk4", "rk4-energy", "dopri5")
+_ADAPTIVE = "dopri5"
 
 
 @dataclass(frozen=True)
@@ -209,12 +146,12 @@ class Fidelity:
     @property
     def uses_substeps(self) -> bool:
         """Whether the integrator takes the substep counts (False for an adaptive one)."""
-        return _INTEGRATORS[self.integrator].uses_substeps
+        return self.integrator != _ADAPTIVE
 
     @property
     def auto(self) -> bool:
         """Whether substeps are chosen per environment and step."""
-        return self.substeps == "auto" and _INTEGRATORS[self.integrator].uses_substeps
+        return self.substeps == "auto" and self.uses_substeps
 
     @property
     def fixed_substeps(self) -> int:
@@ -250,19 +187,23 @@ class Fidelity:
             f"fidelity must be a Fidelity, dict, str or int, got {type(value).__name__} {value!r}"
         )
 
-    def make_integrator(self, params: ConvoyParams, with_pose: bool) -> BatchIntegrator:
+    def make_integrator(
+        self, params: ConvoyParams, with_pose: bool
+    ) -> RK4Integrator | AdaptiveIntegrator:
         """Build the named integrator for these parameters.
 
         Raises:
             ValueError: If the integrator needs a conserved energy and ``params.mu > 0``.
         """
-        spec = _INTEGRATORS[self.integrator]
-        if spec.conserved_energy_only and params.mu > 0.0:
+        if self.integrator == _ADAPTIVE:
+            return AdaptiveIntegrator(params, with_pose, self.tolerance)
+        preserve_energy = self.integrator == "rk4-energy"
+        if preserve_energy and params.mu > 0.0:
             raise ValueError(
                 f"fidelity.integrator {self.integrator!r} needs a conserved energy, i.e. mu = 0 "
                 f"(got mu = {params.mu}); the moving mass does work on the convoy"
             )
-        return spec.factory(params, with_pose, self)
+        return RK4Integrator(params, with_pose=with_pose, preserve_energy=preserve_energy)
 
     def auto_settings(self, params: ConvoyParams, dt: float, planar: bool) -> np.ndarray:
         """The packed settings of the auto rule (:func:`trailer_env.substeps.auto_settings`)."""
@@ -273,9 +214,6 @@ __all__ = [
     "MAX_FIXED_SUBSTEPS",
     "AccuracyWarning",
     "AdaptiveIntegrator",
-    "BatchIntegrator",
     "Fidelity",
-    "IntegratorSpec",
     "RK4Integrator",
-    "integrator_names",
 ]

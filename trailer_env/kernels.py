@@ -12,8 +12,15 @@ step stays one call; batches large enough for :func:`step_parallel` call the sce
 formulas in a second call (numba can crash loading from its disk cache a function that
 calls a parallel one).
 
-Scalar settings are packed once into tuples (see :class:`trailer_env.core.ConvoyCore`), so
-a call for one environment costs about a microsecond. Large batches
+Scalar settings and arrays are packed once into the named tuples :class:`StepConfig`,
+:class:`StepState` and :class:`StepOutputs` (see :class:`trailer_env.core.ConvoyCore`), so
+a call for one environment costs about a microsecond. Compiled code reads their fields
+by name. Called from Python, the entry points (:func:`step_serial`, :func:`step_parallel`,
+:func:`prepare_step`, :func:`observe` and the scenes' kernels) take them either as the
+named tuples or as plain tuples of their fields, ``tuple(config)``, which is what the
+core passes: numba unboxes a plain tuple about 0.7 us faster per argument than a named
+one, and rebuilding the named tuple inside compiled code (``StepConfig(*config)``) costs
+nothing. Large batches
 (:data:`PARALLEL_MIN_ROWS` rows or more) use the parallel variant, which splits the rows
 into chunks; every row's arithmetic is the same either way (the blocks share loops, not
 operations), so results do not depend on the batch size or the number of threads.
@@ -22,6 +29,7 @@ operations), so results do not depend on the batch size or the number of threads
 from __future__ import annotations
 
 import os
+from typing import NamedTuple
 
 import numpy as np
 from numba import prange
@@ -58,6 +66,58 @@ OBS_B, OBS_S_MAX, OBS_SPEED_MAX, OBS_BAND, OBS_FOLD = range(5)
 _DEPENDS = (actuator, substeps)
 
 
+class StepConfig(NamedTuple):
+    """The step kernel's settings, fixed for a core's life."""
+
+    #: The actuator's kernel code (:data:`trailer_env.actuator.ACTUATORS`).
+    mode: int
+    b: float
+    s_max: float
+    accel_max: float
+    dt: float
+    #: The servo's natural frequency (rad/s).
+    frequency: float
+    #: Whether the auto substep rule runs (:mod:`trailer_env.substeps`).
+    auto: bool
+    auto_settings: np.ndarray
+    #: The packed parameters (:func:`dynamics.jit.pack_params`).
+    pv: np.ndarray
+    n: int
+    with_pose: bool
+    preserve_energy: bool
+    planar: bool
+    #: The observation settings (indices ``OBS_*``).
+    obs_settings: np.ndarray
+
+
+class StepState(NamedTuple):
+    """The arrays a step advances (leading axis B), and its backup for a retry."""
+
+    z: np.ndarray
+    act: np.ndarray
+    substeps: np.ndarray
+    z_backup: np.ndarray
+    act_backup: np.ndarray
+    #: Energy targets of the energy-preserving RK4 (NaN: the energy at the call's start).
+    target_energy: np.ndarray
+    #: Rows whose last step's estimated error exceeded the tolerance.
+    exceeded: np.ndarray
+
+
+class StepOutputs(NamedTuple):
+    """What a step or :func:`observe` derives from every row's state (leading axis B)."""
+
+    obs: np.ndarray
+    margin: np.ndarray
+    cost: np.ndarray
+    jackknifed: np.ndarray
+    energy: np.ndarray
+    #: Rows whose state holds a non-finite value (left untouched).
+    nonfinite: np.ndarray
+    #: sin(alpha_k) then cos(alpha_k), float64 (B, 2n), for the scenes' formulas.
+    hitch_trig: np.ndarray
+
+
 @cached_njit(depends_on=_DEPENDS)
 def observe_block(
     z: np.ndarray,
@@ -67,7 +127,7 @@ def observe_block(
     planar: bool,
     settings: np.ndarray,
     pv: np.ndarray,
-    outputs: tuple,
+    outputs: StepOutputs,
     workspace: tuple,
     fold_checked: bool,
 ) -> int:
@@ -79,12 +139,17 @@ def observe_block(
     instants before). The margin and the fold test are :func:`dynamics.singular_margin`'s
     and :func:`dynamics.is_jackknifed`'s; so is the energy. Rows holding a non-finite
     value are left untouched and flagged in ``nonfinite``; returns their number.
-    ``outputs`` is ``(obs, margin, cost, jackknifed, energy, nonfinite, hitch_trig)``,
-    ``hitch_trig`` (B, 2n) receiving sin(alpha_k) then cos(alpha_k) in float64 (for the
-    scenes' formulas). With ``fold_checked`` the current state's fold test is skipped:
+    ``outputs.hitch_trig`` (B, 2n) receives sin(alpha_k) then cos(alpha_k) in float64 (for
+    the scenes' formulas). With ``fold_checked`` the current state's fold test is skipped:
     the step kernel's per-substep test has just done it.
     """
-    obs, margin, cost, jackknifed, energy, nonfinite, hitch_trig = outputs
+    obs = outputs.obs
+    margin = outputs.margin
+    cost = outputs.cost
+    jackknifed = outputs.jackknifed
+    energy = outputs.energy
+    nonfinite = outputs.nonfinite
+    hitch_trig = outputs.hitch_trig
     y, _, deriv, _, mass0, work, lane_scalars, trig, _ = workspace
     width = y.shape[0]
     finite = lane_scalars[2]
@@ -142,10 +207,10 @@ def observe_block(
 @cached_njit(depends_on=_DEPENDS)
 def _observe_rows(
     z: np.ndarray, act: np.ndarray, rows: np.ndarray, start: int, stop: int, n: int,
-    planar: bool, settings: np.ndarray, pv: np.ndarray, outputs: tuple,
+    planar: bool, settings: np.ndarray, pv: np.ndarray, outputs: StepOutputs,
 ) -> int:  # fmt: skip
     workspace = new_workspace(z.shape[1])
-    jackknifed = outputs[3]
+    jackknifed = outputs.jackknifed
     bad = 0
     for first in range(start, stop, LANES):
         block = rows[first : min(stop, first + LANES)]
@@ -170,10 +235,32 @@ def observe(
 ) -> int:
     """:func:`observe_block` on ``rows`` (the state as it is: resets, states set by hand).
 
-    ``outputs`` is that of :func:`observe_block`. Returns the
+    ``outputs`` is a :class:`StepOutputs` or the plain tuple of its fields. Returns the
     number of rows holding a non-finite value (they are left untouched).
     """
-    return _observe_rows(z, act, rows, 0, rows.shape[0], n, planar, settings, pv, outputs)
+    named = StepOutputs(*outputs)
+    return _observe_rows(z, act, rows, 0, rows.shape[0], n, planar, settings, pv, named)
+
+
+@cached_njit(depends_on=_DEPENDS, nogil=True)
+def _prepare_row(action: np.ndarray, i: int, config: StepConfig, state: StepState) -> bool:
+    """Row ``i``'s guarded accelerations, auto substep count and backup; True if over the
+    tolerance (a cap binds)."""
+    act = state.act
+    apply_action_row(action, i, act, config.mode, config.b, config.s_max, config.accel_max,
+                     config.dt, config.frequency)  # fmt: skip
+    over = False
+    if config.auto:
+        count, within = auto_substeps_row(state.z, act, config.auto_settings, i)
+        state.substeps[i] = count
+        state.exceeded[i] = not within
+        over = not within
+    z = state.z
+    for k in range(z.shape[1]):
+        state.z_backup[i, k] = z[i, k]
+    for k in range(6):
+        state.act_backup[i, k] = act[i, k]
+    return over
 
 
 @cached_njit(depends_on=_DEPENDS)
@@ -183,30 +270,29 @@ def _step_chunk(
     start: int,
     stop: int,
     prepare: bool,
-    config: tuple,
-    state: tuple,
-    outputs: tuple,
+    config: StepConfig,
+    state: StepState,
+    outputs: StepOutputs,
 ) -> tuple:
     """The control step of ``rows[start:stop]``: (non-finite rows, rows over the tolerance)."""
-    (mode, b, s_max, accel_max, dt, frequency, auto, auto_settings, pv, n, with_pose,
-     preserve_energy, planar, obs_settings) = config  # fmt: skip
-    z, act, substeps, z_backup, act_backup, target_energy, exceeded = state
-    jackknifed = outputs[3]
-    fold_angle = obs_settings[OBS_FOLD]
+    b = config.b
+    s_max = config.s_max
+    dt = config.dt
+    pv = config.pv
+    n = config.n
+    with_pose = config.with_pose
+    preserve_energy = config.preserve_energy
+    z = state.z
+    act = state.act
+    substeps = state.substeps
+    target_energy = state.target_energy
+    jackknifed = outputs.jackknifed
+    fold_angle = config.obs_settings[OBS_FOLD]
     over_tolerance = 0
     for j in range(start, stop):
         i = rows[j]
         if prepare:
-            apply_action_row(action, i, act, mode, b, s_max, accel_max, dt, frequency)
-            if auto:
-                count, within = auto_substeps_row(z, act, auto_settings, i)
-                substeps[i] = count
-                exceeded[i] = not within
-                over_tolerance += not within
-            for k in range(z.shape[1]):
-                z_backup[i, k] = z[i, k]
-            for k in range(6):
-                act_backup[i, k] = act[i, k]
+            over_tolerance += _prepare_row(action, i, config, state)
         jackknifed[i] = False
     # Blocks of equal substep counts, in a chunk-local order: per-row results do not
     # depend on the chunking.
@@ -245,8 +331,8 @@ def _step_chunk(
                 clamp_row_to_rail(act, i, b, s_max)
                 for j in range(4):
                     mass0[j, lane] = act[i, j]
-        bad += observe_block(z, block, nb, n, planar, obs_settings, pv, outputs, workspace,
-                             fold_angle < np.inf)  # fmt: skip
+        bad += observe_block(z, block, nb, n, config.planar, config.obs_settings, pv, outputs,
+                             workspace, fold_angle < np.inf)  # fmt: skip
         first = last
     return bad, over_tolerance
 
@@ -258,6 +344,8 @@ def step_serial(
 ) -> tuple:  # fmt: skip
     """One control step of ``rows`` on the calling thread.
 
+    ``config``, ``state`` and ``outputs``: a :class:`StepConfig`, :class:`StepState` and
+    :class:`StepOutputs`, or plain tuples of their fields (see the module docstring).
     With ``prepare``: actions -> guarded accelerations (clipped to [-1, 1]), the auto
     substep rule (``exceeded[i]`` set where a cap keeps the estimated error above the
     tolerance), a backup of the state; without (a retry): the accelerations and
@@ -269,7 +357,8 @@ def step_serial(
         bad_action = first_non_finite_row(action, rows)
         if bad_action >= 0:
             return bad_action, 0, 0
-    bad, over = _step_chunk(action, rows, 0, rows.shape[0], prepare, config, state, outputs)
+    bad, over = _step_chunk(action, rows, 0, rows.shape[0], prepare, StepConfig(*config),
+                            StepState(*state), StepOutputs(*outputs))  # fmt: skip
     return -1, bad, over
 
 
@@ -283,6 +372,9 @@ def step_parallel(
         bad_action = first_non_finite_row(action, rows)
         if bad_action >= 0:
             return bad_action, 0, 0
+    named_config = StepConfig(*config)
+    named_state = StepState(*state)
+    named_outputs = StepOutputs(*outputs)
     count = rows.shape[0]
     n_chunks = (count + _CHUNK - 1) // _CHUNK
     bad = np.zeros(n_chunks, dtype=np.int64)
@@ -290,7 +382,7 @@ def step_parallel(
     for chunk in prange(n_chunks):
         stop = min(count, (chunk + 1) * _CHUNK)
         bad[chunk], over[chunk] = _step_chunk(
-            action, rows, chunk * _CHUNK, stop, prepare, config, state, outputs
+            action, rows, chunk * _CHUNK, stop, prepare, named_config, named_state, named_outputs
         )
     return -1, bad.sum(), over.sum()
 
@@ -303,22 +395,14 @@ def prepare_step(
 
     Returns ``(bad action row or -1, rows over the tolerance)``.
     """
-    (mode, b, s_max, accel_max, dt, frequency, auto, auto_settings, _, _, _, _, _,
-     _) = config  # fmt: skip
-    z, act, substeps, z_backup, act_backup, _, exceeded = state
     bad_action = first_non_finite_row(action, rows)
     if bad_action >= 0:
         return bad_action, 0
+    named_config = StepConfig(*config)
+    named_state = StepState(*state)
     over = 0
     for i in rows:
-        apply_action_row(action, i, act, mode, b, s_max, accel_max, dt, frequency)
-        if auto:
-            count, within = auto_substeps_row(z, act, auto_settings, i)
-            substeps[i] = count
-            exceeded[i] = not within
-            over += not within
-        z_backup[i] = z[i]
-        act_backup[i] = act[i]
+        over += _prepare_row(action, i, named_config, named_state)
     return -1, over
 
 

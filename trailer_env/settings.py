@@ -14,14 +14,16 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 from dynamics import ConvoyParams
 from dynamics.params import MAX_TRAILERS, bounded_integer, bounded_real
+from trailer_env.actuator import ACTUATORS, ActionMode, Actuator
 from trailer_env.fidelity import MAX_FIXED_SUBSTEPS, Fidelity
 from trailer_env.substeps import STABILITY_FRACTION, cart_rate_coefficient, stability_limit
 
-ACTION_MODES = ("servo", "accel", "planar")
+#: The action modes, in the order of :data:`trailer_env.actuator.ACTUATORS`.
+ACTION_MODES: tuple[str, ...] = tuple(ACTUATORS)
 
 _PARAM_FIELDS = frozenset(f.name for f in dataclasses.fields(ConvoyParams))
 
@@ -69,7 +71,7 @@ class EnvSettings:
     params: ConvoyParams = field(default_factory=ConvoyParams)
     dt: float = 0.05
     fidelity: Fidelity = field(default_factory=Fidelity)
-    action_mode: str = "servo"
+    action_mode: ActionMode = "servo"
     rail_accel_max: float = 4.0
     servo_bandwidth: float = 5.0
     singular_band: float = 0.3
@@ -106,7 +108,7 @@ class EnvSettings:
         """Refuse settings whose integrator cannot resolve the reference speed (class docstring)."""
         params, fidelity = self.params, self.fidelity
         rate = REFERENCE_SPEED * max(
-            1.0 / params.l, cart_rate_coefficient(params, self.action_mode == "planar")
+            1.0 / params.l, cart_rate_coefficient(params, self.actuator.planar)
         )
         step = self.dt * rate
         limit = stability_limit(params.n_trailers)
@@ -148,9 +150,14 @@ class EnvSettings:
         return 2.0 * math.sqrt(self.rail_accel_max * self.params.s_max)
 
     @property
+    def actuator(self) -> Actuator:
+        """The action mode's entry of :data:`trailer_env.actuator.ACTUATORS`."""
+        return ACTUATORS[self.action_mode]
+
+    @property
     def action_dim(self) -> int:
         """1, or 2 in planar mode."""
-        return 2 if self.action_mode == "planar" else 1
+        return self.actuator.action_dim
 
 
 def settings_from_kwargs(
@@ -158,7 +165,7 @@ def settings_from_kwargs(
     params: ConvoyParams | None = None,
     dt: float = 0.05,
     fidelity: Fidelity | dict[str, Any] | str | int | None = None,
-    action_mode: str = "servo",
+    action_mode: ActionMode = "servo",
     rail_accel_max: float = 4.0,
     servo_bandwidth: float = 5.0,
     singular_band: float = 0.3,
@@ -210,7 +217,7 @@ def settings_from_kwargs(
         params=params,
         dt=dt,
         fidelity=Fidelity.coerce(fidelity),
-        action_mode=action_mode,
+        action_mode=cast("ActionMode", action_mode),  # EnvSettings validates it
         rail_accel_max=rail_accel_max,
         servo_bandwidth=servo_bandwidth,
         singular_band=singular_band,

@@ -130,8 +130,8 @@ class ConvoyVectorEnv(VectorEnv):
     """N environments of one scene stepped together (see the module docstring).
 
     Each registered id's ``vector_entry_point`` is this class bound to the scene's core
-    (:mod:`trailer_env.registry`); ``ConvoyVectorEnv(ReverseCore, num_envs=8)`` builds one
-    directly.
+    (a subclass in :mod:`trailer_env.registry`, e.g. ``ReverseVectorEnv``);
+    ``ConvoyVectorEnv(ReverseCore, num_envs=8)`` builds one directly.
 
     Args:
         core_class: The scene's batch core.

@@ -245,3 +245,21 @@ def test_empty_batches_give_empty_results() -> None:
     assert z.shape == (0, 4) and s.shape == (0,) and s_dot.shape == (0,)
     assert rhs(params, np.zeros((0, 4))).shape == (0, 4)
     assert energy(params, np.zeros((0, 4))).shape == (0,)
+
+
+def test_rail_and_planar_twins_are_one_implementation_bit_for_bit() -> None:
+    from dynamics import ConvoyParams as Params
+    from dynamics.integrate import step_rk4, step_rk4_planar
+    from dynamics.model import energy, energy_planar, rhs, rhs_planar
+
+    p = Params(n_trailers=2)
+    z = np.array([[-1.0, 0.1, 0.2, -0.1], [0.8, -0.2, 0.05, 0.3]])
+    s, s_dot, s_ddot = np.array([0.1, -0.2]), np.array([0.05, 0.0]), np.array([0.5, -1.0])
+    planar = {"xi": p.b, "eta": s, "eta_dot": s_dot}
+    np.testing.assert_array_equal(rhs(p, z, s, s_dot, s_ddot),
+                                  rhs_planar(p, z, **planar, eta_ddot=s_ddot))  # fmt: skip
+    np.testing.assert_array_equal(energy(p, z, s, s_dot), energy_planar(p, z, **planar))
+    z_rail, s_end, s_dot_end = step_rk4(p, z, 0.05, substeps=3, s=s, s_dot=s_dot, s_ddot=s_ddot)
+    z_planar, act = step_rk4_planar(p, z, 0.05, substeps=3, **planar, eta_ddot=s_ddot)
+    np.testing.assert_array_equal(z_rail, z_planar)
+    np.testing.assert_array_equal(np.stack([s_end, s_dot_end], axis=-1), act[:, [1, 3]])

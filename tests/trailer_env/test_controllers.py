@@ -6,7 +6,7 @@ import gymnasium as gym
 import numpy as np
 
 from tests.trailer_env.helpers import make
-from trailer_env.controllers import LQRController, lqr_policy
+from trailer_env.controllers import LQRController
 
 
 def _jackknife_rate(policy: str, seeds: int = 24, n: int = 2) -> tuple[float, float]:
@@ -41,12 +41,13 @@ def test_lqr_keeps_a_reversing_convoy_from_folding() -> None:
     assert lqr_rate <= 0.5 and lqr_life > 2 * zero_life
 
 
-def test_lqr_policy_shapes_and_modes() -> None:
+def test_lqr_controller_shapes_and_modes() -> None:
     env = make("Reverse", n_trailers=2)
     obs, _ = env.reset(seed=0)
-    action = lqr_policy(obs, n_trailers=2)
+    policy = LQRController.from_env(env)
+    action = policy(obs)
     assert action.shape == (1,) and action.dtype == np.float32 and env.action_space.contains(action)
-    batch = lqr_policy(np.stack([obs, obs]), n_trailers=2)
+    batch = policy(np.stack([obs, obs]))
     assert batch.shape == (2, 1)
     for mode in ("accel", "planar"):
         env = make("Dock", n_trailers=1, action_mode=mode)

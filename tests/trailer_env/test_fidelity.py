@@ -8,9 +8,8 @@ import pytest
 
 from dynamics import AdaptiveStepper, ConvoyParams, Stepper
 from tests.trailer_env.helpers import make
-from trailer_env.actuator import MODE_CODES, apply_actions
 from trailer_env.core import ConvoyCore
-from trailer_env.fidelity import AdaptiveIntegrator, Fidelity, integrator_names
+from trailer_env.fidelity import AdaptiveIntegrator, Fidelity, RK4Integrator
 from trailer_env.scenes import CoastCore, DockCore, HeadingCore, ReverseCore
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 from trailer_env.substeps import (
@@ -63,7 +62,6 @@ def scene_samples(
 ) -> tuple[EnvSettings, np.ndarray, np.ndarray]:
     """States of every scene under random held actions, with the accelerations of the next step."""
     settings = settings_from_kwargs(n_trailers=n, action_mode=action_mode)
-    params = settings.params
     rng = np.random.default_rng(seed)
     states, mass_states = [], []
     for core_class in SCENE_CORES:
@@ -73,15 +71,12 @@ def scene_samples(
         for step in range(steps):
             change = rng.random(rows) < 0.2
             action[change] = rng.uniform(-1.0, 1.0, (int(change.sum()), settings.action_dim))
-            if step % 4 == 3:
-                act = core.act.copy()
-                apply_actions(
-                    action, act, MODE_CODES[action_mode], params.b, params.s_max,
-                    settings.rail_accel_max, settings.dt, settings.servo_frequency,
-                )  # fmt: skip
-                states.append(core.z[:, : n + 2].copy())
-                mass_states.append(act)
+            before = core.z[:, : n + 2].copy()
             core.step(action)
+            if step % 4 == 3:
+                # The accelerations the step held: the actuator's, as the core applied them.
+                states.append(before)
+                mass_states.append(core._act_backup.copy())
             done = np.flatnonzero(core.terminated)
             if done.size:
                 seeds = rng.integers(1 << 30, size=done.size)
@@ -252,7 +247,6 @@ def test_finer_fidelity_converges() -> None:
 
 
 def test_dopri5_is_registered_and_meets_its_tolerance() -> None:
-    assert "dopri5" in integrator_names()
     loose = make("Reverse", fidelity="dopri5")
     assert isinstance(loose.unwrapped.core._integrator, AdaptiveIntegrator)
     assert loose.unwrapped.settings.fidelity.substeps == "auto"
@@ -327,7 +321,12 @@ def test_energy_preserving_integrator_conserves_energy_without_the_mass() -> Non
 
 
 def test_integrator_names_and_coercion() -> None:
-    assert integrator_names() == ("rk4", "rk4-energy", "dopri5")
+    params = ConvoyParams(mu=0.0)
+    kinds = {name: type(Fidelity(integrator=name).make_integrator(params, False))
+             for name in ("rk4", "rk4-energy", "dopri5")}  # fmt: skip
+    assert kinds == {"rk4": RK4Integrator, "rk4-energy": RK4Integrator,
+                     "dopri5": AdaptiveIntegrator}  # fmt: skip
+    assert Fidelity(integrator="rk4-energy").make_integrator(params, False).preserve_energy
     with pytest.raises(ValueError, match=r"fidelity\.integrator"):
         Fidelity(integrator="not-registered")
     assert Fidelity.coerce(None) == Fidelity()

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from dynamics.jit import cached_njit
-from trailer_env import actuator, kernels, substeps
+from trailer_env import actuator, kernels, shaping, substeps
 from trailer_env.core import ShapedCore
 from trailer_env.env import ConvoyEnv
-from trailer_env.kernels import step_serial
+from trailer_env.kernels import StepOutputs, step_serial
+from trailer_env.shaping import shaped_reward
 
 SPEED_RANGE = (0.5, 1.5)
 #: Half-widths of the starting hitch angles and turning rate, forwards and backwards.
@@ -66,35 +69,48 @@ def coast_straight_rows(z: np.ndarray, n: int, out: np.ndarray) -> None:
         out[i] = coast_is_straight(z, i, n)
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+class CoastScene(NamedTuple):
+    """What Coast's formulas read and write besides the step's outputs."""
+
+    z: np.ndarray
+    n: int
+    previous: np.ndarray
+    failed: np.ndarray
+    reward: np.ndarray
+    terminated: np.ndarray
+    success: np.ndarray
+    #: :attr:`trailer_env.core.ShapedCore.shaping_penalties`.
+    penalties: np.ndarray
+
+
+@cached_njit(depends_on=(actuator, substeps, kernels, shaping))
 def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
-    """ShapedCore's reward, termination and success of ``rows`` after a step."""
-    (z, n, previous, failed, reward, terminated, success, time_penalty, band_penalty,
-     success_bonus, fold_penalty) = scene  # fmt: skip
-    cost = outputs[2]
-    jackknifed = outputs[3]
-    nonfinite = outputs[5]
-    hitch_trig = outputs[6]
+    """ShapedCore's reward (:func:`trailer_env.shaping.shaped_reward`), termination and
+    success of ``rows`` after a step.
+
+    ``outputs`` and ``scene``: :class:`~trailer_env.kernels.StepOutputs` and
+    :class:`CoastScene`, or plain tuples of their fields. Both the fused step
+    (:func:`coast_step`) and the unfused one (``fidelity="dopri5"``) call it.
+    """
+    step = StepOutputs(*outputs)
+    task = CoastScene(*scene)
+    z = task.z
+    n = task.n
+    jackknifed = step.jackknifed
     for i in rows:
-        if nonfinite[i]:
+        if step.nonfinite[i]:
             continue  # the step is redone (core._retry_finer): keep the potential it started from
         straight = coast_is_straight(z, i, n)
-        potential = coast_potential(z, hitch_trig, i, n)
-        success[i] = straight
-        failed[i] = False
-        terminated[i] = jackknifed[i] or straight
-        reward[i] = (
-            potential
-            - previous[i]
-            - time_penalty
-            - band_penalty * cost[i]
-            + success_bonus * straight
-            - fold_penalty * jackknifed[i]
-        )
-        previous[i] = potential
+        potential = coast_potential(z, step.hitch_trig, i, n)
+        task.success[i] = straight
+        task.failed[i] = False
+        task.terminated[i] = jackknifed[i] or straight
+        task.reward[i] = shaped_reward(potential, task.previous[i], step.cost[i], straight,
+                                       jackknifed[i], False, task.penalties)  # fmt: skip
+        task.previous[i] = potential
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit(depends_on=(actuator, substeps, kernels, shaping))
 def coast_step(
     action: np.ndarray,
     rows: np.ndarray,
@@ -123,12 +139,17 @@ class CoastCore(ShapedCore):
     scene_kernel = staticmethod(coast_step)
     scene_outcome = staticmethod(coast_outcome)
 
-    def _scene_arguments(self) -> tuple:
-        return (
-            self.z, self.n, self.previous_potential, self.failed, self.reward, self.terminated,
-            self.success, float(self.time_penalty), float(self.band_penalty),
-            float(self.success_bonus), float(self.fold_penalty),
-        )  # fmt: skip
+    def _scene_arguments(self) -> CoastScene:
+        return CoastScene(
+            z=self.z,
+            n=self.n,
+            previous=self.previous_potential,
+            failed=self.failed,
+            reward=self.reward,
+            terminated=self.terminated,
+            success=self.success,
+            penalties=self.shaping_penalties,
+        )
 
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:
         z = self.z[i]

@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import math
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
-from numba import njit
 
 from dynamics.jit import cached_njit
 from trailer_env import actuator, kernels, substeps
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
-from trailer_env.kernels import step_serial
+from trailer_env.kernels import StepOutputs, step_serial
 
 #: Starting speed range (reversing), m/s, and the half-widths of the starting perturbations.
 SPEED_RANGE = (0.8, 1.2)
@@ -21,29 +19,19 @@ OMEGA_NOISE = 0.05
 TURN_WEIGHT = 0.1
 
 
-@njit(cache=True)
-def reverse_reward(
-    z: np.ndarray,
-    n: int,
-    cost: np.ndarray,
-    failed: np.ndarray,
-    band_penalty: float,
-    fold_penalty: float,
-    out: np.ndarray,
+@cached_njit(depends_on=(actuator, substeps, kernels))
+def reverse_failed(z: np.ndarray, jackknifed: np.ndarray, i: int, min_reverse_speed: float) -> bool:
+    """Row ``i`` failed: jackknifed, or stopped reversing (``u >= -min_reverse_speed``)."""
+    return jackknifed[i] or z[i, 0] >= -min_reverse_speed
+
+
+@cached_njit(depends_on=(actuator, substeps, kernels))
+def reverse_failed_rows(
+    z: np.ndarray, jackknifed: np.ndarray, min_reverse_speed: float, out: np.ndarray
 ) -> None:
-    """Straightness minus turning and band penalties, the fold penalty on failure (ReverseEnv)."""
+    """:func:`reverse_failed` of every row into ``out`` (the reset's success flag)."""
     for i in range(z.shape[0]):
-        straightness = 1.0
-        if n > 0:
-            total = 0.0
-            for k in range(n):
-                total += math.cos(z[i, 2 + k])
-            straightness = total / n
-        omega = z[i, 1]
-        reward = straightness - TURN_WEIGHT * min(omega * omega, 1.0) - band_penalty * cost[i]
-        if failed[i]:
-            reward -= fold_penalty
-        out[i] = reward
+        out[i] = reverse_failed(z, jackknifed, i, min_reverse_speed)
 
 
 @cached_njit(depends_on=(actuator, substeps, kernels))
@@ -61,15 +49,13 @@ def reverse_rows(
     terminated: np.ndarray,
     success: np.ndarray,
 ) -> None:
-    """Reward, termination and success of ``rows`` (the hooks of ReverseCore, row by row).
+    """Reward, termination and success of ``rows``: Reverse's formulas, row by row.
 
     ``hitch_trig`` holds the cosines of the hitch angles in columns n .. 2n-1
-    (:attr:`trailer_env.core.ConvoyCore.hitch_trig`), equal to
-    :func:`reverse_reward`'s ``math.cos`` to 1 ulp.
+    (:attr:`trailer_env.core.ConvoyCore.hitch_trig`).
     """
     for i in rows:
-        stopped = z[i, 0] >= -min_reverse_speed
-        failed = jackknifed[i] or stopped
+        failed = reverse_failed(z, jackknifed, i, min_reverse_speed)
         straightness = 1.0
         if n > 0:
             total = 0.0
@@ -85,12 +71,32 @@ def reverse_rows(
         success[i] = not failed
 
 
+class ReverseScene(NamedTuple):
+    """What Reverse's formulas read and write besides the step's outputs."""
+
+    z: np.ndarray
+    n: int
+    band_penalty: float
+    fold_penalty: float
+    min_reverse_speed: float
+    reward: np.ndarray
+    terminated: np.ndarray
+    success: np.ndarray
+
+
 @cached_njit(depends_on=(actuator, substeps, kernels))
 def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
-    """Reward, termination and success of ``rows`` after a step (:func:`reverse_rows`)."""
-    z, n, band_penalty, fold_penalty, min_reverse_speed, reward, terminated, success = scene
-    reverse_rows(z, outputs[6], rows, n, outputs[2], outputs[3], band_penalty, fold_penalty,
-                 min_reverse_speed, reward, terminated, success)  # fmt: skip
+    """Reward, termination and success of ``rows`` after a step (:func:`reverse_rows`).
+
+    ``outputs`` and ``scene``: :class:`~trailer_env.kernels.StepOutputs` and
+    :class:`ReverseScene`, or plain tuples of their fields. Both the fused step
+    (:func:`reverse_step`) and the unfused one (``fidelity="dopri5"``) call it.
+    """
+    step = StepOutputs(*outputs)
+    task = ReverseScene(*scene)
+    reverse_rows(task.z, step.hitch_trig, rows, task.n, step.cost, step.jackknifed,
+                 task.band_penalty, task.fold_penalty, task.min_reverse_speed, task.reward,
+                 task.terminated, task.success)  # fmt: skip
 
 
 @cached_njit(depends_on=(actuator, substeps, kernels))
@@ -122,10 +128,17 @@ class ReverseCore(ConvoyCore):
     scene_kernel = staticmethod(reverse_step)
     scene_outcome = staticmethod(reverse_outcome)
 
-    def _scene_arguments(self) -> tuple:
-        return (self.z, self.n, float(self.band_penalty), float(self.fold_penalty),
-                float(self.min_reverse_speed), self.reward, self.terminated,
-                self.success)  # fmt: skip
+    def _scene_arguments(self) -> ReverseScene:
+        return ReverseScene(
+            z=self.z,
+            n=self.n,
+            band_penalty=float(self.band_penalty),
+            fold_penalty=float(self.fold_penalty),
+            min_reverse_speed=float(self.min_reverse_speed),
+            reward=self.reward,
+            terminated=self.terminated,
+            success=self.success,
+        )
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -145,28 +158,11 @@ class ReverseCore(ConvoyCore):
         start += self._start_low
         start[0] = -start[0]  # reversing
 
-    def _stopped_reversing(self) -> np.ndarray:
-        # The mass can brake the convoy and push it forwards, where it is stable: that
-        # escapes the task instead of solving it, so it ends the episode as a failure.
-        return self.z[:, 0] >= -self.min_reverse_speed
-
     def _is_success(self) -> np.ndarray:
-        return ~self.jackknifed & ~self._stopped_reversing()
-
-    def _is_terminated(self) -> np.ndarray:
-        return self.jackknifed | self._stopped_reversing()
-
-    def _reward(self) -> np.ndarray:
-        reverse_reward(
-            self.z,
-            self.n,
-            self.cost,
-            self._is_terminated(),
-            self.band_penalty,
-            self.fold_penalty,
-            self.reward,
-        )
-        return self.reward
+        # The reset's flag; after a step :func:`reverse_outcome` writes it.
+        failed = np.empty(self.batch_size, dtype=bool)
+        reverse_failed_rows(self.z, self.jackknifed, float(self.min_reverse_speed), failed)
+        return ~failed
 
 
 class ReverseEnv(ConvoyEnv):

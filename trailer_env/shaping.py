@@ -1,0 +1,60 @@
+"""The shaped reward of :class:`trailer_env.core.ShapedCore`, written once for every path.
+
+:func:`shaped_reward` is the formula for one row; scenes whose reward is computed inside
+their compiled step (Coast) call it there, and :meth:`ShapedCore._reward` calls it through
+:func:`shaped_rewards` for the whole batch, so the fused and unfused steps share it.
+"""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+from numba import njit
+
+#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
+SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
+
+
+@njit(cache=True, nogil=True)
+def shaped_reward(
+    potential: float,
+    previous: float,
+    cost: float,
+    success: bool,
+    jackknifed: bool,
+    failed: bool,
+    penalties: np.ndarray,
+) -> float:
+    """``potential - previous - time_penalty - band_penalty * cost + success_bonus * success
+    - fold_penalty * jackknifed - failure_penalty * failed``.
+
+    ``penalties`` is :meth:`trailer_env.core.ShapedCore.shaping_constants`: (time_penalty,
+    band_penalty, success_bonus, fold_penalty, failure_penalty).
+    """
+    return (
+        potential
+        - previous
+        - penalties[0]
+        - penalties[1] * cost
+        + penalties[2] * success
+        - penalties[3] * jackknifed
+        - penalties[4] * failed
+    )
+
+
+@njit(cache=True)
+def shaped_rewards(
+    potential: np.ndarray,
+    previous: np.ndarray,
+    cost: np.ndarray,
+    success: np.ndarray,
+    jackknifed: np.ndarray,
+    failed: np.ndarray,
+    penalties: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """:func:`shaped_reward` of every row into ``out``."""
+    for i in range(out.shape[0]):
+        out[i] = shaped_reward(potential[i], previous[i], cost[i], success[i], jackknifed[i],
+                               failed[i], penalties)  # fmt: skip
