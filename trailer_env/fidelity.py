@@ -40,8 +40,8 @@ from trailer_env.substeps import (
     auto_settings,
 )
 
-#: Upper bound on fixed ``substeps``: 10,000 RK4 substeps of an
-#: 8-trailer convoy take ~5 ms; 1e8 of them took 25 s per control step.
+#: Upper bound on fixed ``substeps`` (a control step's cost grows linearly with it; the
+#: measured costs are in benchmarks/README.md, "Auto fidelity").
 MAX_FIXED_SUBSTEPS = 10_000
 
 
@@ -73,8 +73,8 @@ class IntegratorSpec:
 
 class RK4Integrator(Stepper):
     """:class:`dynamics.Stepper` holding its NaN energy targets (the default, "at the start
-    of each call") across calls: allocating them per call costs a single environment's
-    step about 1.4 us of its ~7."""
+    of each call") across calls, so that a step allocates none (what that saves a single
+    environment's step is measured in benchmarks/README.md, "Auto fidelity")."""
 
     def __init__(
         self, params: ConvoyParams, *, with_pose: bool = False, preserve_energy: bool = False
