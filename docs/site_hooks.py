@@ -96,7 +96,7 @@ def gif_section(env_id: str) -> str:
         return ""
     entries.sort(key=lambda item: item[1]["policy"] == "zero")  # the agent first
     cells = [
-        f"![{entry['policy']} on {env_id}](../img/{name}){{ width=\"320\" }}"
+        f'![{entry["policy"]} on {env_id}](../img/{name}){{ width="320" }}'
         for name, entry in entries
     ]
     captions = [_caption(entry) for _, entry in entries]
@@ -119,7 +119,7 @@ def env_page(env_id: str, env_class: type, anchors: dict[int, str]) -> str:
     core = env_class.core_class  # type: ignore[attr-defined]
     qualified = f"{env_class.__module__}.{env_class.__qualname__}"
     facts = (
-        f"`gym.make(\"{env_id}\", n_trailers=n)` · class "
+        f'`gym.make("{env_id}", n_trailers=n)` · class '
         f"[`{env_class.__qualname__}`][{qualified}] · "
         f"`max_episode_steps = {core.max_episode_steps}`"
     )
@@ -129,8 +129,7 @@ def env_page(env_id: str, env_class: type, anchors: dict[int, str]) -> str:
         parts.append(gifs)
     parts.append(link_physics(body.strip(), anchors))
     parts.append(
-        "*This page is generated at build time from the class docstring "
-        f"(`help({qualified})`).*"
+        f"*This page is generated at build time from the class docstring (`help({qualified})`).*"
     )
     return "\n\n".join(parts) + "\n"
 

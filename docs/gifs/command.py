@@ -81,7 +81,7 @@ def record(clip: Clip, policy: Policy, *, seed: int = SEED, size: int = SIZE) ->
     """Run one seeded episode under ``policy`` and keep every ``1 / (FPS dt)``-th frame."""
     env = gym.make(clip.env_id, render_mode="rgb_array", n_trailers=clip.n_trailers)
     try:
-        dt = float(env.unwrapped.settings.dt)
+        dt = float(env.unwrapped.settings.dt)  # type: ignore[attr-defined]
         every = max(1, round(1.0 / (FPS * dt)))
         max_steps = round(MAX_SECONDS / dt)
         obs, _ = env.reset(seed=seed)
@@ -127,8 +127,13 @@ def write_gif(episode: Episode, path: Path) -> None:
     durations[-1] = 1000
     path.parent.mkdir(parents=True, exist_ok=True)
     frames[0].save(
-        path, save_all=True, append_images=frames[1:], duration=durations, loop=0,
-        optimize=True, disposal=1,
+        path,
+        save_all=True,
+        append_images=frames[1:],
+        duration=durations,
+        loop=0,
+        optimize=True,
+        disposal=1,
     )
 
 
