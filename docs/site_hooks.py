@@ -65,7 +65,7 @@ def link_physics(text: str, anchors: dict[int, str]) -> str:
             return match.group(0)
         return f"[{match.group(0)}](../physics.md#{anchors[number]})"
 
-    pattern = r"`?(?:docs/)?physics\.md`?(,?\s+sections?\s+)(\d+)"
+    pattern = r"`?(?:docs/)?physics\.md`?(,?\s+sections?\s+)(\d+)(?![-\u2013\d])"
     return re.sub(pattern, repl, text)
 
 
@@ -82,7 +82,8 @@ def _caption(entry: dict[str, Any]) -> str:
         "time limit": f"reaches the time limit after {seconds:.1f} s",
         "running": f"the first {seconds:.0f} s, not terminated",
     }.get(entry["outcome"], entry["outcome"])
-    return f"`{entry['policy']}`, n = {entry['n_trailers']}, test seed {entry['seed']}: {outcome}"
+    policy, n, seed = entry["policy"], entry["n_trailers"], entry["seed"]
+    return f"<code>{policy}</code>, n = {n}, test seed {seed}: {outcome}"
 
 
 def gif_section(env_id: str) -> str:
@@ -95,20 +96,22 @@ def gif_section(env_id: str) -> str:
     if not entries:
         return ""
     entries.sort(key=lambda item: item[1]["policy"] == "zero")  # the agent first
-    cells = [
-        f'![{entry["policy"]} on {env_id}](../img/{name}){{ width="320" }}'
-        for name, entry in entries
-    ]
-    captions = [_caption(entry) for _, entry in entries]
-    heads = ["committed agent" if e["policy"] != "zero" else "zero action" for _, e in entries]
+    figures = []
+    for name, entry in entries:
+        head = "committed agent" if entry["policy"] != "zero" else "zero action"
+        figures.append(
+            '<figure markdown="span" style="margin: 0; flex: 0 1 320px">\n'
+            f'![{head}: {entry["policy"]} on {env_id}](../img/{name}){{ width="320" }}\n'
+            f"<figcaption>{head}: {_caption(entry)}</figcaption>\n"
+            "</figure>"
+        )
     return (
-        "| " + " | ".join(heads) + " |\n"
-        "|" + "---|" * len(entries) + "\n"
-        "| " + " | ".join(cells) + " |\n"
-        "| " + " | ".join(captions) + " |\n\n"
-        "*The same start under both (one frame every 0.1 s of simulated time, real time; "
-        "written by `python -m docs.gifs`). Green: far from the singular set; red: in the "
-        "singular band or folded.*\n"
+        '<div style="display: flex; flex-wrap: wrap; gap: 1rem" markdown>\n'
+        + "\n".join(figures)
+        + "\n</div>\n\n"
+        "*The same start under both (one frame every 0.1 s of simulated time, played in "
+        "real time; written by `python -m docs.gifs`). Green: far from the singular set; "
+        "red: in the singular band or folded.*\n"
     )
 
 
