@@ -125,7 +125,7 @@ class HeadingEnv(ConvoyEnv):
     steady heading by only about `mu s_max / (M a + mu b)`, 0.25 rad, per e-fold of
     speed. Large turns are therefore out of reach of the moving mass, and holding a
     small one is a timing task: the proportional baseline
-    `trailer_env.controllers.heading_policy` succeeds in most episodes (README, Agents),
+    `trailer_env.controllers.heading_policy` succeeds in most episodes (docs/results.md),
     the zero action never.
 
     The cart's heading is integrated with the state (the pose extension of
