@@ -2,9 +2,9 @@
 
 The scenes use the default :class:`dynamics.ConvoyParams` with the moving mass at
 rest at the middle of its rail, so the energy is conserved (physics.md section
-10 with s_dot = s_ddot = 0) and every integrator, the energy-preserving one
+9 with s_dot = s_ddot = 0) and every integrator, the energy-preserving one
 included, solves the same problem. States are scaled so that ``|u| = 1``: by the
-homogeneity of physics.md section 5 any other speed is a change of time unit.
+homogeneity of physics.md section 6 any other speed is a change of time unit.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ RESULTS = ROOT / "benchmarks" / "results"
 IMAGES = ROOT / "docs" / "img"
 
 SCENES = ("forward", "reversing")
-"""forward: a zig-zag convoy driving forward and straightening (stable node, section 6).
+"""forward: a zig-zag convoy driving forward and straightening (stable node, section 7).
 reversing: a nearly straight convoy backing up (unstable node): it jackknifes, the cart
 spins round and the convoy ends up driving forward."""
 

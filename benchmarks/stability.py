@@ -2,11 +2,11 @@
 
 Run with ``python -m benchmarks.stability [--quick]``.
 
-Theory. Linearised at the straight convoy moving at speed u (physics.md section 6),
+Theory. Linearised at the straight convoy moving at speed u (physics.md section 7),
 the reduced state (u, omega, alpha_1..alpha_n) has the eigenvalues 0 (the energy
 direction), lambda_0 = -(M a / I0) u (the cart's yaw) and lambda_k = -u / l
 (k = 1..n, one Jordan block: alpha_k is driven by alpha_(k-1)). With
-u = sigma_0 sqrt(2E/(M + n m)) these are the eigenvalues of section 6. A mass mu at
+u = sigma_0 sqrt(2E/(M + n m)) these are the eigenvalues of section 7. A mass mu at
 rest at (b, 0) on the cart is part of the cart: M a -> M a + mu b and
 I0 -> I0 + mu b^2. A one-step method with stability function R(z) applied to the
 linearisation multiplies each eigencomponent by R(h lambda) per step, so moving
@@ -17,7 +17,7 @@ forward (all lambda <= 0, real) it is stable iff
 both lie in the method's interval of absolute stability on the negative real axis,
 [0, x*): x* = 2.7853 for RK4 (R = 1 + z + z^2/2 + z^3/6 + z^4/24) and 3.3066 for
 DOPRI5 (R from its tableau). The energy-preserving step rescales (u, omega) by
-1 + O(perturbation^2), so it has RK4's linear limit. By the homogeneity of section 5
+1 + O(perturbation^2), so it has RK4's linear limit. By the homogeneity of section 6
 (time scales like 1/|u|) these dimensionless steps are all that matter.
 
 Measured here:
@@ -105,7 +105,7 @@ def perturbed_equilibrium(
     """The straight convoy at speed ``speed``, every angle perturbed by ``size``.
 
     omega is perturbed by ``size |u| / l`` (a rate): by the homogeneity of physics.md
-    section 5 the whole experiment then depends on h |u| only.
+    section 6 the whole experiment then depends on h |u| only.
     """
     z = np.full((1, params.n_state), size)
     z[0, 0] = speed
@@ -134,7 +134,7 @@ def decays(method: str, params: ConvoyParams, speed: float, h: float) -> bool:
 
 
 def linearisation(params: ConvoyParams, speed: float) -> np.ndarray:
-    """Jacobian of (omega, alpha_1..alpha_n) at the straight convoy (section 6; u is constant)."""
+    """Jacobian of (omega, alpha_1..alpha_n) at the straight convoy (section 7; u is constant)."""
     n = params.n_trailers
     cart, trailer = decay_rates(params, speed)
     sign = np.sign(speed)

@@ -35,7 +35,7 @@ wants that core each step can wait a scheduler time slice (measured: 8 ms).
 Reverse-v0) only the peers are measured.
 
 Outputs: ``benchmarks/results/throughput.csv``, ``benchmarks/results/throughput.md``
-(the README table) and ``docs/img/bench_throughput.png``.
+(the table of docs/benchmarks.md, "Speed and accuracy") and ``docs/img/bench_throughput.png``.
 """
 
 from __future__ import annotations
@@ -245,7 +245,7 @@ def cases(quick: bool) -> list[Case]:
                 settings: dict[str, Any] = {"n_trailers": n}
                 if fidelity == "1":
                     settings["fidelity"] = 1
-                # One thread: the kernel's threads cannot help one state (see the README).
+                # One thread: the kernel's threads cannot help one state (see docs/benchmarks.md).
                 out.append(
                     Case(
                         "cost_n",
@@ -374,7 +374,7 @@ def targets(rows: list[dict[str, Any]]) -> list[tuple[str, float, str]]:
 
 
 def markdown_table(rows: list[dict[str, Any]]) -> str:
-    """The README's table: one line per measurement, then the targets."""
+    """The table of docs/benchmarks.md: one line per measurement, then the targets."""
     lines = [
         "| kind | env | n | N | threads | fidelity | substeps per step | env steps/s |",
         "|---|---|---|---|---|---|---|---|",

@@ -159,7 +159,7 @@ def _accelerations(
     pv: np.ndarray, r_trailers: float, dr_dalpha1: float, sum_a_dr: float, u: float, w: float,
     xi: float, eta: float, xi_dot: float, eta_dot: float, xi_ddot: float, eta_ddot: float,
 ) -> tuple:  # fmt: skip
-    """(u_dot, omega_dot) for the planar moving mass (physics.md sections 3, 4 and 10)."""
+    """(u_dot, omega_dot) for the planar moving mass (physics.md sections 3, 5 and 9)."""
     M = pv[P_M]
     a = pv[P_A]
     mu = pv[P_MU]
@@ -186,7 +186,7 @@ def _energy(
     pv: np.ndarray, r_trailers: float, u: float, w: float, eta: float, xi_dot: float,
     eta_dot: float, xi: float,
 ) -> float:  # fmt: skip
-    """Kinetic energy, the mass included (physics.md section 10)."""
+    """Kinetic energy, the mass included (physics.md section 9)."""
     M = pv[P_M]
     a = pv[P_A]
     mu = pv[P_MU]
@@ -228,7 +228,7 @@ def field_row(
     eta_ddot: float,
     out: np.ndarray,
 ) -> None:
-    """d(row)/dt for the planar moving mass (physics.md sections 3, 4 and 10)."""
+    """d(row)/dt for the planar moving mass (physics.md sections 3, 5 and 9)."""
     u = row[0]
     w = row[1]
     r_trailers, dr_dalpha1, sum_a_dr = _hitch_terms(pv, row, n, out[2:])
@@ -271,7 +271,7 @@ def rhs_batch(
 
 @njit(cache=True)
 def energy_batch(pv: np.ndarray, z: np.ndarray, act: np.ndarray, n: int) -> np.ndarray:
-    """Energy of every row (physics.md section 10)."""
+    """Energy of every row (physics.md section 9)."""
     out = np.empty(z.shape[0])
     scratch = np.empty(max(n, 1))
     for i in range(z.shape[0]):

@@ -1,4 +1,4 @@
-"""Qualitative analysis of the free convoy (physics.md sections 5-8).
+"""Qualitative analysis of the free convoy (physics.md sections 6-8).
 
 Everything here is about the convoy moving by inertia: the moving mass is
 switched off (``mu`` is ignored, i.e. treated as 0: every function calls the
@@ -8,11 +8,11 @@ package's ``rhs``/``energy`` with ``params.replace(mu=0.0)``), so the energy
 
 is conserved. The module offers
 
-* the energy-torus coordinates (section 5): :func:`to_torus`, :func:`from_torus`,
+* the energy-torus coordinates (section 6): :func:`to_torus`, :func:`from_torus`,
   :func:`torus_field`;
-* the 2^(n+1) equilibria on an energy level and their eigenvalues (section 6):
+* the 2^(n+1) equilibria on an energy level and their eigenvalues (section 7):
   :func:`equilibria`, with :func:`jacobian` (central differences of ``rhs``) to check them;
-* the relative equilibria (circles) of the case a = 0 (section 7):
+* the relative equilibria (circles) of the case a = 0 (section 8):
   :func:`relative_equilibria`;
 * the one-trailer case with a = 0 (section 8): :func:`critical_energy`,
   :func:`period`, :func:`one_trailer_equilibria`, :func:`limiting_radius`,
@@ -111,12 +111,12 @@ def _reduced_state(params: ConvoyParams, z: ArrayLike) -> FloatArray:
 
 
 # ----------------------------------------------------------------------------
-# Section 5: the energy tori
+# Section 6: the energy tori
 # ----------------------------------------------------------------------------
 
 
 def to_torus(params: ConvoyParams, z: ArrayLike) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Energy-torus coordinates (E, beta, alpha) of reduced states (physics.md section 5).
+    """Energy-torus coordinates (E, beta, alpha) of reduced states (physics.md section 6).
 
     Inverts ``u = sqrt(2E/R(alpha)) cos(beta)``, ``omega = sqrt(2E/I0) sin(beta)``:
 
@@ -172,7 +172,7 @@ def _torus_arrays(
 
 
 def from_torus(params: ConvoyParams, E: ArrayLike, beta: ArrayLike, alpha: ArrayLike) -> FloatArray:
-    """Reduced state z from energy-torus coordinates (physics.md section 5, thesis 3.25).
+    """Reduced state z from energy-torus coordinates (physics.md section 6, thesis 3.25).
 
         u = sqrt(2E / R(alpha)) cos(beta),   omega = sqrt(2E / I0) sin(beta)
 
@@ -198,7 +198,7 @@ def from_torus(params: ConvoyParams, E: ArrayLike, beta: ArrayLike, alpha: Array
 def torus_field(
     params: ConvoyParams, E: ArrayLike, beta: ArrayLike, alpha: ArrayLike
 ) -> tuple[FloatArray, FloatArray]:
-    """The vector field on the energy torus (physics.md section 5, thesis 3.26-3.27).
+    """The vector field on the energy torus (physics.md section 6, thesis 3.26-3.27).
 
         beta_dot    = -(M a / I0) sqrt(2E / R(alpha)) sin(beta)
         alpha_1_dot = sqrt(2E/I0) sin(beta) - sqrt(2E/R) sin(alpha_1) cos(beta) / l
@@ -224,20 +224,20 @@ def torus_field(
 
 
 # ----------------------------------------------------------------------------
-# Section 6: equilibria and their linearisation
+# Section 7: equilibria and their linearisation
 # ----------------------------------------------------------------------------
 
 
 @dataclass(frozen=True, eq=False)
 class Equilibrium:
-    """An equilibrium of the free convoy on an energy level (physics.md section 6).
+    """An equilibrium of the free convoy on an energy level (physics.md section 7).
 
     Attributes:
         z: The state ``(u, 0, alpha_1..alpha_n)`` with ``alpha_k`` in {0, pi}.
         sigma: ``(sigma_0, sigma_1..sigma_n)``: sigma_0 = sign(u) (+1 forward),
             sigma_k = cos(alpha_k) (-1: trailer k folded onto its predecessor).
         eigenvalues: ``(lambda_0, lambda_1..lambda_n)`` of the linearisation on the
-            torus, by the closed form of section 6 (read-only array).
+            torus, by the closed form of section 7 (read-only array).
         kind: "stable node" (all eigenvalues < 0), "unstable node" (all > 0) or "saddle".
         stable: Whether the equilibrium is asymptotically stable on its energy level.
     """
@@ -284,7 +284,7 @@ def _classify(eigenvalues: FloatArray) -> str:
 
 
 def equilibria(params: ConvoyParams, E: float) -> list[Equilibrium]:
-    """All 2^(n+1) equilibria on the energy level E (physics.md section 6, Prop. 3.2.1).
+    """All 2^(n+1) equilibria on the energy level E (physics.md section 7, Prop. 3.2.1).
 
     omega = 0, sin(alpha_k) = 0 and u = sigma_0 sqrt(2E / (M + n m)). The kind
     follows from the signs of the eigenvalues, so it is right for any a != 0:
@@ -361,13 +361,13 @@ def jacobian(params: ConvoyParams, z: ArrayLike, eps: float = 1e-6) -> FloatArra
 
 
 # ----------------------------------------------------------------------------
-# Section 7: a = 0, relative equilibria
+# Section 8: a = 0, relative equilibria
 # ----------------------------------------------------------------------------
 
 
 @dataclass(frozen=True, eq=False)
 class RelativeEquilibrium:
-    """A relative equilibrium of the a = 0 convoy: the cart runs on a circle (section 7).
+    """A relative equilibrium of the a = 0 convoy: the cart runs on a circle (section 8).
 
     Attributes:
         z: ``(u0, omega0, alpha_1..alpha_n)``, a fixed point of the reduced equations.
@@ -385,7 +385,7 @@ def _hitch_angles_on_circle(n: int, ratio: float, sigma: tuple[int, ...]) -> Flo
     """Hitch angles with prod_{j<k} cos(alpha_j) sin(alpha_k) = ratio = l omega0 / u0 (3.32).
 
     sin(alpha_k) = ratio / prod_{j<k} cos(alpha_j) and cos(alpha_k) = sigma_k sqrt(1 - sin^2);
-    then sin^2(alpha_k) = l^2 omega0^2 / (u0^2 - (k-1) l^2 omega0^2) (physics.md section 7).
+    then sin^2(alpha_k) = l^2 omega0^2 / (u0^2 - (k-1) l^2 omega0^2) (physics.md section 8).
     """
     alpha = np.empty(n)
     prefix_cos = 1.0
@@ -402,7 +402,7 @@ def _hitch_angles_on_circle(n: int, ratio: float, sigma: tuple[int, ...]) -> Flo
 def relative_equilibria(
     params: ConvoyParams, u0: float, omega0: float
 ) -> list[RelativeEquilibrium]:
-    """Relative equilibria with u = u0, omega = omega0 when a = 0 (physics.md section 7).
+    """Relative equilibria with u = u0, omega = omega0 when a = 0 (physics.md section 8).
 
     They exist iff n l^2 omega0^2 <= u0^2 (thesis 3.31), with
 
@@ -429,7 +429,7 @@ def relative_equilibria(
     free = free_params(params)
     if free.a != 0.0:
         raise ValueError(
-            f"relative_equilibria needs a = 0 (physics.md section 7), got a = {free.a}"
+            f"relative_equilibria needs a = 0 (physics.md section 8), got a = {free.a}"
         )
     speed = _finite_scalar(u0, "u0")
     turn = _finite_scalar(omega0, "omega0")

@@ -3,7 +3,7 @@
 The energy-preserving variant applies, after every RK4 substep, the exact
 rescaling ``(u, omega) <- c (u, omega)`` that restores the initial energy. It
 is exact because, at fixed alpha and with the mass at rest on the cart, E is a
-positive-definite quadratic form in (u, omega) (physics.md section 5); so it
+positive-definite quadratic form in (u, omega) (physics.md section 4); so it
 is offered only where the energy is conserved: ``mu = 0``, or a mass that does
 not move relative to the cart.
 """

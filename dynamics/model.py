@@ -1,4 +1,4 @@
-"""Reduced equations of motion and energy (physics.md sections 3, 4, 5 and 10).
+"""Reduced equations of motion and energy (physics.md sections 3, 4, 5 and 9).
 
 The reduced state is ``z = (u, omega, alpha_1, ..., alpha_n)`` with any leading
 batch axes. Wherever a state is accepted, the extended state
@@ -235,7 +235,7 @@ def energy(
     """Kinetic energy of the convoy and the mass on the rail, shape ``z.shape[:-1]``.
 
     E = (R u^2 + I0 omega^2 + mu ((u - omega s)^2 + (omega b + s_dot)^2)) / 2;
-    with mu = 0 it is the conserved energy of physics.md section 5.
+    with mu = 0 it is the conserved energy of physics.md section 4.
     """
     array, _ = check_state(params, z)
     act = rail_actuator(params, array.shape[:-1], s, s_dot, 0.0)

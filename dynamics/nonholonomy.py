@@ -1,4 +1,4 @@
-"""Degree of nonholonomy of the convoy's constraint distribution (physics.md section 9).
+"""Degree of nonholonomy of the convoy's constraint distribution (physics.md section 10).
 
 The configuration space has coordinates ``(x, y, theta, alpha_1..alpha_n)`` and the
 admissible velocities are spanned by

@@ -1,4 +1,4 @@
-"""Singular and folded configurations (physics.md section 9)."""
+"""Singular and folded configurations (physics.md section 10)."""
 
 from __future__ import annotations
 

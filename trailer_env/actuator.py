@@ -1,6 +1,6 @@
 """The moving-mass actuator: action modes, the position servo and the end-of-rail guard.
 
-The mass moves on a rail of half-length ``s_max`` (physics.md section 10). Its
+The mass moves on a rail of half-length ``s_max`` (physics.md section 9). Its
 acceleration is what enters the dynamics; it is held constant over each control
 period ``dt`` (zero-order hold), so within a period the mass's position is an
 exact quadratic in time, which :class:`dynamics.Stepper` integrates exactly.

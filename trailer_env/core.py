@@ -377,7 +377,7 @@ class ConvoyCore:
     def actuator_work(self) -> np.ndarray:
         """Work done by the actuator since the reset, E - E(reset) (J).
 
-        The energy's rate of change is the actuator's power (physics.md section 10),
+        The energy's rate of change is the actuator's power (physics.md section 9),
         so the energy change is the integral of that power; the difference is the
         integrator's error, bounded per step by the fidelity's tolerance (default 1e-4,
         typically ~100 times smaller; see :mod:`trailer_env.substeps`).

@@ -39,8 +39,8 @@ from trailer_env.substeps import (
     auto_settings,
 )
 
-#: Upper bound on fixed ``substeps``: 10,000 RK4 substeps of an
-#: 8-trailer convoy take ~5 ms; 1e8 of them took 25 s per control step.
+#: Upper bound on fixed ``substeps`` (a control step's cost grows linearly with it; the
+#: measured costs are in benchmarks/README.md, "Auto fidelity").
 MAX_FIXED_SUBSTEPS = 10_000
 
 

@@ -6,7 +6,7 @@ keyword arguments of ``gym.make`` (``n_trailers``, ``dt``, ConvoyParams field
 overrides such as ``mu=0.4`` ...) into settings.
 
 Default parameters are :class:`dynamics.ConvoyParams`' own; how its actuator was
-sized for the scenes is in docs/physics.md ("Sizing the actuator").
+sized for the scenes is in docs/physics.md section 9 ("Sizing the actuator").
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Independent full-coordinate oracle for the n-trailer convoy with a moving mass.
 
 This module re-derives the equations of motion from scratch, without importing
-``dynamics`` and without using any formula of physics.md sections 3-4 or 10
+``dynamics`` and without using any formula of physics.md sections 3-5 or 9
 other than the geometry of the bodies:
 
 * Full coordinates ``q = (x, y, theta_0, theta_1, ..., theta_n)``: cart axle

@@ -213,7 +213,7 @@ def test_failures_are_reported_per_row() -> None:
 
 
 def test_chaplygin_sleigh_spirals_to_a_line() -> None:
-    """n = 0 with a > 0: omega decays, u tends to sqrt(2E/M) (physics.md sections 4 and 6)."""
+    """n = 0 with a > 0: omega decays, u tends to sqrt(2E/M) (physics.md sections 5 and 7)."""
     params = ConvoyParams(n_trailers=0, mu=0.0)
     z0 = np.array([0.5, 1.0])
     e0 = float(energy(params, z0))

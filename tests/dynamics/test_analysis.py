@@ -1,4 +1,4 @@
-"""Numerical checks of dynamics.analysis against physics.md sections 5-8.
+"""Numerical checks of dynamics.analysis against physics.md sections 6-8.
 
 Every stated result is checked against something computed independently of
 the formula being tested: the chain rule through ``rhs``, numerical Jacobians,
@@ -55,7 +55,7 @@ def _wrap(angle: np.ndarray) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------
-# Section 5: energy tori
+# Section 6: energy tori
 # ----------------------------------------------------------------------------
 
 
@@ -82,7 +82,7 @@ def test_torus_round_trip(n: int) -> None:
 def _torus_field_oracle(
     p: ConvoyParams, E: np.ndarray, beta: np.ndarray, alpha: np.ndarray
 ) -> np.ndarray:
-    """alpha_dot on the torus written out from physics.md section 5 (independent of rhs)."""
+    """alpha_dot on the torus written out from physics.md section 6 (independent of rhs)."""
     R = inertia_R(p, alpha)
     speed, spin = np.sqrt(2 * E / R), np.sqrt(2 * E / p.I0)
     n = alpha.shape[-1]
@@ -174,7 +174,7 @@ def test_homogeneity_of_the_flow() -> None:
 
 
 # ----------------------------------------------------------------------------
-# Section 6: equilibria
+# Section 7: equilibria
 # ----------------------------------------------------------------------------
 
 
@@ -288,7 +288,7 @@ def test_equilibria_mu_is_ignored_and_fields_frozen() -> None:
 
 
 # ----------------------------------------------------------------------------
-# Section 7: a = 0
+# Section 8: a = 0
 # ----------------------------------------------------------------------------
 
 
@@ -442,7 +442,7 @@ def test_equilibria_above_critical_energy() -> None:
             z = _circle_state(free, E, OMEGA0, alpha)
             assert float(np.max(np.abs(rhs(free, z)))) < 1e-14
             assert z[0] == pytest.approx(free.l * OMEGA0 / math.sin(alpha), rel=1e-14)
-            # They are the relative equilibria of section 7 with this speed.
+            # They are the relative equilibria of section 8 with this speed.
             rel = next(r for r in an.relative_equilibria(ONE, z[0], OMEGA0) if r.sigma == (sign,))
             assert rel.z[2] == pytest.approx(alpha, rel=1e-14)
             # 1-D linearisation along the invariant circle; closed form

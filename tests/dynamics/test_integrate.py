@@ -48,7 +48,7 @@ def test_preserve_energy_refuses_a_moving_mass() -> None:
 def _rail_power(
     params: ConvoyParams, z: np.ndarray, s: np.ndarray, s_dot: np.ndarray, s_ddot: float
 ) -> np.ndarray:
-    """F_rail s_dot, F_rail = mu (b omega_dot + s_ddot + omega u - omega^2 s) (physics.md s. 10)."""
+    """F_rail s_dot, F_rail = mu (b omega_dot + s_ddot + omega u - omega^2 s) (physics.md s. 9)."""
     z_dot = rhs(params, z, s, s_dot, s_ddot)
     u, omega, omega_dot = z[..., 0], z[..., 1], z_dot[..., 1]
     force = params.mu * (params.b * omega_dot + s_ddot + omega * u - omega**2 * s)

@@ -1,4 +1,4 @@
-"""Degree of nonholonomy (physics.md section 9), checked against independent computations.
+"""Degree of nonholonomy (physics.md section 10), checked against independent computations.
 
 The oracle here shares nothing with ``dynamics.nonholonomy`` but the definition of the
 fields: it works in the full coordinates ``(x, y, theta, alpha_1..alpha_n)`` (no SE(2)

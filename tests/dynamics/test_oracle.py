@@ -2,7 +2,7 @@
 
 The oracle derives the equations of motion from the bodies' kinetic energies and
 the no-slip constraints with Lagrange multipliers; it shares nothing with
-``dynamics`` or with physics.md sections 3-4 and 10 beyond the geometry.
+``dynamics`` or with physics.md sections 3-5 and 9 beyond the geometry.
 """
 
 from __future__ import annotations
@@ -369,7 +369,7 @@ def test_energy_matches_oracle(n: int) -> None:
 def _section10_power_planar(
     p: ConvoyParams, z: np.ndarray, zdot: np.ndarray, act: tuple[float, ...]
 ) -> float:
-    """mu (a_x xi_dot + a_y eta_dot) with a_x, a_y of physics.md section 10."""
+    """mu (a_x xi_dot + a_y eta_dot) with a_x, a_y of physics.md section 9."""
     xi, eta, xi_d, eta_d, xi_dd, eta_dd = act
     u, w = z[0], z[1]
     u_d, w_d = zdot[0], zdot[1]
@@ -400,7 +400,7 @@ def test_energy_balance_planar(n: int) -> None:
 def test_energy_balance_rail(n: int) -> None:
     """d/dt energy along rhs = F_rail s_dot.
 
-    F_rail = mu (b omega_dot + s_ddot + omega u - omega^2 s), physics.md section 10.
+    F_rail = mu (b omega_dot + s_ddot + omega u - omega^2 s), physics.md section 9.
     """
     for rng, i, p, z in _random_cases(10, n):
         s, s_dot, s_ddot = _draw_rail(rng)

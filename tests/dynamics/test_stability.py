@@ -1,7 +1,7 @@
 """Measured stability limits of the integrators against linear stability theory.
 
 How the dimensionless step maps to the eigenvalues. Linearised at the straight
-convoy moving at speed u (physics.md section 6; here u = sigma_0 sqrt(2E/(M + n m)))
+convoy moving at speed u (physics.md section 7; here u = sigma_0 sqrt(2E/(M + n m)))
 the reduced state (u, omega, alpha_1..alpha_n) has eigenvalues
 
     0 (along the energy),  lambda_0 = -(M a / I0) u,  lambda_k = -u / l  (k = 1..n).
@@ -13,7 +13,7 @@ iff |R(-x)| < 1 for both dimensionless steps
     x_trailer = h |u| / l = h |lambda_k|,   x_cart = h M a |u| / I0 = h |lambda_0|,
 
 that is iff max(x_trailer, x_cart) < x*, with x* = 2.7853 for RK4 and 3.3066 for
-DOPRI5 (the roots of |R(-x)| = 1). By the homogeneity of section 5 (time scales
+DOPRI5 (the roots of |R(-x)| = 1). By the homogeneity of section 6 (time scales
 like 1/sqrt(E)), only these products matter: doubling |u| halves the largest stable h.
 A mass mu at rest at (b, 0) rides with the cart: M a -> M a + mu b, I0 -> I0 + mu b^2.
 

@@ -187,12 +187,12 @@ class CoastEnv(ConvoyEnv):
     mass on a lateral rail of the cart; physics.md sections 1-10) starts from a random
     coasting state: moving forwards or backwards at a random speed, turning, its hitch
     angles up to 0.5 rad forwards, 0.1 rad backwards. Forwards, a straight convoy is a
-    stable node (physics.md section 6) and the convoy straightens by itself; backwards
+    stable node (physics.md section 7) and the convoy straightens by itself; backwards
     it is an unstable node, and the hitch angles grow unless the mass steers the cart.
     The agent must bring
     the convoy to a straight configuration, every hitch angle and the turning rate
     small, without passing near a singular configuration (two consecutive bodies
-    nearly perpendicular, section 9) and without folding.
+    nearly perpendicular, physics.md section 10) and without folding.
 
     ## Action Space
 

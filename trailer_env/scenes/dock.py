@@ -145,7 +145,7 @@ class DockEnv(ConvoyEnv):
     straight, reversing, the cart at the origin heading along x. A dock, a target pose
     (x, y, heading) for the axle midpoint of the last trailer (of the cart when n = 0),
     lies 4-6 m behind, up to 0.5 m to the side. The agent must keep the reversing
-    convoy from folding (an unstable node, physics.md section 6) and steer it onto the
+    convoy from folding (an unstable node, physics.md section 7) and steer it onto the
     dock, using only the moving mass: the n-trailer form of the truck backer-upper.
 
     This is the only scene that tracks plane poses: the cart's pose is integrated with

@@ -110,10 +110,10 @@ class HeadingEnv(ConvoyEnv):
     mass on a lateral rail of the cart; physics.md sections 1-10) coasts forwards,
     nearly straight, the cart heading along x. The agent must turn the cart to a target
     heading and hold it there for 1 s, without passing near a singular configuration
-    (two consecutive bodies nearly perpendicular, section 9) or folding.
+    (two consecutive bodies nearly perpendicular, physics.md section 10) or folding.
 
     Why the targets are small (0.05-0.15 rad). The rail equations of physics.md
-    section 10 give exactly
+    section 9 give exactly
 
         d/dt [ (I0 + mu (b^2 + s^2)) omega + mu b s_dot ] = -(M a + mu b) u omega + mu s u_dot,
 
@@ -125,7 +125,7 @@ class HeadingEnv(ConvoyEnv):
     steady heading by only about `mu s_max / (M a + mu b)`, 0.25 rad, per e-fold of
     speed. Large turns are therefore out of reach of the moving mass, and holding a
     small one is a timing task: the proportional baseline
-    `trailer_env.controllers.heading_policy` succeeds in most episodes (README, Agents),
+    `trailer_env.controllers.heading_policy` succeeds in most episodes (docs/results.md),
     the zero action never.
 
     The cart's heading is integrated with the state (the pose extension of

@@ -174,16 +174,16 @@ class ReverseEnv(ConvoyEnv):
     ahead by a rod of length ``l``; every axle's wheels forbid sideways slip. Nothing
     drives the wheels: the convoy coasts, its kinetic energy changed only by the one
     actuator, a point mass ``mu`` that the cart carries on a lateral rail ``b`` ahead of
-    its axle (physics.md section 10). Moving the mass perturbs the cart's turning rate
+    its axle (physics.md section 9). Moving the mass perturbs the cart's turning rate
     through the moving-mass term ``-mu b s_ddot``.
 
     The episode starts with the convoy nearly straight and moving backwards. A straight
-    convoy reversing is an unstable node of the dynamics (physics.md section 6): the
+    convoy reversing is an unstable node of the dynamics (physics.md section 7): the
     cart's turning rate and every hitch angle grow exponentially, at rates of about
     ``|u| / l``, which is why backing up a trailer is hard. Left alone the convoy folds
     (jackknifes) within about three seconds. The agent must keep every hitch angle
     small and out of the singular band (two consecutive bodies nearly perpendicular,
-    physics.md section 9) for the whole episode. The actuator's authority is small: a
+    physics.md section 10) for the whole episode. The actuator's authority is small: a
     full stroke of the mass turns the cart by about 0.5 rad, and only while the mass
     moves (see Heading-v0), so perturbations must be caught early. The linear
     controller of `trailer_env.controllers` keeps about two thirds of the two-trailer
@@ -231,7 +231,7 @@ class ReverseEnv(ConvoyEnv):
     ## Episode End
 
     Terminated, as a failure, when the convoy jackknifes (any `|alpha_k| >= fold_angle`,
-    default pi/2, physics.md section 9) or stops reversing (`u >= 0`: the mass can brake
+    default pi/2, physics.md section 10) or stops reversing (`u >= 0`: the mass can brake
     the convoy and push it forwards, where it is stable, which escapes the task rather
     than solving it). Truncated after 400 steps (20 s at the default `dt = 0.05`),
     by `gym.make`'s TimeLimit or by the vector env.

@@ -62,31 +62,28 @@ class ReverseV1Env(ReverseEnv):
     speed, so that the task has a known ceiling: every test start is recoverable by
     some controller with margin on the rail's stroke, and a planner that knows the
     model (`agents.planner`, baseline `mpc`) certifies it (`python -m agents.certify`).
-    Reverse-v0 stays registered unchanged: about 15 % of its two-trailer starts and
-    half of its three-trailer starts are not recoverable at all (docs/physics.md
-    section 14).
+    Reverse-v0 stays registered unchanged; a part of its starts cannot be recovered at
+    all, which caps its score (the measured shares: docs/physics.md section 14).
 
     ## What sets the basin
 
     Linearised about the straight reversing convoy (`agents.screen`), the mass acts
     only through its acceleration: `omega_dot = ... - k s_ddot` with
-    `k = mu b / (I0 + mu b^2)` (0.53 rad/m with the defaults: a full stroke `2 s_max`
-    turns the cart by 0.53 rad while the mass moves), and not through its position.
-    The convoy has n + 1 unstable modes, at about `|u| / l` per trailer (a repeated
-    eigenvalue: identical trailers form a Jordan block, so every trailer adds a
-    condition to meet) and one for the cart's turning. The smallest stroke that
-    brings them to zero (the screen's linear programme, with the rail's speed and
-    acceleration bounds) is proportional to the perturbation's size, and per unit
-    of perturbation it grows with n: with hitch angles and turning rate uniform in
-    +-0.015 the hardest of 100 starts needs 0.20, 0.47 and 0.83 of `s_max` for
-    n = 1, 2, 3. It depends on the speed non-monotonically: for the same
-    perturbation it is smallest near 1-1.5 m/s and two to three times larger at 0.5 m/s (a
-    turning rate is a curvature `omega / u`, larger when slower; faster, the rail's
-    speed and acceleration bounds bind). So slowing down does not make the task
-    easier, and stopping would escape it: the minimum reversing speed keeps the
-    task what its name says. The actuator's parameters (`mu`, `b`, `s_max`,
-    `rail_accel_max`) and the rod length keep their defaults, which every consumer
-    that builds settings from keyword arguments shares.
+    `k = mu b / (I0 + mu b^2)`, and not through its position: a full stroke `2 s_max`
+    turns the cart by `2 k s_max` while the mass moves. The convoy has n + 1 unstable
+    modes, at about `|u| / l` per trailer (a repeated eigenvalue: identical trailers
+    form a Jordan block, so every trailer adds a condition to meet) and one for the
+    cart's turning. The smallest stroke that brings them to zero (the screen's linear
+    programme, with the rail's speed and acceleration bounds) is proportional to the
+    perturbation's size, and per unit of perturbation it grows with n. It depends on
+    the speed non-monotonically (a turning rate is a curvature `omega / u`, larger when
+    slower; faster, the rail's speed and acceleration bounds bind), so slowing down
+    does not make the task easier, and stopping would escape it: the minimum
+    reversing speed keeps the task what its name says. The measured strokes, per n
+    and per speed, are in docs/physics.md section 14 ("What sets the basin"). The
+    actuator's parameters (`mu`, `b`, `s_max`, `rail_accel_max`) and the rod length
+    keep their defaults, which every consumer that builds settings from keyword
+    arguments shares.
 
     ## Starting State
 
