@@ -102,3 +102,62 @@ def markdown(certificate: dict[str, Any]) -> str:
             f"| {start['seed']} | {start['status']} | {stroke} | {start['planner_length']} |"
         )
     return "\n".join(lines) + "\n"
+
+
+#: Largest action record accepted (steps x action dimensions): Reverse's 400 steps.
+_MAX_RECORD = 100_000
+
+
+def actions_path(env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR) -> Path:
+    """Where the committed action records of a certificate live: ``<scene>_n<n>_actions.npz``
+    (one float64 array ``seed_<seed>`` per feasible start, one action per step)."""
+    path = certificate_path(env_id, n_trailers, directory)
+    return path.with_name(path.stem + "_actions.npz")
+
+
+def write_actions(actions: dict[int, np.ndarray], path: Path) -> Path:
+    """Write the action records of a certificate as one ``.npz`` (no pickles)."""
+    arrays = {
+        f"seed_{seed}": np.asarray(sequence, dtype=np.float64)
+        for seed, sequence in actions.items()
+    }
+    temporary = path.with_name(f".{path.name}.tmp.npz")
+    np.savez_compressed(temporary, **arrays)  # type: ignore[arg-type]
+    temporary.replace(path)
+    return path
+
+
+def committed_actions(
+    env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR
+) -> dict[int, np.ndarray] | None:
+    """The committed action records of ``env_id`` with ``n_trailers`` (seed -> (T, d)
+    float64 actions in [-1, 1]), or None when none are committed.
+
+    Read with ``allow_pickle=False``: the file holds numbers only.
+
+    Raises:
+        ValueError: If the file holds anything but finite records in [-1, 1] named
+            ``seed_<int>``.
+    """
+    path = actions_path(env_id, n_trailers, directory)
+    if not path.is_file():
+        return None
+    records: dict[int, np.ndarray] = {}
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            for key in archive.files:
+                prefix, _, digits = key.partition("_")
+                if prefix != "seed" or not digits.isdigit():
+                    raise ValueError(f"{path}: unexpected entry {key!r}")
+                info = archive.zip.getinfo(f"{key}.npy")
+                if info.file_size > 8 * _MAX_RECORD + 1024:
+                    raise ValueError(f"{path}: entry {key!r} is larger than any episode")
+                record = np.asarray(archive[key])
+                if record.dtype != np.float64 or record.ndim not in (1, 2):
+                    raise ValueError(f"{path}: entry {key!r} is not a float64 action record")
+                if not np.all(np.isfinite(record)) or np.any(np.abs(record) > 1.0):
+                    raise ValueError(f"{path}: entry {key!r} holds actions outside [-1, 1]")
+                records[int(digits)] = record.reshape(len(record), -1)
+    except (OSError, KeyError) as error:
+        raise ValueError(f"{path} is not an action-record archive: {error}") from None
+    return records

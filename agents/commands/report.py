@@ -1,18 +1,22 @@
-"""The results of the README: every scene's baselines and committed agents, tables and pictures.
+"""The results pages: every scene's baselines and committed agents, tables and pictures.
 
-Run with ``python -m agents.report [--img docs/img] [--out out/report] [--episodes 100]``.
+Run with ``python -m agents.report [--out out/report] [--docs docs] [--episodes 100]``.
 
 For every scene and number of trailers that a committed model was trained on it
 evaluates the scene's baselines, its oracle (the ``mpc`` planner, where the scene has
 one; ``--no-planner`` leaves it out) and every committed model (``agents/models/``,
 with its training seeds from ``agents/models/seeds/``) on the same seeded episodes
 (seeds 1000 ..), prints one Markdown table per scene with its ceiling line
-(:func:`agents.oracles.certify.ceiling_note`; also written to ``<out>/tables.md`` with the
-JSON results), and writes the pictures ``agents_curves.png`` (learning curves of all
+(:func:`agents.oracles.certify.ceiling_note`), and writes ``<out>/tables.md``,
+``<out>/results.json`` and the pictures ``agents_curves.png`` (learning curves of all
 committed agents), ``agents_margins_reverse_v1_n2.png`` and
-``agents_frames_reverse_v1_n2.png`` to ``--img``. A last table sweeps the actuator's
-authority (stroke, acceleration bound, mass) under the LQR baseline. With the planner
-it takes about three minutes on two cores, about one without.
+``agents_frames_reverse_v1_n2.png`` to ``<out>/img``. A last table sweeps the
+actuator's authority (stroke, acceleration bound, mass) under the LQR baseline.
+
+By default it writes nothing that git tracks. ``--docs DIR`` (the site's folder,
+``docs``) also writes the tables to ``DIR/generated/results_tables.md``, which the
+results page includes, and the pictures to ``DIR/img``. Its time on this machine is in
+the docs (Reproduce); progress goes to standard error.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ import json
 import time
 from pathlib import Path
 
+from agents.artifacts.files import write_text
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
 from agents.envs import scene_baselines
@@ -37,6 +42,7 @@ from agents.evaluation.results import (
 from agents.evaluation.tables import markdown_table
 from agents.oracles.certify import ceiling_note
 from agents.policies.sb3 import limit_torch_threads
+from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
 
 
@@ -45,56 +51,84 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="python -m agents.report", description=(__doc__ or "").split("\n")[0]
     )
-    parser.add_argument("--img", type=Path, default=Path("docs/img"), help="picture folder")
-    parser.add_argument("--out", type=Path, default=Path("out/report"), help="tables and JSON")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("out/report"),
+        help="tables, JSON and img/ (default out/report)",
+    )
+    parser.add_argument(
+        "--docs",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help="also write the site's generated tables and pictures under DIR (e.g. docs)",
+    )
     cli.add_episodes(parser, 100, "episodes per policy (default 100)")
     parser.add_argument(
         "--no-planner", action="store_true", help="leave the scenes' oracle (mpc) out"
     )
     args = parser.parse_args(argv)
+    cli.check_out_folder(parser, args.out)
+    if args.docs is not None:
+        cli.check_out_folder(parser, args.docs, "--docs")
+    img = args.out / "img" if args.docs is None else args.docs / "img"
     limit_torch_threads()
     started = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)
+    img.mkdir(parents=True, exist_ok=True)
     sections, documents, panels = [], [], []
-    for env_id, n in SCENARIOS:
-        env_kwargs = {"n_trailers": n}
-        oracles = [] if args.no_planner else list(scene_baselines(env_id, oracles=True))
-        oracles = [name for name in oracles if name not in default_baselines(env_id)]
-        models = [str(path) for path in committed_models(env_id, n)]
-        specs = [*default_baselines(env_id), *oracles, *models]
-        evaluations = evaluate_policies(specs, env_id, env_kwargs, args.episodes, TEST_SEED)
-        heading = (
-            f"{env_id}, n = {n}: {args.episodes} episodes, seeds "
-            f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}"
-        )
-        ceiling = ceiling_note(env_id, n, args.episodes, TEST_SEED)
-        table = markdown_table(evaluations, curve_metric(env_id))
-        sections.append(f"#### {heading}\n\n{table}\n{ceiling}\n")
-        documents.append(
-            results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
-        )
-        panels.append(curve_panel(env_id, n, evaluations))
-        print(sections[-1], flush=True)
-        if (env_id, n) == HEADLINE:
-            for path in write_pictures(
-                evaluations, env_id, env_kwargs, args.img, TEST_SEED, prefix="agents_"
-            ):
-                if path.name == "agents_curves.png":
-                    path.unlink()  # replaced by the grid of every scenario below
-                    continue
-                final = path.with_name(path.stem + "_reverse_v1_n2.png")
-                path.replace(final)
-                print(f"wrote {final}")
-    sweep = authority_table(args.episodes)
+    with Progress(len(SCENARIOS) + 1, "report") as bar:
+        for env_id, n in SCENARIOS:
+            env_kwargs = {"n_trailers": n}
+            oracles = [] if args.no_planner else list(scene_baselines(env_id, oracles=True))
+            oracles = [name for name in oracles if name not in default_baselines(env_id)]
+            models = [str(path) for path in committed_models(env_id, n)]
+            specs = [*default_baselines(env_id), *oracles, *models]
+            evaluations = evaluate_policies(
+                specs, env_id, env_kwargs, args.episodes, TEST_SEED, progress=False
+            )
+            heading = (
+                f"{env_id}, n = {n}: {args.episodes} episodes, seeds "
+                f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}"
+            )
+            ceiling = ceiling_note(env_id, n, args.episodes, TEST_SEED)
+            table = markdown_table(evaluations, curve_metric(env_id))
+            sections.append(f"#### {heading}\n\n{table}\n{ceiling}\n")
+            documents.append(
+                results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
+            )
+            panels.append(curve_panel(env_id, n, evaluations))
+            print(sections[-1], flush=True)
+            if (env_id, n) == HEADLINE:
+                for path in write_pictures(
+                    evaluations, env_id, env_kwargs, img, TEST_SEED, prefix="agents_"
+                ):
+                    if path.name == "agents_curves.png":
+                        path.unlink()  # replaced by the grid of every scenario below
+                        continue
+                    final = path.with_name(path.stem + "_reverse_v1_n2.png")
+                    path.replace(final)
+                    print(f"wrote {final}")
+            bar.advance(f"{env_id}, n = {n}")
+        sweep = authority_table(args.episodes)
+        bar.advance("actuator sweep")
     sections.append(f"#### LQR on Reverse-v0 as the actuator gets stronger\n\n{sweep}")
     print(sections[-1], flush=True)
     grid = plots.plot_curve_grid(
-        [panel for panel in panels if panel[1]], args.img / "agents_curves.png"
+        [panel for panel in panels if panel[1]], img / "agents_curves.png"
     )
     print(f"wrote {grid}")
-    (args.out / "tables.md").write_text("\n".join(sections))
-    (args.out / "results.json").write_text(json.dumps(documents, indent=2, sort_keys=True) + "\n")
-    print(f"wrote {args.out / 'tables.md'} in {time.perf_counter() - started:.0f} s")
+    tables = "\n".join(sections)
+    write_text(args.out / "tables.md", tables)
+    write_text(args.out / "results.json", json.dumps(documents, indent=2, sort_keys=True) + "\n")
+    print(f"wrote {args.out / 'tables.md'} and results.json")
+    if args.docs is not None:
+        generated = args.docs / "generated"
+        generated.mkdir(parents=True, exist_ok=True)
+        write_text(generated / "results_tables.md", tables)
+        print(f"wrote {generated / 'results_tables.md'}")
+    print(f"report done in {duration(time.perf_counter() - started)}")
     return 0
 
 

@@ -59,7 +59,10 @@ def write_pictures(
     for evaluation in evaluations:
         if evaluation.label == "random":
             continue
-        policy = evaluation.policy or load_policy(evaluation.spec, env_id, env_kwargs, seed=seed)
+        # A model is stateless and reused; a baseline is built afresh, since some keep
+        # state across calls (the random generator, a replay's step count).
+        policy = evaluation.policy if is_model_spec(evaluation.spec) else None
+        policy = policy or load_policy(evaluation.spec, env_id, env_kwargs, seed=seed)
         rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
     if rows:
         written.append(plots.plot_frames(rows, out / f"{prefix}frames.png"))

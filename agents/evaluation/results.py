@@ -19,6 +19,7 @@ from agents.policies.registry import (
     model_card,
     policy_label,
 )
+from agents.progress import Progress
 from agents.seeds import TEST_SEED
 
 
@@ -93,6 +94,7 @@ def evaluate_policies(
     trust_pickle: bool = False,
     force: bool = False,
     with_seeds: bool = True,
+    progress: bool = True,
 ) -> list[Evaluation]:
     """Evaluate each policy spec on the same ``episodes`` seeded episodes.
 
@@ -100,24 +102,35 @@ def evaluate_policies(
         trust_pickle, force: As for :func:`agents.policies.registry.load_policy`.
         with_seeds: Also evaluate every training seed of a committed model
             (:func:`seed_models`) on the same episodes.
+        progress: Report each policy's evaluation on standard error
+            (:class:`agents.progress.Progress`).
     """
     evaluations = []
     loaded = load_policies(specs, env_id, env_kwargs, seed, trust_pickle=trust_pickle, force=force)
-    for spec, policy in loaded:
-        results = rollout(policy, env_id, episodes, seed, env_kwargs)
-        siblings = seed_models(spec) if with_seeds else []
-        seed_summaries = None
-        if siblings:
-            seed_summaries = []
-            for sibling, sibling_policy in load_policies(
-                [str(path) for path in siblings], env_id, env_kwargs, seed,
-                trust_pickle=trust_pickle, force=force,
-            ):  # fmt: skip
-                sibling_results = rollout(sibling_policy, env_id, episodes, seed, env_kwargs)
-                seed_summaries.append((model_card(sibling).get("seed"), summarize(sibling_results)))
-        evaluations.append(
-            Evaluation(policy_label(spec), spec, model_card(spec), results, policy, seed_summaries)
-        )
+    siblings = {spec: seed_models(spec) if with_seeds else [] for spec, _ in loaded}
+    total = len(loaded) + sum(len(paths) for paths in siblings.values())
+    with Progress(total, f"evaluating on {env_id}", quiet=not progress) as bar:
+        for spec, policy in loaded:
+            results = rollout(policy, env_id, episodes, seed, env_kwargs)
+            bar.advance(policy_label(spec))
+            seed_summaries = None
+            if siblings[spec]:
+                seed_summaries = []
+                for sibling, sibling_policy in load_policies(
+                    [str(path) for path in siblings[spec]], env_id, env_kwargs, seed,
+                    trust_pickle=trust_pickle, force=force,
+                ):  # fmt: skip
+                    sibling_results = rollout(
+                        sibling_policy, env_id, episodes, seed, env_kwargs
+                    )
+                    card = model_card(sibling)
+                    seed_summaries.append((card.get("seed"), summarize(sibling_results)))
+                    bar.advance(policy_label(sibling))
+            evaluations.append(
+                Evaluation(
+                    policy_label(spec), spec, model_card(spec), results, policy, seed_summaries
+                )
+            )
     return evaluations
 
 

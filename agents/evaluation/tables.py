@@ -10,6 +10,8 @@ from agents.evaluation.results import Evaluation
 
 def oracle_note(label: str, episode_steps: int = 400) -> str:
     """What the table says in the training column of a baseline ("-" unless an oracle)."""
+    if label == "mpc-replay":
+        return "oracle: the certified planner's committed records, replayed open-loop"
     if label != "mpc":
         return "-"
     from agents.oracles.planner import PlannerConfig

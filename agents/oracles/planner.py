@@ -239,11 +239,14 @@ class SamplingPlanner:
             [core.z[:, 1], core.z[:, 2 : 2 + n], core.act[:, 1], core.act[:, 3]]
         )
         accel = -np.sum(gains * state, axis=1)
-        if settings.action_mode == "accel":
-            return accel / settings.rail_accel_max
-        frequency = settings.servo_frequency
-        target = core.act[:, 1] + (accel + 4.0 * frequency * core.act[:, 3]) / (4.0 * frequency**2)
-        return target / settings.params.s_max
+        return settings.actuator.command_for_accel(
+            accel,
+            core.act[:, 1],
+            core.act[:, 3],
+            settings.params.s_max,
+            settings.rail_accel_max,
+            settings.servo_frequency,
+        )
 
     def plan(self, z: np.ndarray, act: np.ndarray) -> np.ndarray:
         """Actions (E, 1), float64 in [-1, 1], for the environments' exact states.

@@ -14,6 +14,9 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
 * ``mpc``: :class:`agents.oracles.planner.MPCPolicy`, a sampling MPC on the nonlinear model
   that simulates its candidates with the scene's batched core (an oracle: it knows
   the model and reads the state; rail modes only).
+* ``mpc-replay``: :class:`agents.policies.replay.RecordedPolicy`, the committed
+  certificate's records of that planner replayed open-loop (no planning: the seed
+  given is the first episode's; the default settings only).
 
 The physics of the regulator lives in ``trailer_env.controllers``; this module only
 adapts it to the batched policy interface.
@@ -38,7 +41,8 @@ BASELINES: dict[str, str] = {
     "random": "uniform random actions in [-1, 1] (seeded)",
     "lqr": "LQR on the linearised straight convoy, mass states included (trailer_env.controllers)",
     "heading-p": "proportional heading baseline of Heading-v0 (trailer_env.controllers)",
-    "mpc": "sampling MPC on the nonlinear model from the LQR (an oracle; agents.planner)",
+    "mpc": "sampling MPC on the nonlinear model from the LQR (an oracle; agents.oracles.planner)",
+    "mpc-replay": "the certified planner's committed action records, replayed (agents.certify)",
 }
 
 
@@ -120,4 +124,29 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
         from trailer_env.registry import core_class_of
 
         return MPCPolicy(core_class_of(env_id), settings)
+    if name == "mpc-replay":
+        return recorded_policy(settings, env_id, seed)
     raise ValueError(f"unknown baseline {name!r}; choose from {sorted(BASELINES)}")
+
+
+def recorded_policy(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
+    """The committed action records of ``env_id`` replayed from episode seed ``seed``.
+
+    Raises:
+        ValueError: Without committed records, or for settings other than the scene's
+            defaults with that n (the records are traces of the default physics).
+    """
+    from agents.artifacts.certificates import actions_path, committed_actions
+    from agents.policies.replay import RecordedPolicy
+    from trailer_env.settings import settings_from_kwargs
+
+    n = settings.n_trailers
+    records = committed_actions(env_id, n)
+    if records is None:
+        raise ValueError(
+            f"mpc-replay: no committed action records for {env_id} with n = {n} "
+            f"({actions_path(env_id, n).name}); run agents.certify or use mpc"
+        )
+    if settings != settings_from_kwargs(n_trailers=n):
+        raise ValueError("mpc-replay replays traces of the default settings only; use mpc")
+    return RecordedPolicy(records, 0 if seed is None else seed, settings.action_dim)

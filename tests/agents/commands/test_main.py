@@ -24,8 +24,11 @@ def test_committed_models_are_small_and_carry_their_cards() -> None:
 def test_main_runs_on_reverse_v1_with_the_committed_agent(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main.main(["--out", str(tmp_path), "--episodes", "4", "--no-planner"]) == 0
-    printed = capsys.readouterr().out
+    assert main.main(["--out", str(tmp_path), "--episodes", "4"]) == 0
+    captured = capsys.readouterr()
+    printed = captured.out
+    assert "evaluating on trailer_env/Reverse-v1: done, 8/8" in captured.err  # progress
+    assert "main job done in" in printed
     assert "trailer_env/Reverse-v1, n = 2" in printed
     assert "| lqr |" in printed and "| dagger_reverse_v1_n2 |" in printed
     assert "ceiling: 4/4 starts certified feasible" in printed
@@ -33,7 +36,8 @@ def test_main_runs_on_reverse_v1_with_the_committed_agent(
         assert (tmp_path / name).is_file(), name
     document = json.loads((tmp_path / "results.json").read_text())
     names = [policy["name"] for policy in document["policies"]]
-    assert names == ["zero", "random", "lqr", "dagger_reverse_v1_n2"]
+    assert names == ["zero", "random", "lqr", "mpc-replay", "dagger_reverse_v1_n2"]
+    assert document["policies"][3]["safe_rate"] == 1.0  # the certified records, replayed
     learned = document["policies"][-1]
     assert len(learned["training_seeds"]) == 3
     assert {entry["seed"] for entry in learned["training_seeds"]} == {0, 1, 2}
@@ -42,7 +46,7 @@ def test_main_runs_on_reverse_v1_with_the_committed_agent(
 
 @pytest.mark.slow
 def test_main_with_the_planner(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    assert main.main(["--out", str(tmp_path), "--episodes", "8"]) == 0
+    assert main.main(["--out", str(tmp_path), "--episodes", "8", "--planner"]) == 0
     printed = capsys.readouterr().out
     assert "| mpc | oracle" in printed
     document = json.loads((tmp_path / "results.json").read_text())
@@ -53,7 +57,7 @@ def test_main_with_the_planner(tmp_path: Path, capsys: pytest.CaptureFixture[str
 @pytest.mark.slow
 def test_report_writes_tables_and_pictures(tmp_path: Path) -> None:
     assert (
-        report.main(["--img", str(tmp_path / "img"), "--out", str(tmp_path), "--episodes", "4"])
+        report.main(["--out", str(tmp_path), "--docs", str(tmp_path / "docs"), "--episodes", "4"])
         == 0
     )
     tables = (tmp_path / "tables.md").read_text()
@@ -63,4 +67,5 @@ def test_report_writes_tables_and_pictures(tmp_path: Path) -> None:
         "agents_margins_reverse_v1_n2.png",
         "agents_frames_reverse_v1_n2.png",
     ):
-        assert (tmp_path / "img" / name).is_file(), name
+        assert (tmp_path / "docs" / "img" / name).is_file(), name
+    assert (tmp_path / "docs" / "generated" / "results_tables.md").read_text() == tables
