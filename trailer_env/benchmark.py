@@ -135,6 +135,7 @@ def rollout(
     episodes: int,
     seed: int,
     env_kwargs: dict[str, Any] | None = None,
+    observe: Callable[[Any, np.ndarray], Any] | None = None,
 ) -> EpisodeResults:
     """Play ``episodes`` seeded episodes of ``policy`` at once on the native vector env.
 
@@ -144,6 +145,8 @@ def rollout(
         episodes: Number of episodes K, 1 .. :data:`MAX_EPISODES` (one environment each).
         seed: Episode ``i`` starts from the state drawn with seed ``seed + i``.
         env_kwargs: Keyword arguments of ``gym.make`` (``n_trailers`` ...).
+        observe: What the policy sees instead of the observations: ``observe(core,
+            obs)`` of the batch's core (e.g. :func:`trailer_env.wrappers.goal_observation`).
 
     Returns:
         The per-episode results; deterministic for a deterministic policy and seed.
@@ -174,7 +177,8 @@ def rollout(
     work = np.zeros(episodes)
     margins: list[np.ndarray] = []
     for _ in range(envs.max_episode_steps):
-        obs, reward, terminated, truncated, info = envs.step(policy(obs))
+        seen = obs if observe is None else observe(envs.core, obs)
+        obs, reward, terminated, truncated, info = envs.step(policy(seen))
         rows = running.copy()  # the environments whose episode this step belongs to
         returns[rows] += reward[rows]
         lengths[rows] += 1
@@ -303,6 +307,7 @@ def score(
     seed: int = TEST_SEED,
     out: str | os.PathLike[str] | None = None,
     overwrite: bool = False,
+    goal_conditioned: bool = False,
 ) -> Score:
     """Score a batched policy on the protocol's episodes of ``env_id`` with ``n_trailers``.
 
@@ -315,6 +320,8 @@ def score(
             values are recorded in the JSON and mark the score as off-protocol.
         out: A folder to write ``score.json`` and ``score.md`` into (created if absent;
             existing files are refused unless ``overwrite``).
+        goal_conditioned: The policy reads :class:`trailer_env.wrappers.GoalConditioned`'s
+            ``Dict`` observations (batched; Dock-v0 and Heading-v0), e.g. an SB3 HER agent.
 
     Raises:
         TypeError, ValueError: On a bad id, count, seed or keyword, or an ``out`` that
@@ -324,6 +331,15 @@ def score(
 
     core = core_class_of(env_id)
     _check_episodes_and_seed(episodes, seed)
+    observe = None
+    if goal_conditioned:
+        from trailer_env.scenes.dock import DockCore
+        from trailer_env.scenes.heading import HeadingCore
+        from trailer_env.wrappers import goal_observation
+
+        if not issubclass(core, (DockCore, HeadingCore)):
+            raise ValueError(f"goal_conditioned=True needs Dock-v0 or Heading-v0, not {env_id}")
+        observe = goal_observation
     folder = None if out is None else Path(out)
     if folder is not None:
         if folder.exists() and not folder.is_dir():
@@ -331,11 +347,12 @@ def score(
         for file in ("score.json", "score.md"):
             if (folder / file).exists() and not overwrite:
                 raise ValueError(f"{folder / file} exists; pass overwrite=True to replace it")
-    results = rollout(policy, env_id, episodes, seed, {"n_trailers": n_trailers})
+    results = rollout(policy, env_id, episodes, seed, {"n_trailers": n_trailers}, observe)
     document = {
         "protocol": PROTOCOL,
         "on_protocol": (env_id, n_trailers) in TASKS and (episodes, seed) == (EPISODES, TEST_SEED),
         "policy": name,
+        "goal_conditioned": goal_conditioned,
         "env_id": env_id,
         "n_trailers": n_trailers,
         "episodes": episodes,

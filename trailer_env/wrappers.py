@@ -44,6 +44,24 @@ def _angle_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.abs(np.arctan2(cross, dot))
 
 
+def goal_observation(core: DockCore | HeadingCore, obs: np.ndarray) -> dict[str, np.ndarray]:
+    """The goal-conditioned observations of a whole batch (``core`` of a single env or
+    of the native vector env; ``obs`` its (B, obs_dim) observations), as
+    :class:`GoalConditioned` defines them (float32, a leading batch axis)."""
+    if isinstance(core, DockCore):
+        x, y, heading = core.last_body_pose()
+        achieved = np.column_stack([x, y, _angle_features(heading)])
+        desired = np.column_stack([core.target[:, :2], _angle_features(core.target[:, 2])])
+    else:
+        achieved = _angle_features(core.z[:, core.n + 4])
+        desired = _angle_features(core.target_heading)
+    return {
+        "observation": np.asarray(obs[:, : core.n_common], dtype=np.float32),
+        "achieved_goal": achieved.astype(np.float32),
+        "desired_goal": desired.astype(np.float32),
+    }
+
+
 class GoalConditioned(gym.Wrapper[dict[str, np.ndarray], Any, Any, Any]):
     """Dock-v0 or Heading-v0 as a goal-conditioned env with a sparse reward.
 
@@ -89,25 +107,9 @@ class GoalConditioned(gym.Wrapper[dict[str, np.ndarray], Any, Any, Any]):
             }
         )
 
-    def _goals(self) -> tuple[np.ndarray, np.ndarray]:
-        core = self._core
-        if isinstance(core, DockCore):
-            x, y, heading = core.last_body_pose(slice(0, 1))
-            achieved = np.concatenate([x, y, _angle_features(heading)[0]])
-            target = core.target[0]
-            desired = np.concatenate([target[:2], _angle_features(target[2])])
-        else:
-            achieved = _angle_features(core.z[0, core.n + 4])
-            desired = _angle_features(core.target_heading[0])
-        return achieved.astype(np.float32), desired.astype(np.float32)
-
     def _observation(self, obs: np.ndarray) -> dict[str, np.ndarray]:
-        achieved, desired = self._goals()
-        return {
-            "observation": np.asarray(obs[: self._core.n_common], dtype=np.float32),
-            "achieved_goal": achieved,
-            "desired_goal": desired,
-        }
+        batch = goal_observation(self._core, obs[np.newaxis])
+        return {key: value[0] for key, value in batch.items()}
 
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any
