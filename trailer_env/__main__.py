@@ -1,15 +1,18 @@
 """``python -m trailer_env``: list the environments, or play one from the keyboard.
 
     python -m trailer_env                              # one line per registered id
-    python -m trailer_env --play trailer_env/Reverse-v0 --n-trailers 1
+    python -m trailer_env --play trailer_env/Reverse-v1 --n-trailers 1
 
-Playing needs a display and pygame (``pip install 'trailer-env[rendering]'``); the keys
+Playing needs a display and pygame (``pip install 'trailer-env[rendering]'``; without
+either it exits 2 saying which is missing, before opening anything); the keys
 are the env's ``get_keys_to_action()`` (``a``/``d`` move the mass left/right).
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
+import os
 import sys
 
 import gymnasium as gym
@@ -31,6 +34,16 @@ def summary(env_id: str) -> str:
     return f"{env_id:<26} {spec.max_episode_steps:>4} steps  {doc[0] if doc else ''}"
 
 
+def play_problem() -> str:
+    """Why a keyboard session cannot open here ("" when it can): pygame and a display."""
+    if importlib.util.find_spec("pygame") is None:
+        return "needs pygame: pip install 'trailer-env[rendering]'"
+    headless = os.environ.get("SDL_VIDEODRIVER", "") in ("dummy", "offscreen")
+    if headless or not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return "needs a display (DISPLAY or WAYLAND_DISPLAY is unset, or SDL_VIDEODRIVER=dummy)"
+    return ""
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     description = (__doc__ or "").splitlines()[0]
@@ -46,9 +59,18 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.play not in registered_ids():
         parser.error(f"unknown environment {args.play!r}; choose from {registered_ids()}")
+    if args.seed is not None and not 0 <= args.seed < 2**32:
+        parser.error(f"argument --seed: must be in 0..2**32 - 1, got {args.seed}")
+    try:
+        env = gym.make(args.play, render_mode="rgb_array", n_trailers=args.n_trailers)
+    except (TypeError, ValueError) as error:
+        parser.error(f"argument --n-trailers: {error}")
+    problem = play_problem()
+    if problem:
+        env.close()
+        parser.error(f"argument --play: {problem}")
     from gymnasium.utils.play import play
 
-    env = gym.make(args.play, render_mode="rgb_array", n_trailers=args.n_trailers)
     noop = np.zeros(env.action_space.shape or (1,), dtype=np.float32)
     play(env, fps=env.metadata["render_fps"], noop=noop, seed=args.seed)
     return 0

@@ -33,11 +33,13 @@ actions.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
@@ -153,6 +155,19 @@ class ConvoyVectorEnv(VectorEnv):
         "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
 
+    @property
+    def spec(self) -> EnvSpec | None:
+        """The spec ``gym.make_vec`` recorded, with this env's own truncation length (a
+        ``max_episode_steps`` keyword of ``make_vec`` truncates here, so the spec says so)."""
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        steps = getattr(self, "max_episode_steps", None)
+        if value is not None and steps is not None and value.max_episode_steps != steps:
+            value = dataclasses.replace(value, max_episode_steps=steps)
+        self._spec = value
+
     def __init__(
         self,
         core_class: type[ConvoyCore],
@@ -177,6 +192,7 @@ class ConvoyVectorEnv(VectorEnv):
         if not (isinstance(core_class, type) and issubclass(core_class, ConvoyCore)):
             raise TypeError(f"core_class must be a ConvoyCore subclass, got {core_class!r}")
         self.core_class = core_class
+        self._spec = None
         if max_episode_steps is None:
             max_episode_steps = core_class.max_episode_steps
         max_episode_steps = bounded_integer(

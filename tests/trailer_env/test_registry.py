@@ -56,3 +56,21 @@ def test_the_vector_entry_point_is_a_named_class(env_id: str) -> None:
     single = gym.make(env_id, n_trailers=1)
     np.testing.assert_array_equal(obs[0], single.reset(seed=4)[0])
     envs.close()
+
+
+def test_the_vector_spec_says_the_truncation_it_applies() -> None:
+    envs = gym.make_vec(
+        "trailer_env/Reverse-v1", num_envs=2, vectorization_mode="vector_entry_point",
+        max_episode_steps=10,
+    )  # fmt: skip
+    assert envs.spec is not None and envs.spec.max_episode_steps == 10
+    envs.reset(seed=0)
+    for _ in range(9):
+        _, _, _, truncated, _ = envs.step(np.zeros((2, 1), dtype=np.float32))
+        assert not truncated.any()
+    _, _, terminated, truncated, _ = envs.step(np.zeros((2, 1), dtype=np.float32))
+    assert (truncated | terminated).all()
+    default = gym.make_vec(
+        "trailer_env/Reverse-v1", num_envs=2, vectorization_mode="vector_entry_point"
+    )
+    assert default.spec is not None and default.spec.max_episode_steps == 400
