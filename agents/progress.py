@@ -1,7 +1,8 @@
 """Progress of the long commands: counts, elapsed time and an ETA, and the total wall time.
 
-On a terminal the line is redrawn in place; otherwise (CI, a pipe, a log file) each
-step prints one line, so that a log shows every phase with its time. Output goes to
+On a terminal the line is redrawn in place; otherwise (CI, a pipe, a log file) a step
+prints one line, at most one per 5 % of the total, so that a log shows every phase
+with its time without flooding. Output goes to
 standard error, leaving standard output to the results (tables, paths).
 """
 
@@ -41,6 +42,7 @@ class Progress:
         self.stream = stream or sys.stderr
         self.quiet = quiet
         self.done = 0
+        self._printed = 0
         self.started = time.perf_counter()
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)())
 
@@ -64,7 +66,8 @@ class Progress:
         if self.tty:
             self.stream.write("\r\033[K" + line)
             self.stream.flush()
-        else:
+        elif self.done == self.total or 20 * (self.done - self._printed) >= self.total:
+            self._printed = self.done
             self._write(line)
 
     def __exit__(

@@ -23,8 +23,10 @@ import numpy as np
 from dynamics import ConvoyParams, _kernel
 
 ROOT = Path(__file__).resolve().parent.parent
-RESULTS = ROOT / "benchmarks" / "results"
-IMAGES = ROOT / "docs" / "img"
+#: Where the commands write by default: nothing git tracks is rewritten unless asked
+#: (``--results benchmarks/results --images docs/img`` refreshes the committed figures).
+RESULTS = Path("out") / "benchmarks" / "results"
+IMAGES = Path("out") / "benchmarks" / "img"
 
 SCENES = ("forward", "reversing")
 """forward: a zig-zag convoy driving forward and straightening (stable node, section 7).

@@ -11,7 +11,8 @@ scene that never settles (see :func:`scenarios`), stepped as an environment step
 the start of each call (the default) and holding E0 across calls
 (``target_energy``), which keeps rounding errors from accumulating call after call.
 
-Outputs: ``benchmarks/results/energy_drift.csv`` and ``docs/img/bench_energy_drift.png``.
+A run writes under ``--results``/``--images`` (default ``out/benchmarks/``); the
+committed outputs: ``benchmarks/results/energy_drift.csv`` and ``docs/img/bench_energy_drift.png``.
 """
 
 from __future__ import annotations

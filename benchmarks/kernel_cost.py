@@ -12,7 +12,8 @@ overhead dominates. Reported per case, on wall-clock time (the best of three
 interleaved passes): state-substeps per second (``B K`` substeps per call) and
 nanoseconds per substep per state, on one numba thread and on all of them.
 
-Outputs: ``benchmarks/results/kernel_cost.csv``, ``docs/img/bench_kernel_cost.png``.
+A run writes under ``--results``/``--images`` (default ``out/benchmarks/``); the
+committed outputs: ``benchmarks/results/kernel_cost.csv``, ``docs/img/bench_kernel_cost.png``.
 """
 
 from __future__ import annotations

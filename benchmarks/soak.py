@@ -11,7 +11,8 @@ clips it). Counted per case: observations, rewards and info values that are not
 finite, exceptions (the case resets and goes on), episodes ended by a fold, the
 largest substep count the fidelity chose, and the wall time.
 
-Outputs: a table on stdout and ``benchmarks/results/soak.csv`` (one row per case).
+A run writes under ``--results``/``--images`` (default ``out/benchmarks/``); the
+committed outputs: a table on stdout and ``benchmarks/results/soak.csv`` (one row per case).
 """
 
 from __future__ import annotations

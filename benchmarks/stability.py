@@ -37,7 +37,8 @@ Measured here:
   polynomial factors); RK4 with step h grows it by R(h lambda) per step instead,
   so its horizon is ln(Delta / eps) h / ln R(h lambda).
 
-Outputs: ``benchmarks/results/stability_limits.csv``, ``stability_failures.csv``,
+A run writes under ``--results``/``--images`` (default ``out/benchmarks/``); the
+committed outputs: ``benchmarks/results/stability_limits.csv``, ``stability_failures.csv``,
 ``stability_horizon.csv``; ``docs/img/stability_limits.png`` and
 ``docs/img/stability_failures.png`` (drawn by :mod:`benchmarks.stability_plots`).
 """

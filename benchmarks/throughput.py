@@ -34,7 +34,8 @@ wants that core each step can wait a scheduler time slice (measured: 8 ms).
 ``trailer_env`` is imported lazily: without it (or before it registers
 Reverse-v0) only the peers are measured.
 
-Outputs: ``benchmarks/results/throughput.csv``, ``benchmarks/results/throughput.md``
+A run writes under ``--results``/``--images`` (default ``out/benchmarks/``); the
+committed outputs: ``benchmarks/results/throughput.csv``, ``benchmarks/results/throughput.md``
 (the table of docs/benchmarks.md, "Speed and accuracy") and ``docs/img/bench_throughput.png``.
 """
 

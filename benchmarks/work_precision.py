@@ -28,7 +28,8 @@ energy is read from a second, untimed run sampled every ``SAMPLE`` seconds (for
 RK4 with the same steps; for DOPRI5 with steps shortened to land on the
 samples); scipy's energy is read at its own steps in the timed run.
 
-Outputs: ``benchmarks/results/work_precision.csv``,
+A run writes under ``--results``/``--images`` (default ``out/benchmarks/``); the
+committed outputs: ``benchmarks/results/work_precision.csv``,
 ``benchmarks/results/work_precision_speedup.csv`` (CPU time of the best scipy
 method at equal final-state error, divided by ours, per RK4 and DOPRI5 point),
 ``docs/img/bench_work_precision_state.png`` and ``bench_work_precision_energy.png``.

@@ -103,10 +103,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     cli.check_out_folder(parser, args.out)
     if args.video is not None:
-        from agents.evaluation.plots import VIDEO_SUFFIXES
+        from agents.evaluation.plots import VIDEO_SUFFIXES, missing_video_modules
 
         if args.video.suffix.lower() not in VIDEO_SUFFIXES:
             parser.error(f"argument --video: must end in .mp4 or .gif, got {args.video.name!r}")
+        missing = missing_video_modules(args.video)
+        if missing:
+            parser.error(
+                f"argument --video: needs {', '.join(missing)}: "
+                "pip install 'trailer-env[rendering]'"
+            )
         if args.video.exists() and not args.overwrite:
             parser.error(f"argument --video: {args.video} exists; pass --overwrite to replace it")
     env_id = check_env_id(args.env)

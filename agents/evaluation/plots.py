@@ -226,10 +226,20 @@ def episode_frames(
 
 #: Video formats :func:`write_video` writes.
 VIDEO_SUFFIXES = (".mp4", ".gif")
+#: The modules a video of each suffix needs beyond the frames' (pygame, ``rendering``).
+VIDEO_MODULES = {".mp4": ("pygame", "imageio", "imageio_ffmpeg"), ".gif": ("pygame", "PIL")}
+
+
+def missing_video_modules(out: Path) -> list[str]:
+    """The modules a video written to ``out`` needs that are not installed."""
+    import importlib.util
+
+    needed = VIDEO_MODULES.get(out.suffix.lower(), ())
+    return [name for name in needed if importlib.util.find_spec(name) is None]
 
 
 def write_video(frames: Sequence[np.ndarray], out: Path, fps: float) -> Path:
-    """Write ``frames`` as an mp4 (imageio's ffmpeg, from the dev extra) or a gif (Pillow).
+    """Write ``frames`` as an mp4 (imageio's ffmpeg, the ``rendering`` extra) or a gif (Pillow).
 
     Raises:
         ValueError: For another suffix than .mp4 or .gif, or no frames.

@@ -26,6 +26,7 @@ from agents.artifacts.run_folder import BEST_MODEL, CURVE_FILE
 from agents.artifacts.stats import save_stats
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.sb3 import ModelPolicy
+from agents.progress import Progress
 from agents.seeds import VALIDATION_SEED
 
 
@@ -181,3 +182,40 @@ class SafetyEvalCallback(BaseCallback):
                 flush=True,
             )
         return summary
+
+
+class ProgressCallback(BaseCallback):
+    """Training progress (:class:`agents.progress.Progress`) that ends at the real total.
+
+    SB3 runs whole rollouts: PPO collects ``n_steps * n_envs`` steps at a time, so a
+    budget that is not a multiple ends above it (SB3's own bar then reads, say,
+    114,688/100,000). The total here is the count the run will actually reach.
+    """
+
+    def __init__(self, label: str) -> None:
+        super().__init__()
+        self.label = label
+        self.bar: Progress | None = None
+
+    def _on_training_start(self) -> None:
+        model: Any = self.model
+        start = int(model.num_timesteps)
+        remaining = int(self.locals["total_timesteps"]) - start
+        n_envs = int(model.n_envs)
+        if hasattr(model, "n_steps"):  # on-policy: whole rollouts
+            chunk = int(model.n_steps) * n_envs
+        else:  # off-policy: train_freq steps of every env per collection
+            frequency = model.train_freq
+            steps = frequency.frequency if str(frequency.unit).endswith("STEP") else 1
+            chunk = int(steps) * n_envs
+        total = -(-max(remaining, 0) // chunk) * chunk
+        self.bar = Progress(total, self.label).__enter__()
+
+    def _on_step(self) -> bool:
+        assert self.bar is not None
+        self.bar.advance(f"{self.model.num_timesteps:,} steps", int(self.model.n_envs))
+        return True
+
+    def _on_training_end(self) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)

@@ -22,10 +22,6 @@ from agents.envs import env_settings, make_sb3_env
 from agents.training.config import TrainConfig
 
 
-def _progress_bar_available() -> bool:
-    return all(importlib.util.find_spec(name) is not None for name in ("tqdm", "rich"))
-
-
 def train(
     config: TrainConfig,
     run_dir: Path,
@@ -45,7 +41,8 @@ def train(
         run_dir: Run folder.
         resume: Checkpoint to continue from.
         eval_freq, eval_episodes, checkpoint_freq: Evaluation and checkpoint schedule.
-        progress_bar: Show SB3's progress bar (needs tqdm and rich).
+        progress_bar: Report progress with counts and an ETA on standard error, ending
+            at the step count the run reaches (:class:`agents.training.callbacks.ProgressCallback`).
         verbose: 1 prints one line per evaluation.
         trust_pickle: Allow unpickling ``resume``'s pickled parts (serialized entries,
             replay buffer, legacy statistics); otherwise they are replaced or refused
@@ -58,7 +55,11 @@ def train(
     from stable_baselines3.common.noise import NormalActionNoise
     from stable_baselines3.common.vec_env import VecNormalize
 
-    from agents.training.callbacks import SafetyEvalCallback, StatsCheckpointCallback
+    from agents.training.callbacks import (
+        ProgressCallback,
+        SafetyEvalCallback,
+        StatsCheckpointCallback,
+    )
 
     hp = config.hyperparams
     algo, seed, budget, batch = config.algo, config.seed, config.budget, config.n_envs
@@ -127,11 +128,11 @@ def train(
         name_prefix=algo,
         save_replay_buffer=algo in ("sac", "td3"),
     )
+    callbacks: list[Any] = [evaluator, checkpoints]
+    if progress_bar:
+        callbacks.append(ProgressCallback(f"training {algo} on {config.env_id}"))
     model.learn(
-        total_timesteps=remaining,
-        callback=[evaluator, checkpoints],
-        reset_num_timesteps=resume is None,
-        progress_bar=progress_bar and _progress_bar_available(),
+        total_timesteps=remaining, callback=callbacks, reset_num_timesteps=resume is None
     )
     wall = round(evaluator.wall_seconds, 1)
     record.update({"timesteps": int(model.num_timesteps), "wall_time_s": wall})

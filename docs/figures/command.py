@@ -47,8 +47,12 @@ def main(argv: Sequence[str] | None = None) -> list[Path]:
     parser = argparse.ArgumentParser(
         prog="python -m docs.figures", description=__doc__.split("\n\n")[0]
     )
-    default_out = Path(__file__).resolve().parents[1] / "img"
-    parser.add_argument("--out", type=Path, default=default_out, help="output folder")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("out/figures"),
+        help="output folder (default out/figures; docs/img refreshes the committed pictures)",
+    )
     parser.add_argument("--quick", action="store_true", help="coarse grids, short runs")
     args = parser.parse_args(argv)
 

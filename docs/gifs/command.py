@@ -31,7 +31,8 @@ MAX_SECONDS = 12.0
 #: Side of the square GIF, in pixels.
 SIZE = 320
 #: Where the GIFs go (``docs/img``).
-OUT = Path(__file__).resolve().parents[1] / "img"
+#: Default folder: nothing tracked is rewritten unless ``--out docs/img`` asks for it.
+OUT = Path("out/gifs")
 #: The GIFs' index beside them (policy, seed, length and outcome of each; the site's
 #: captions read it).
 INDEX = "gifs.json"
@@ -151,7 +152,9 @@ def policies_for(clip: Clip) -> dict[str, Policy]:
 def main(argv: Sequence[str] | None = None) -> None:
     """The command line."""
     parser = argparse.ArgumentParser(prog="python -m docs.gifs", description=__doc__)
-    parser.add_argument("--out", type=Path, default=OUT, help="folder (default docs/img)")
+    parser.add_argument(
+        "--out", type=Path, default=OUT, help="folder (default out/gifs; docs/img: the site's)"
+    )
     parser.add_argument("--only", nargs="*", default=None, help="environment ids to draw")
     args = parser.parse_args(argv)
     index_path = args.out / INDEX
