@@ -5,8 +5,8 @@ Importing the package registers the scenes (namespace ``trailer_env``):
 ==========================  ==================  =====================================
 id                          max_episode_steps   task
 ==========================  ==================  =====================================
-``trailer_env/Reverse-v0``  400 (20 s)          back up without folding (headline)
-``trailer_env/Reverse-v1``  400 (20 s)          the same, every start recoverable
+``trailer_env/Reverse-v0``  400 (20 s)          back up without folding (kept, unchanged)
+``trailer_env/Reverse-v1``  400 (20 s)          the headline: every start recoverable
 ``trailer_env/Coast-v0``    300 (15 s)          straighten from a random coasting state
 ``trailer_env/Heading-v0``  300 (15 s)          reach and hold a target heading
 ``trailer_env/Dock-v0``     400 (20 s)          reverse the last axle onto a dock
@@ -18,15 +18,18 @@ Each id has an ``entry_point`` (the single env, :mod:`trailer_env.scenes`) and a
     import gymnasium as gym
     import trailer_env
 
-    env = gym.make("trailer_env/Reverse-v0", n_trailers=3, mu=0.4)
+    env = gym.make("trailer_env/Reverse-v1", n_trailers=3, mu=0.4)
     envs = gym.make_vec(
-        "trailer_env/Reverse-v0", num_envs=1024, vectorization_mode="vector_entry_point"
+        "trailer_env/Reverse-v1", num_envs=1024, vectorization_mode="vector_entry_point"
     )
 
 Keyword arguments: ``n_trailers``, any :class:`dynamics.ConvoyParams` field, ``dt``,
 ``fidelity``, ``action_mode``, ``rail_accel_max``, ``servo_bandwidth``,
 ``singular_band``, ``fold_angle`` (see :mod:`trailer_env.settings`). The
-stable-baselines3 adapter lives in :mod:`trailer_env.sb3` (imported on demand).
+stable-baselines3 adapter lives in :mod:`trailer_env.sb3` (imported on demand), the
+benchmark protocol and its ``score`` in :mod:`trailer_env.benchmark`, and views in
+other libraries' conventions (safety-gymnasium's step, goal-conditioned ``Dict``
+observations for HER) in :mod:`trailer_env.wrappers`.
 ``python -m trailer_env`` lists the ids; ``python -m trailer_env --play ID`` drives one
 from the keyboard (needs a display and pygame).
 """

@@ -48,6 +48,7 @@ from agents.artifacts.certificates import (
 from agents.envs import env_settings
 from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
 from agents.oracles.screen import DEFAULT_HORIZON, screen_start
+from agents.progress import Progress
 from trailer_env.registry import core_class_of
 from trailer_env.vector import seed_generators
 
@@ -122,7 +123,8 @@ def certify(
     planner = SamplingPlanner(core_class, settings, count, config)
     started = time.perf_counter()
     steps = core_class.max_episode_steps
-    planned = plan_episodes(core, planner, steps)
+    with Progress(steps, f"certify {env_id}, n = {n_trailers}: planning {count} starts") as bar:
+        planned = plan_episodes(core, planner, steps, bar)
     first_pass_time = time.perf_counter() - started
     first_pass_safe = int(planned.safe.sum())
     simulated = planner.simulated_steps
@@ -137,7 +139,9 @@ def certify(
         )
         retry_config = dataclasses.replace(config, seed=config.seed + restart)
         retry_planner = SamplingPlanner(core_class, settings, rows.size, retry_config)
-        retried = plan_episodes(retry_core, retry_planner, steps)
+        label = f"certify: restart {restart}, {rows.size} starts"
+        with Progress(steps, label) as bar:
+            retried = plan_episodes(retry_core, retry_planner, steps, bar)
         simulated += retry_planner.simulated_steps
         attempts[rows] += 1
         saved = rows[retried.safe]
@@ -146,27 +150,28 @@ def certify(
     planner_time = time.perf_counter() - started
     starts = []
     actions = {}
-    for i, seed in enumerate(seeds):
-        sequence = planned.actions[i, : planned.lengths[i]]
-        outcome = replay(env_id, env_kwargs, seed, sequence) if planned.safe[i] else None
-        feasible = (
-            outcome is not None and outcome.safe and outcome.length == core_class.max_episode_steps
-        )
-        recoverable = bool(np.isfinite(strokes[i]) and strokes[i] <= 1.0)
-        status = FEASIBLE if feasible else (OPEN if recoverable else NOT_RECOVERABLE)
-        if feasible:
-            actions[seed] = sequence.astype(np.float64)
-        starts.append(
-            {
-                "seed": seed,
-                "status": status,
-                "screen_stroke_fraction": None if not np.isfinite(strokes[i]) else strokes[i],
-                "planner_safe": bool(planned.safe[i]),
-                "planner_length": int(planned.lengths[i]),
-                "planner_attempts": int(attempts[i]),
-                "replay_safe": None if outcome is None else outcome.safe,
-            }
-        )
+    with Progress(count, "certify: replaying the safe sequences") as replays:
+        for i, seed in enumerate(seeds):
+            sequence = planned.actions[i, : planned.lengths[i]]
+            outcome = replay(env_id, env_kwargs, seed, sequence) if planned.safe[i] else None
+            replays.advance(f"seed {seed}")
+            full_length = outcome is not None and outcome.length == steps
+            feasible = outcome is not None and outcome.safe and full_length
+            recoverable = bool(np.isfinite(strokes[i]) and strokes[i] <= 1.0)
+            status = FEASIBLE if feasible else (OPEN if recoverable else NOT_RECOVERABLE)
+            if feasible:
+                actions[seed] = sequence.astype(np.float64)
+            starts.append(
+                {
+                    "seed": seed,
+                    "status": status,
+                    "screen_stroke_fraction": None if not np.isfinite(strokes[i]) else strokes[i],
+                    "planner_safe": bool(planned.safe[i]),
+                    "planner_length": int(planned.lengths[i]),
+                    "planner_attempts": int(attempts[i]),
+                    "replay_safe": None if outcome is None else outcome.safe,
+                }
+            )
     feasible_count = sum(start["status"] == FEASIBLE for start in starts)
     unrecoverable = sum(start["status"] == NOT_RECOVERABLE for start in starts)
     return {

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from agents.progress import Progress
 from trailer_env.controllers import (
     ACCEL_WEIGHT,
     ANGLE_WEIGHT,
@@ -360,8 +361,12 @@ class PlannedEpisodes:
         return ~self.failed & (self.band_steps == 0)
 
 
-def plan_episodes(core: ConvoyCore, planner: SamplingPlanner, steps: int) -> PlannedEpisodes:
+def plan_episodes(
+    core: ConvoyCore, planner: SamplingPlanner, steps: int, progress: Progress | None = None
+) -> PlannedEpisodes:
     """Run the planner on a reset core (one row per episode, exact states) for ``steps`` steps.
+
+    ``progress`` (counting steps) advances once per planned step.
 
     Rows whose episode ended are parked straight (their result is settled) so that a
     folded convoy is not integrated further.
@@ -380,6 +385,8 @@ def plan_episodes(core: ConvoyCore, planner: SamplingPlanner, steps: int) -> Pla
         step_action[:, 0] = np.where(running, planned, 0.0)
         actions[running, t] = step_action[running, 0]
         core.step(step_action)
+        if progress is not None:
+            progress.advance(f"step {t + 1}, {int(running.sum())} convoys running")
         band_steps += running & (core.cost > 0.0)
         ended = running & core.terminated
         lengths[ended] = t + 1

@@ -58,6 +58,7 @@ from agents.envs import check_env_id, env_settings, make_sb3_env
 from agents.evaluation.metrics import rollout, summarize
 from agents.oracles.planner import PlannerConfig, SamplingPlanner
 from agents.policies.sb3 import ModelPolicy
+from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
 from agents.training.config import load_hyperparams, parse_policy_kwargs
@@ -142,8 +143,11 @@ def collect(
     planner: SamplingPlanner,
     policy: Any,
     seed: int,
+    progress: Progress | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One iteration's data: observations and the planner's actions at every visited state.
+
+    ``progress`` (counting labelled steps) advances once per step.
 
     ``policy`` None lets the planner drive. ``envs`` must reset in the same step
     (``autoreset_mode="same_step"``) so that each observation is the core's state.
@@ -163,6 +167,8 @@ def collect(
         ended = np.flatnonzero(terminated | truncated)
         if ended.size:
             planner.reset(ended)
+        if progress is not None:
+            progress.advance(f"labelling step {t + 1}")
     return observations.reshape(-1, obs.shape[1]), labels.reshape(-1, 1)
 
 
@@ -262,7 +268,9 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     for iteration in range(config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
         driver = None if iteration == 0 else ModelPolicy(model, stats)
-        obs, labels = collect(envs, planner, driver, seed)
+        label = f"imitate: iteration {iteration + 1}/{config.iterations}, {config.episodes} convoys"
+        with Progress(envs.max_episode_steps, label, quiet=not verbose) as bar:
+            obs, labels = collect(envs, planner, driver, seed, bar)
         if iteration == 0:
             stats.obs_rms.mean = obs.mean(axis=0).astype(np.float64)
             stats.obs_rms.var = np.maximum(obs.var(axis=0), OBS_VAR_FLOOR).astype(np.float64)
