@@ -5,11 +5,11 @@ Usage::
     python -m agents.imitate --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \
         [--iterations 6] [--episodes 256] [--run-dir DIR] [--export PATH] [--overwrite]
 
-Why: PPO from scratch reached 68 % safe on Reverse-v0 (n = 2) after 16M steps, below
-the LQR's basin, because the states that matter (near the edge of the recoverable set,
-where the rail saturates) are rare under its exploration. The ``mpc`` planner
-(:mod:`agents.oracles.planner`) knows how to steer there but costs 1920 simulated steps per
-decision. DAgger (Ross, Gordon and Bagnell, 2011) trains a cheap policy on the
+Why: PPO from scratch stays below the LQR's basin (the figures are in the docs, Agents:
+what limits performance), because the states that matter (near the edge of the
+recoverable set, where the rail saturates) are rare under its exploration. The ``mpc``
+planner (:mod:`agents.oracles.planner`) knows how to steer there but simulates
+thousands of steps per decision. DAgger (Ross, Gordon and Bagnell, 2011) trains a cheap policy on the
 planner's decisions at the states the *policy itself* visits, so that its own
 mistakes are in its training data:
 
