@@ -13,7 +13,9 @@ writes its folder it holds ``<run>/.lock`` (:class:`agents.artifacts.files.RunLo
 
 from __future__ import annotations
 
+import contextlib
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -130,14 +132,24 @@ def choose_run_dir(
                 f"{chosen} already holds a run; pass --resume <checkpoint>, another "
                 "--run-dir, or --overwrite"
             )
-        if not clear:
-            return chosen
-        for stale in STALE_FILES:
-            (chosen / stale).unlink(missing_ok=True)
-        for folder in STALE_FOLDERS:
-            if (chosen / folder).exists():
-                shutil.rmtree(chosen / folder)
+        if clear:
+            clear_run(chosen, everything=False)
     return chosen
+
+
+def clear_run(folder: Path, everything: bool = True) -> None:
+    """Remove an earlier run's files from ``folder``: :data:`STALE_FILES` and
+    :data:`STALE_FOLDERS` (``everything``: the other run files too, but the lock);
+    nothing else in the folder is touched."""
+    names = (*STALE_FILES, *STALE_FOLDERS, *(RUN_FILES if everything else ()))
+    for name in names:
+        path = folder / name
+        if name == files.LOCK_FILE or not (path.exists() or path.is_symlink()):
+            continue
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
 
 
 def write_config(run_dir: Path, record: dict[str, Any]) -> Path:
@@ -184,3 +196,37 @@ def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> P
         files.atomic_write_bytes(curve_path(destination), curve.read_bytes())
     files.atomic_write_bytes(destination, source.read_bytes())
     return destination
+
+
+@contextlib.contextmanager
+def claimed_run_dir(
+    default: Path,
+    run_dir: Path | None = None,
+    resume: Path | None = None,
+    overwrite: bool = False,
+) -> Iterator[Path]:
+    """The run folder (:func:`choose_run_dir`), locked for the block and cleared of an
+    earlier run (with ``overwrite``) only once the lock is held.
+
+    A folder this created and that is left holding nothing (the block failed before
+    writing) is removed again.
+
+    Raises:
+        RunFolderError: As :func:`choose_run_dir`, or when another live process holds
+            the folder's lock.
+    """
+    chosen = choose_run_dir(default, run_dir, resume, overwrite, clear=False)
+    existed = chosen.exists()
+    lock = files.RunLock(chosen)
+    try:
+        lock.acquire()
+    except files.FolderLockedError as error:
+        raise RunFolderError(str(error)) from None
+    try:
+        chosen = choose_run_dir(default, run_dir, resume, overwrite)
+        yield chosen
+    finally:
+        lock.release()
+        if not existed:
+            with contextlib.suppress(OSError):
+                chosen.rmdir()  # only if empty: a refused run leaves nothing

@@ -29,7 +29,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument pickled: no file {args.pickled}")
     try:
         print(f"wrote {convert_pickled_stats(args.pickled, args.destination, args.overwrite)}")
-    except FileExistsError as error:
+    except (FileExistsError, ValueError) as error:
         parser.error(f"argument destination: {error}")
     return 0
 

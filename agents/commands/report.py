@@ -13,15 +13,19 @@ committed agents), ``agents_margins_reverse_v1_n2.png`` and
 ``agents_frames_reverse_v1_n2.png`` to ``--img``. A last table sweeps the actuator's
 authority (stroke, acceleration bound, mass) under the LQR baseline. With the planner
 it takes about three minutes on two cores, about one without.
+
+``--out`` and ``--img`` must be writable folders (no file in the way, no symbolic
+link among the files written) and ``--episodes`` at most 100,000: checked before
+the first episode. Every file is written atomically.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
+from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
 from agents.envs import scene_baselines
@@ -52,6 +56,15 @@ def main(argv: list[str] | None = None) -> int:
         "--no-planner", action="store_true", help="leave the scenes' oracle (mpc) out"
     )
     args = parser.parse_args(argv)
+    cli.check_out_folder(parser, args.out, files_in=("tables.md", "results.json"))
+    cli.check_out_folder(
+        parser,
+        args.img,
+        "--img",
+        files_in=("agents_curves.png", "agents_margins.png", "agents_frames.png",
+                  "agents_margins_reverse_v1_n2.png", "agents_frames_reverse_v1_n2.png"),
+    )  # fmt: skip
+    cli.check_seeds(parser, TEST_SEED, args.episodes)
     limit_torch_threads()
     started = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -83,6 +96,7 @@ def main(argv: list[str] | None = None) -> int:
                     path.unlink()  # replaced by the grid of every scenario below
                     continue
                 final = path.with_name(path.stem + "_reverse_v1_n2.png")
+                files.refuse_symlink(final)
                 path.replace(final)
                 print(f"wrote {final}")
     sweep = authority_table(args.episodes)
@@ -92,8 +106,8 @@ def main(argv: list[str] | None = None) -> int:
         [panel for panel in panels if panel[1]], args.img / "agents_curves.png"
     )
     print(f"wrote {grid}")
-    (args.out / "tables.md").write_text("\n".join(sections))
-    (args.out / "results.json").write_text(json.dumps(documents, indent=2, sort_keys=True) + "\n")
+    files.atomic_write_text(args.out / "tables.md", "\n".join(sections))
+    files.write_json(args.out / "results.json", documents)
     print(f"wrote {args.out / 'tables.md'} in {time.perf_counter() - started:.0f} s")
     return 0
 
