@@ -240,7 +240,8 @@ def config_from_args(
             else load_hyperparams(args.algo, args.env)
         )
     except (FileNotFoundError, KeyError, ValueError) as error:
-        parser.error(f"argument --hyperparams: {str(error).strip(chr(34) + chr(39))}")
+        text = str(error.args[0]) if isinstance(error, KeyError) else str(error)
+        parser.error(f"argument --hyperparams: {text}")
     n_envs = args.n_envs
     if args.backend == "rllib":
         runners = max(args.num_env_runners, 1)
