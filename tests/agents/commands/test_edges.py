@@ -144,8 +144,8 @@ def test_evaluate_refuses_missing_statistics_of_a_normalised_model(
 ) -> None:
     model = model_copy(tmp_path / "m")
     model.with_name("ppo_reverse_n2_vecnormalize.json").unlink()
-    refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"),
-            "statistics ppo_reverse_n2_vecnormalize.json are missing", tmp_path, capsys)  # fmt: skip
+    message = "statistics ppo_reverse_n2_vecnormalize.json are missing"
+    refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"), message, tmp_path, capsys)
 
 
 def test_evaluate_refuses_a_zip_bomb(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -402,7 +402,7 @@ def test_certify_overwrite_replaces_only_its_own_files(tmp_path: Path) -> None:
     assert read_certificate(out / "certificate.json")["seeds"] == [3, 3]
     (out / "certificate.md").unlink()
     (out / "certificate.md").symlink_to(tmp_path / "elsewhere.md")
-    with pytest.raises(files.UnsafeFileError, match="certificate.md is a symbolic link"):
+    with pytest.raises(files.UnsafeFileError, match=r"certificate\.md is a symbolic link"):
         write_certificate(_fake_certificate([3]), out, overwrite=True)
     assert not (tmp_path / "elsewhere.md").exists()
 
