@@ -197,6 +197,8 @@ def writable_problem(path: Path, *, folder: bool = False) -> str | None:
     reverse), and that its first existing ancestor is a writable folder.
     """
     path = Path(path)
+    if "\x00" in str(path):
+        return f"{str(path)!r} holds a NUL character"
     if path.is_symlink():
         return f"{path} is a symbolic link; refusing to write through it"
     if path.exists():

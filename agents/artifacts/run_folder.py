@@ -160,7 +160,11 @@ def write_config(run_dir: Path, record: dict[str, Any]) -> Path:
 def export_problem(destination: Path, overwrite: bool = False) -> str | None:
     """Why the run's model could not be exported to ``destination`` (None: it could),
     found without writing: a file there without ``overwrite``, a link, no writable folder."""
-    for path in export_files(destination):
+    try:
+        targets = export_files(destination)
+    except ValueError:  # "", ".", "..": no file name
+        return f"{str(destination)!r} names no file (give e.g. models/name.zip)"
+    for path in targets:
         problem = files.writable_problem(path)
         if problem is not None:
             return problem

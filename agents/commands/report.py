@@ -44,8 +44,8 @@ from agents.policies.sb3 import limit_torch_threads
 from agents.seeds import TEST_SEED
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status."""
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
     parser = argparse.ArgumentParser(
         prog="python -m agents.report", description=(__doc__ or "").split("\n")[0]
     )
@@ -55,6 +55,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--no-planner", action="store_true", help="leave the scenes' oracle (mpc) out"
     )
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments exit with 2)."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     cli.check_out_folder(parser, args.out, files_in=("tables.md", "results.json"))
     cli.check_out_folder(

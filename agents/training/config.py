@@ -132,11 +132,13 @@ def parse_policy_kwargs(text: str | dict[str, Any]) -> dict[str, Any]:
     """
     if isinstance(text, dict):
         return text
+    if not isinstance(text, str):
+        raise ValueError(f"policy_kwargs must be a dict or its text, got {text!r:.60}")
     try:
         tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError as error:
-        raise ValueError(f"policy_kwargs is not a Python expression: {text!r}") from error
-    value = _literal(tree.body)
+        value = _literal(tree.body)
+    except (SyntaxError, RecursionError, MemoryError) as error:
+        raise ValueError(f"policy_kwargs is not a Python expression: {text!r:.80}") from error
     if not isinstance(value, dict):
         raise ValueError(f"policy_kwargs must be a dict, got {text!r}")
     return value
