@@ -120,13 +120,34 @@ def test_evaluate_refuses_bad_statistics(
     refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"), message, tmp_path, capsys)
 
 
-def test_evaluate_refuses_a_deeply_nested_card(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+def _network(model: Path, net_arch: list[int]) -> None:
+    with zipfile.ZipFile(model) as archive:
+        data = json.loads(archive.read("data"))
+    data["policy_kwargs"] = {"net_arch": net_arch}
+    rewrite_zip(model, {"data": json.dumps(data).encode()})
+
+
+@pytest.mark.parametrize(
+    ("damage", "message"),
+    [
+        (lambda model: model.with_suffix(".json").write_text("[" * 200_000 + "]" * 200_000),
+         "nested 200000 deep, over the limit of 64"),
+        (lambda model: model.with_name("ppo_reverse_n2_vecnormalize.json").unlink(),
+         "statistics ppo_reverse_n2_vecnormalize.json are missing"),
+        # 20 MiB of spaces deflate to about 20 kB: a zip bomb, refused before inflating.
+        (lambda model: rewrite_zip(model, {"data": b" " * (20 * 2**20)}, zipfile.ZIP_DEFLATED),
+         "member 'data' inflates to 20971520 bytes"),
+        (lambda model: _network(model, [40000, 40000]),
+         "parameters, over the limit of 10,000,000"),
+    ],
+)  # fmt: skip
+def test_evaluate_refuses_a_damaged_model(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], damage: Any, message: str
 ) -> None:
     model = model_copy(tmp_path / "m")
-    model.with_suffix(".json").write_text("[" * 200_000 + "]" * 200_000)
-    refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"),
-            "nested 200000 deep, over the limit of 64", tmp_path, capsys)  # fmt: skip
+    damage(model)
+    assert model.stat().st_size < 2**20
+    refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"), message, tmp_path, capsys)
 
 
 def test_evaluate_refuses_a_garbage_curve(
@@ -137,39 +158,6 @@ def test_evaluate_refuses_a_garbage_curve(
     refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"), "curve", tmp_path, capsys)
     model.with_suffix(".csv").write_text(",".join(CURVE_COLUMNS) + "\nabc,1\n1,2,3,4,5,6,7,8\n")
     refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"), "line 2", tmp_path, capsys)
-
-
-def test_evaluate_refuses_missing_statistics_of_a_normalised_model(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    model = model_copy(tmp_path / "m")
-    model.with_name("ppo_reverse_n2_vecnormalize.json").unlink()
-    message = "statistics ppo_reverse_n2_vecnormalize.json are missing"
-    refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"), message, tmp_path, capsys)
-
-
-def test_evaluate_refuses_a_zip_bomb(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    model = model_copy(tmp_path / "m")
-    with zipfile.ZipFile(model) as archive:
-        entries = {name: archive.read(name) for name in archive.namelist()}
-    with zipfile.ZipFile(model, "w", zipfile.ZIP_DEFLATED) as archive:
-        for name, content in entries.items():
-            archive.writestr(name, content if name != "data" else b" " * (20 * 2**20))
-    assert model.stat().st_size < 2**20
-    refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"),
-            "member 'data' inflates to 20971520 bytes", tmp_path, capsys)  # fmt: skip
-
-
-def test_evaluate_refuses_a_huge_network_before_building_it(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    model = model_copy(tmp_path / "m")
-    with zipfile.ZipFile(model) as archive:
-        data = json.loads(archive.read("data"))
-    data["policy_kwargs"] = {"net_arch": [40000, 40000]}
-    rewrite_zip(model, {"data": json.dumps(data).encode()})
-    refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"),
-            "parameters, over the limit of 10,000,000", tmp_path, capsys)  # fmt: skip
 
 
 # ---------------------------------------------------------------- evaluate: bounds and outputs
