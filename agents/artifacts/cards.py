@@ -8,7 +8,6 @@ A card that breaks this is refused with a :class:`ValueError` naming the key.
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +54,7 @@ def check_card(card: Any, where: str) -> dict[str, Any]:
             continue
         value = card[key]
         wrong = isinstance(value, bool) or not isinstance(value, types)
-        if not wrong and isinstance(value, float) and not math.isfinite(value):
+        if isinstance(value, float) and not files.is_number(value):
             wrong = True
         if wrong:
             names = " or ".join("null" if kind is type(None) else kind.__name__ for kind in types)
@@ -64,7 +63,7 @@ def check_card(card: Any, where: str) -> dict[str, Any]:
                 f"{value!r:.60}"
             )
     trailers = card.get("env_kwargs", {}).get("n_trailers")
-    if trailers is not None and (isinstance(trailers, bool) or not isinstance(trailers, int)):
+    if trailers is not None and not files.is_integer(trailers):
         raise ValueError(f"model card {where}: env_kwargs.n_trailers must be an integer")
     return card
 

@@ -104,10 +104,6 @@ def write_certificate(certificate: dict[str, Any], out: Path, overwrite: bool) -
     files.atomic_write_text(out / CERTIFICATE_JSON, json.dumps(document, indent=2) + "\n")
 
 
-def _count(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
-
-
 def check_certificate(document: Any, where: str) -> dict[str, Any]:
     """``document`` if it is a certificate (schema, finite numbers, known statuses).
 
@@ -123,17 +119,13 @@ def check_certificate(document: Any, where: str) -> dict[str, Any]:
     if not isinstance(document.get("env_id"), str):
         raise fail("env_id must be a string")
     kwargs = document.get("env_kwargs")
-    if not isinstance(kwargs, dict) or not _count(kwargs.get("n_trailers")):
+    if not isinstance(kwargs, dict) or not files.is_integer(kwargs.get("n_trailers"), 0):
         raise fail("env_kwargs.n_trailers must be an integer >= 0")
     starts = document.get("starts")
     if not isinstance(starts, list) or not starts:
         raise fail("starts must be a non-empty list")
     seeds = document.get("seeds")
-    if (
-        not isinstance(seeds, list)
-        or len(seeds) != 2
-        or not all(isinstance(seed, int) and not isinstance(seed, bool) for seed in seeds)
-    ):
+    if not isinstance(seeds, list) or len(seeds) != 2 or not all(map(files.is_integer, seeds)):
         raise fail("seeds must be [first, last], two integers")
     counts = {status: 0 for status in STATUSES}
     seen = set()
@@ -141,33 +133,26 @@ def check_certificate(document: Any, where: str) -> dict[str, Any]:
         if not isinstance(start, dict):
             raise fail(f"starts[{index}] is not an object")
         seed, status = start.get("seed"), start.get("status")
-        if not isinstance(seed, int) or isinstance(seed, bool) or seed in seen:
+        if not files.is_integer(seed) or seed in seen:
             raise fail(f"starts[{index}].seed must be an integer, once")
         seen.add(seed)
         if status not in STATUSES:
             raise fail(f"starts[{index}].status {status!r:.40} is none of {list(STATUSES)}")
         counts[status] += 1
         fraction = start.get("screen_stroke_fraction")
-        if fraction is not None and (
-            isinstance(fraction, bool)
-            or not isinstance(fraction, (int, float))
-            or not math.isfinite(fraction)
-        ):
+        if fraction is not None and not files.is_number(fraction):
             raise fail(f"starts[{index}].screen_stroke_fraction must be a finite number or null")
-        if "planner_length" in start and not _count(start["planner_length"]):
+        if "planner_length" in start and not files.is_integer(start["planner_length"], 0):
             raise fail(f"starts[{index}].planner_length must be an integer >= 0")
     if document.get("episodes") != len(starts):
         raise fail(f"episodes must be the number of starts ({len(starts)})")
     for key, status in (("feasible", FEASIBLE), ("not_recoverable", NOT_RECOVERABLE),
                         ("open", OPEN)):  # fmt: skip
-        if not _count(document.get(key)) or document[key] != counts[status]:
+        if not files.is_integer(document.get(key), 0) or document[key] != counts[status]:
             raise fail(f"{key} must be the number of {status!r} starts ({counts[status]})")
-    ceiling = document.get("ceiling")
-    if (
-        isinstance(ceiling, bool)
-        or not isinstance(ceiling, (int, float))
-        or not math.isfinite(ceiling)
-        or not math.isclose(ceiling, counts[FEASIBLE] / len(starts), abs_tol=1e-9)
+    ceiling: Any = document.get("ceiling")
+    if not files.is_number(ceiling) or not math.isclose(
+        float(ceiling), counts[FEASIBLE] / len(starts), abs_tol=1e-9
     ):
         raise fail("ceiling must be the feasible fraction of the starts")
     return document

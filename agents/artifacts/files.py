@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import os
 import re
 import tempfile
@@ -56,6 +57,24 @@ class UnsafeFileError(ValueError):
 
 class FolderLockedError(ValueError):
     """Another live process holds the folder's lock."""
+
+
+def is_integer(value: Any, minimum: int | None = None) -> bool:
+    """Whether a JSON value is an integer (not a boolean), >= ``minimum`` when given."""
+    return (
+        isinstance(value, int)
+        and not isinstance(value, bool)
+        and (minimum is None or value >= minimum)
+    )
+
+
+def is_number(value: Any) -> bool:
+    """Whether a JSON value is a finite number (not a boolean)."""
+    return (
+        isinstance(value, (int, float))
+        and not isinstance(value, bool)
+        and math.isfinite(value)
+    )
 
 
 def refuse_symlink(path: Path) -> None:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 from pathlib import Path
 from typing import Any
 
@@ -80,10 +79,7 @@ def check_stats(document: Any, where: str) -> dict[str, Any]:
         raise ValueError(f"{where} is not a {STATS_FORMAT} statistics file")
     for key, kind in _SETTINGS.items():
         value = document.get(key)
-        valid = isinstance(value, bool) if kind is bool else (
-            isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value)
-        )  # fmt: skip
+        valid = isinstance(value, bool) if kind is bool else files.is_number(value)
         if not valid:
             raise ValueError(f"{where}: {key} must be a {'boolean' if kind is bool else 'number'}")
     for key in ("obs_rms", "ret_rms"):
@@ -96,12 +92,7 @@ def check_stats(document: Any, where: str) -> dict[str, Any]:
         mean_vector = _vector(mean, f"{where}: {key}.mean")
         var_vector = _vector(var, f"{where}: {key}.var")
         count = rms["count"]
-        if (
-            isinstance(count, bool)
-            or not isinstance(count, (int, float))
-            or not math.isfinite(count)
-            or count < 0
-        ):
+        if not files.is_number(count) or count < 0:
             raise ValueError(f"{where}: {key}.count must be a finite number >= 0")
         if mean_vector.shape != var_vector.shape:
             raise ValueError(f"{where}: {key} needs mean and var of one length")

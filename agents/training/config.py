@@ -41,7 +41,7 @@ from typing import Any
 
 import yaml
 
-from agents.artifacts import limits
+from agents.artifacts import files, limits
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
 
@@ -230,11 +230,7 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
             bound = MAX_BUFFER_SIZE if key == "buffer_size" else limits.MAX_TIMESTEPS
             raw[key] = _count(raw[key], key, bound, where, minimum=0)
     for key in _NUMBER_KEYS:
-        if key in raw and (
-            isinstance(raw[key], bool)
-            or not isinstance(raw[key], (int, float))
-            or not math.isfinite(raw[key])
-        ):
+        if key in raw and not files.is_number(raw[key]):
             raise ValueError(f"{where}: {key} must be a finite number, got {raw[key]!r:.60}")
     rollout = raw.get("n_steps", 0) * result.n_envs
     if rollout > MAX_ROLLOUT_STEPS:
