@@ -30,7 +30,7 @@ import argparse
 import time
 from pathlib import Path
 
-from agents.artifacts import files
+from agents.artifacts import files, limits
 from agents.artifacts.paths import export_files, model_stem
 from agents.artifacts.run_folder import clear_run, export_model, symlink_problem
 from agents.artifacts.shipped import committed_models
@@ -130,15 +130,16 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--train-iterations",
-        type=cli.at_least(1),
+        type=cli.at_least(1, 1000),
         default=SHORT_ITERATIONS,
-        help=f"DAgger iterations when training (default {SHORT_ITERATIONS})",
+        help=f"DAgger iterations when training (default {SHORT_ITERATIONS}, at most 1000)",
     )
     parser.add_argument(
         "--train-episodes",
-        type=cli.at_least(1),
+        type=cli.at_least(1, limits.MAX_IMITATION_EPISODES),
         default=SHORT_EPISODES,
-        help=f"convoys per DAgger iteration when training (default {SHORT_EPISODES})",
+        help=f"convoys per DAgger iteration when training (default {SHORT_EPISODES}, "
+        f"at most {limits.MAX_IMITATION_EPISODES:,})",
     )
     parser.add_argument(
         "--retrain", action="store_true", help="train a fresh agent even if committed ones exist"

@@ -501,3 +501,18 @@ def test_resume_does_not_write_through_a_linked_curve(
             "--timesteps", "128", "--hyperparams", str(_hyperparams(tmp_path / "hp"))]  # fmt: skip
     refused(train.main, argv, "evaluations.csv is a symbolic link", tmp_path, capsys)
     assert outside.read_text() == "timesteps\n"
+
+
+def test_main_and_convert_stats_check_first(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from agents.commands import convert_stats, main
+
+    refused(main.main, ["--out", str(tmp_path / "out"), "--retrain", "--train-episodes", "1e6"],
+            "argument --train-episodes", tmp_path, capsys)  # fmt: skip
+    pickled = tmp_path / "old.pkl"
+    pickled.write_bytes(b"not read")
+    link = tmp_path / "new.json"
+    link.symlink_to(tmp_path / "elsewhere.json")
+    refused(convert_stats.main, ["--trust-pickle", str(pickled), str(link)],
+            "argument destination: ", tmp_path, capsys)  # fmt: skip
