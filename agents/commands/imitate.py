@@ -82,6 +82,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.net_arch:
+        problem = limits.network_problem(args.net_arch)
+        if problem is not None:
+            parser.error(f"argument --net-arch: {problem}")
     try:
         config = ImitationConfig(
             env_id=args.env,

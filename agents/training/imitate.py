@@ -144,7 +144,7 @@ class ImitationConfig:
         if self.net_arch is not None:
             problem = limits.network_problem(list(self.net_arch))
             if problem is not None:
-                raise ValueError(f"--net-arch: {problem}")
+                raise ValueError(problem)
         if not (np.isfinite(self.learning_rate) and self.learning_rate > 0.0):
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
         if "mpc" not in core_class_of(self.env_id).oracle_baselines:

@@ -439,7 +439,7 @@ def test_report_refuses_a_file_as_out(tmp_path: Path, capsys: pytest.CaptureFixt
     ("extra", "message"),
     [
         (["--episodes", "1e8"], "argument --episodes: must be <= 4,096"),
-        (["--net-arch", "40000", "40000"], "over the limit of 10,000,000"),
+        (["--net-arch", "40000", "40000"], "argument --net-arch: net_arch [40000, 40000] has"),
         (["--planner-samples", "100000"], "argument --planner-samples: must be <= 1,024"),
         (["--seed", "4000000"], "training episodes would need seeds up to"),
     ],
