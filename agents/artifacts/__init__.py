@@ -10,7 +10,11 @@
 * :mod:`~agents.artifacts.curves`: learning curves (``evaluations.csv``);
 * :mod:`~agents.artifacts.certificates`: certificates of a scene's ceiling;
 * :mod:`~agents.artifacts.run_folder`: a training's run folder;
-* :mod:`~agents.artifacts.shipped`: the models shipped in the package.
+* :mod:`~agents.artifacts.shipped`: the models shipped in the package;
+* :mod:`~agents.artifacts.files`: atomic, link-refusing writes, bounded JSON reads and
+  the run folder's lock (every writer and reader above uses it);
+* :mod:`~agents.artifacts.limits`: the bounds every command checks before any work
+  (its docstring holds the table).
 
 What is safe to load, and what is not:
 

@@ -1,36 +1,89 @@
-"""Model cards (JSON beside a model) and the JSON writer every record uses."""
+"""Model cards (JSON beside a model): reading them checked, writing them atomically.
+
+A card is a JSON object (:data:`~agents.artifacts.files.MAX_JSON_BYTES` at most). The
+keys the agents read must have their types (:data:`CARD_TYPES`: ``algo`` a string,
+``env_kwargs`` an object, ``timesteps`` an integer ...); any other key is kept as is.
+A card that breaks this is refused with a :class:`ValueError` naming the key.
+"""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
+from agents.artifacts import files
 from agents.artifacts.paths import card_path
+
+_INT = (int,)
+_NUMBER = (int, float)
+#: Keys of a card that the agents read, and the JSON types each may have (None: null).
+CARD_TYPES: dict[str, tuple[type, ...]] = {
+    "algo": (str,),
+    "env_id": (str,),
+    "recipe": (str,),
+    "policy": (str,),
+    "expert": (str,),
+    "env_kwargs": (dict,),
+    "hyperparams": (dict,),
+    "validation": (dict,),
+    "imitation": (dict,),
+    "planner": (dict,),
+    "normalize": (dict, type(None)),
+    "command": (list,),
+    "seed": (int, type(None)),
+    "timesteps": _INT,
+    "budget": _INT,
+    "n_envs": _INT,
+    "selected_at_timesteps": _INT,
+    "selected_at_iteration": _INT,
+    "simulated_steps": _INT,
+    "wall_time_s": _NUMBER,
+}
+
+
+def check_card(card: Any, where: str) -> dict[str, Any]:
+    """``card`` if it is a card object whose known keys have their types.
+
+    Raises:
+        ValueError: Naming ``where`` and the first key that is wrong.
+    """
+    if not isinstance(card, dict):
+        raise ValueError(f"model card {where} is not a JSON object")
+    for key, types in CARD_TYPES.items():
+        if key not in card:
+            continue
+        value = card[key]
+        wrong = isinstance(value, bool) or not isinstance(value, types)
+        if isinstance(value, float) and not files.is_number(value):
+            wrong = True
+        if wrong:
+            names = " or ".join("null" if kind is type(None) else kind.__name__ for kind in types)
+            raise ValueError(
+                f"model card {where}: {key!r} must be {names}, got {type(value).__name__} "
+                f"{value!r:.60}"
+            )
+    trailers = card.get("env_kwargs", {}).get("n_trailers")
+    if trailers is not None and not files.is_integer(trailers):
+        raise ValueError(f"model card {where}: env_kwargs.n_trailers must be an integer")
+    return card
 
 
 def read_card(model_path: Path) -> dict[str, Any]:
     """The model card of ``model_path``, or an empty dict when there is none.
 
     Raises:
-        ValueError: If the card is not a JSON object.
+        ValueError: If the card is too large or deep, not a JSON object, or a known key
+            has the wrong type (:func:`check_card`).
     """
     path = card_path(model_path)
     if not path.is_file():
         return {}
-    try:
-        card = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"model card {path} is not JSON: {error}") from None
-    if not isinstance(card, dict):
-        raise ValueError(f"model card {path} is not a JSON object")
-    return card
+    return check_card(files.read_json(path, "model card", allow_nan=True), str(path))
 
 
 def write_json(path: Path, document: dict[str, Any]) -> Path:
-    """Write a card or a run's ``config.json`` (sorted keys, so that files diff cleanly)."""
-    path.write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
-    return path
+    """Write a card or a run's ``config.json`` atomically (sorted keys: files diff cleanly)."""
+    return files.write_json(path, document)
 
 
 def write_card(model_path: Path, card: dict[str, Any]) -> Path:

@@ -1,13 +1,26 @@
-"""Certificate files: names, statuses, the committed ones, writing."""
+"""Certificate files: names, statuses, the committed ones, writing and checking them.
+
+A certificate is read back only if it is one (:func:`check_certificate`): its
+counts are integers that add up, ``ceiling`` is a finite number in [0, 1], every
+start has an integer seed and a known status (:data:`STATUSES`), and the stroke
+fractions are finite or null. Writing it (``--overwrite`` included) replaces only
+the files the command writes (:data:`CERTIFICATE_JSON`, :data:`CERTIFICATE_MD`,
+``actions/seed_<seed>.npy``), each atomically; any other file in the folder stays
+(an existing folder is written into only with ``overwrite``).
+"""
 
 from __future__ import annotations
 
+import io
 import json
-import shutil
+import math
+import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from agents.artifacts import files
 
 #: Committed certificates: ``certificate.json`` of the commands in docs/physics.md
 #: section 14 (the per-start statuses; the action records are rebuilt by the command).
@@ -23,25 +36,141 @@ NOT_RECOVERABLE = "not recoverable"
 OPEN = "open"
 
 
+#: Every status a start may have.
+STATUSES = (FEASIBLE, NOT_RECOVERABLE, OPEN)
+#: The files of a certificate folder.
+CERTIFICATE_JSON = "certificate.json"
+CERTIFICATE_MD = "certificate.md"
+ACTIONS = "actions"
+#: Every record in one archive: the file to commit as ``<scene>_n<n>_actions.npz``.
+ACTIONS_ARCHIVE = "actions.npz"
+_ACTION_FILE = re.compile(r"seed_-?\d+\.npy")
+
+
+def own_files(out: Path) -> list[Path]:
+    """The files of a certificate in ``out`` that writing one replaces (those that exist
+    among certificate.json, certificate.md, actions.npz, actions/ and
+    actions/seed_<seed>.npy)."""
+    found = [out / CERTIFICATE_JSON, out / CERTIFICATE_MD, out / ACTIONS_ARCHIVE, out / ACTIONS]
+    actions = out / ACTIONS
+    if actions.is_dir() and not actions.is_symlink():
+        found += sorted(path for path in actions.iterdir() if _ACTION_FILE.fullmatch(path.name))
+    return [path for path in found if path.exists() or path.is_symlink()]
+
+
+def write_problem(out: Path, overwrite: bool) -> str | None:
+    """Why a certificate could not be written to ``out`` (None if it could), without writing."""
+    problem = files.writable_problem(out, folder=True)
+    if problem is not None:
+        return problem
+    if out.exists() and not overwrite:
+        return f"{out} exists; pass --overwrite to replace it"
+    existing = own_files(out) if out.is_dir() else []
+    for path in existing:
+        if path.is_symlink():
+            return f"{path} is a symbolic link; refusing to write through it"
+    actions = out / ACTIONS
+    if actions.exists() and not actions.is_dir():
+        return f"{actions} exists and is not a folder"
+    return None
+
+
 def write_certificate(certificate: dict[str, Any], out: Path, overwrite: bool) -> None:
-    """Write certificate.json, certificate.md and actions/seed_<seed>.npy under ``out``.
+    """Write certificate.json, certificate.md, actions/seed_<seed>.npy and actions.npz (the
+    same records in one archive, the file that is committed beside a certificate as
+    ``<scene>_n<n>_actions.npz``) under ``out``.
+
+    Only those files are replaced (``actions/seed_*.npy`` of an earlier certificate
+    included); nothing else in ``out`` is touched. certificate.json is written last.
 
     Raises:
         FileExistsError: If ``out`` exists and ``overwrite`` is False.
+        UnsafeFileError: If one of the files to write is a symbolic link.
     """
-    if out.exists():
-        if not overwrite:
-            raise FileExistsError(f"{out} exists; pass --overwrite to replace it")
-        shutil.rmtree(out)
-    (out / "actions").mkdir(parents=True)
+    problem = write_problem(out, overwrite)
+    if problem is not None:
+        if "exists; pass --overwrite" in problem:
+            raise FileExistsError(problem)
+        raise files.UnsafeFileError(problem)
+    (out / ACTIONS).mkdir(parents=True, exist_ok=True)
     document = {key: value for key, value in certificate.items() if key != "actions"}
     for start in document["starts"]:
         if start["status"] == FEASIBLE:
-            start["actions_file"] = f"actions/seed_{start['seed']}.npy"
-    (out / "certificate.json").write_text(json.dumps(document, indent=2) + "\n")
-    (out / "certificate.md").write_text(markdown(certificate))
+            start["actions_file"] = f"{ACTIONS}/seed_{start['seed']}.npy"
+    keep = {f"seed_{seed}.npy" for seed in certificate["actions"]}
+    for path in own_files(out):
+        if path.parent.name == ACTIONS and path.name not in keep:
+            path.unlink()
     for seed, sequence in certificate["actions"].items():
-        np.save(out / "actions" / f"seed_{seed}.npy", sequence, allow_pickle=False)
+        buffer = io.BytesIO()
+        np.save(buffer, np.asarray(sequence), allow_pickle=False)
+        files.atomic_write_bytes(out / ACTIONS / f"seed_{seed}.npy", buffer.getvalue())
+    write_actions(certificate["actions"], out / ACTIONS_ARCHIVE)
+    files.atomic_write_text(out / CERTIFICATE_MD, markdown(certificate))
+    files.atomic_write_text(out / CERTIFICATE_JSON, json.dumps(document, indent=2) + "\n")
+
+
+def check_certificate(document: Any, where: str) -> dict[str, Any]:
+    """``document`` if it is a certificate (schema, finite numbers, known statuses).
+
+    Raises:
+        ValueError: Naming ``where`` and the first thing that is wrong.
+    """
+
+    def fail(what: str) -> ValueError:
+        return ValueError(f"{where} is not a valid certificate: {what}")
+
+    if not isinstance(document, dict):
+        raise fail("not a JSON object")
+    if not isinstance(document.get("env_id"), str):
+        raise fail("env_id must be a string")
+    kwargs = document.get("env_kwargs")
+    if not isinstance(kwargs, dict) or not files.is_integer(kwargs.get("n_trailers"), 0):
+        raise fail("env_kwargs.n_trailers must be an integer >= 0")
+    starts = document.get("starts")
+    if not isinstance(starts, list) or not starts:
+        raise fail("starts must be a non-empty list")
+    seeds = document.get("seeds")
+    if not isinstance(seeds, list) or len(seeds) != 2 or not all(map(files.is_integer, seeds)):
+        raise fail("seeds must be [first, last], two integers")
+    counts = {status: 0 for status in STATUSES}
+    seen = set()
+    for index, start in enumerate(starts):
+        if not isinstance(start, dict):
+            raise fail(f"starts[{index}] is not an object")
+        seed, status = start.get("seed"), start.get("status")
+        if not files.is_integer(seed) or seed in seen:
+            raise fail(f"starts[{index}].seed must be an integer, once")
+        seen.add(seed)
+        if status not in STATUSES:
+            raise fail(f"starts[{index}].status {status!r:.40} is none of {list(STATUSES)}")
+        counts[status] += 1
+        fraction = start.get("screen_stroke_fraction")
+        if fraction is not None and not files.is_number(fraction):
+            raise fail(f"starts[{index}].screen_stroke_fraction must be a finite number or null")
+        if "planner_length" in start and not files.is_integer(start["planner_length"], 0):
+            raise fail(f"starts[{index}].planner_length must be an integer >= 0")
+    if document.get("episodes") != len(starts):
+        raise fail(f"episodes must be the number of starts ({len(starts)})")
+    for key, status in (("feasible", FEASIBLE), ("not_recoverable", NOT_RECOVERABLE),
+                        ("open", OPEN)):  # fmt: skip
+        if not files.is_integer(document.get(key), 0) or document[key] != counts[status]:
+            raise fail(f"{key} must be the number of {status!r} starts ({counts[status]})")
+    ceiling: Any = document.get("ceiling")
+    if not files.is_number(ceiling) or not math.isclose(
+        float(ceiling), counts[FEASIBLE] / len(starts), abs_tol=1e-9
+    ):
+        raise fail("ceiling must be the feasible fraction of the starts")
+    return document
+
+
+def read_certificate(path: Path) -> dict[str, Any]:
+    """A certificate file, checked (:func:`check_certificate`).
+
+    Raises:
+        ValueError: If it is too large, not JSON, or not a valid certificate.
+    """
+    return check_certificate(files.read_json(path, "certificate"), str(path))
 
 
 def certificate_path(env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR) -> Path:
@@ -62,16 +191,8 @@ def committed_certificate(
     path = certificate_path(env_id, n_trailers, directory)
     if not path.is_file():
         return None
-    try:
-        document = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"{path} is not JSON: {error}") from None
-    if (
-        not isinstance(document, dict)
-        or document.get("env_id") != env_id
-        or document.get("env_kwargs", {}).get("n_trailers") != n_trailers
-        or not isinstance(document.get("starts"), list)
-    ):
+    document = read_certificate(path)
+    if document["env_id"] != env_id or document["env_kwargs"]["n_trailers"] != n_trailers:
         raise ValueError(f"{path} is not a certificate of {env_id} with n = {n_trailers}")
     return document
 
@@ -121,9 +242,8 @@ def write_actions(actions: dict[int, np.ndarray], path: Path) -> Path:
         f"seed_{seed}": np.asarray(sequence, dtype=np.float64)
         for seed, sequence in actions.items()
     }
-    temporary = path.with_name(f".{path.name}.tmp.npz")
-    np.savez_compressed(temporary, **arrays)  # type: ignore[arg-type]
-    temporary.replace(path)
+    with files.replacing(path) as temporary:
+        np.savez_compressed(temporary, **arrays)  # type: ignore[arg-type]
     return path
 
 

@@ -1,9 +1,23 @@
-"""Learning curves (evaluations.csv): their columns and reading them back."""
+"""Learning curves (evaluations.csv): their columns, reading them back, writing them.
+
+A curve is rewritten atomically (:func:`write_curve`) or appended to one row at a
+time (:func:`append_rows`; a training adds a row per evaluation). A run killed while
+appending may leave a cut last line (no newline at its end): :func:`read_curve`
+drops such a line instead of failing, and refuses (``ValueError``, naming the line)
+any other row that is not numbers under the file's header.
+"""
 
 from __future__ import annotations
 
 import csv
+import io
+import math
+import os
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
+
+from agents.artifacts import files
 
 #: Columns of evaluations.csv.
 CURVE_COLUMNS = (
@@ -16,18 +30,100 @@ CURVE_COLUMNS = (
     "min_margin_mean",
     "success_rate",
 )
+#: The largest curve file read (a row is about 100 bytes).
+MAX_CURVE_BYTES = 64 * 2**20
 
 
-def read_curve(path: Path) -> list[dict[str, float]]:
-    """Rows of an evaluations.csv as dicts of floats (empty if the file is absent)."""
+def read_curve(path: Path, columns: Sequence[str] = ("timesteps",)) -> list[dict[str, float]]:
+    """Rows of an evaluations.csv as dicts of floats (empty if the file is absent).
+
+    A cut last line (no final newline, a field short or unparseable) is dropped.
+
+    Raises:
+        ValueError: If the file is too large, lacks one of ``columns``, or a row
+            (other than a cut last one) is not numbers.
+    """
     if not path.is_file():
         return []
-    with path.open(newline="") as handle:
-        return [{key: float(value) for key, value in row.items()} for row in csv.DictReader(handle)]
+    size = path.stat().st_size
+    if size > MAX_CURVE_BYTES:
+        raise ValueError(f"curve {path} is {size} bytes, over the limit of {MAX_CURVE_BYTES}")
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as error:
+        raise ValueError(f"curve {path} is not UTF-8 text: {error}") from None
+    lines = text.splitlines(keepends=True)
+    if not lines:
+        return []
+    try:
+        header = next(csv.reader([lines[0]]))
+    except csv.Error as error:
+        raise ValueError(f"curve {path}: unreadable header: {error}") from None
+    missing = [column for column in ("timesteps", *columns) if column not in header]
+    if missing or len(set(header)) != len(header):
+        raise ValueError(
+            f"curve {path}: its header {header[:8]!r:.120} lacks {missing or 'unique names'}"
+        )
+    rows: list[dict[str, float]] = []
+    for number, line in enumerate(lines[1:], start=2):
+        cut = number == len(lines) and not line.endswith(("\n", "\r"))
+        try:
+            fields = next(csv.reader([line]), [])
+            if not fields:
+                continue
+            if len(fields) != len(header):
+                raise ValueError(f"{len(fields)} fields, not {len(header)}")
+            row = {key: float(value) for key, value in zip(header, fields, strict=True)}
+            if not math.isfinite(row["timesteps"]):
+                raise ValueError("timesteps is not finite")
+        except (ValueError, csv.Error) as error:
+            if cut:
+                break  # the last row, cut while it was written
+            raise ValueError(f"curve {path}, line {number}: {error}") from None
+        rows.append(row)
+    return rows
 
 
-def write_curve(path: Path, rows: list[dict[str, float]]) -> None:
-    with path.open("w", newline="") as handle:
-        writer = csv.DictWriter(handle, fieldnames=[*CURVE_COLUMNS, "iteration", "loss"])
+def _csv_text(rows: Sequence[dict[str, Any]], fieldnames: Sequence[str], header: bool) -> str:
+    buffer = io.StringIO()
+    writer = csv.DictWriter(
+        buffer, fieldnames=list(fieldnames), lineterminator="\n", extrasaction="ignore"
+    )
+    if header:
         writer.writeheader()
-        writer.writerows(rows)
+    writer.writerows(rows)
+    return buffer.getvalue()
+
+
+def write_curve(
+    path: Path,
+    rows: Sequence[dict[str, Any]],
+    fieldnames: Sequence[str] = (*CURVE_COLUMNS, "iteration", "loss"),
+) -> None:
+    """Write a whole curve atomically (a CSV with ``fieldnames`` as its header)."""
+    files.atomic_write_text(path, _csv_text(rows, fieldnames, header=True))
+
+
+def append_rows(
+    path: Path, rows: Sequence[dict[str, Any]], fieldnames: Sequence[str] = CURVE_COLUMNS
+) -> None:
+    """Append rows to a curve (with the header when the file starts).
+
+    A cut last line left by a killed run is cut off first, so that the new rows start
+    on their own line.
+
+    Raises:
+        UnsafeFileError: If ``path`` is a symbolic link.
+    """
+    files.refuse_symlink(path)
+    if not path.is_file():
+        write_curve(path, rows, fieldnames)
+        return
+    with path.open("rb+") as handle:
+        content = handle.read()
+        if content and not content.endswith(b"\n"):
+            handle.truncate(content.rfind(b"\n") + 1)
+        handle.seek(0, io.SEEK_END)
+        handle.write(_csv_text(rows, fieldnames, header=False).encode("utf-8"))
+        handle.flush()
+        os.fsync(handle.fileno())

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
+
+from agents.artifacts import files, limits
+from agents.artifacts.cards import check_card
 
 #: Files of the pickle-free policy export inside a checkpoint folder.
 POLICY_WEIGHTS = "policy_weights.pt"
@@ -21,6 +23,19 @@ def is_rllib_checkpoint(path: Path) -> bool:
 
 
 def read_rllib_card(path: Path) -> dict[str, Any]:
-    """The policy card of an RLlib checkpoint folder (empty when it has none)."""
-    card = path / POLICY_CARD
-    return dict(json.loads(card.read_text())) if card.is_file() else {}
+    """The policy card of an RLlib checkpoint folder (empty when it has none).
+
+    Raises:
+        ValueError: If it is too large, not a card, or asks for a network past the bound
+            (:func:`agents.artifacts.limits.network_problem`).
+    """
+    card_file = path / POLICY_CARD
+    if not card_file.is_file():
+        return {}
+    card = check_card(files.read_json(card_file, "policy card", allow_nan=True), str(card_file))
+    hiddens = card.get("hyperparams", {}).get("fcnet_hiddens")
+    if hiddens is not None:
+        problem = limits.network_problem(hiddens)
+        if problem is not None:
+            raise ValueError(f"{card_file}: {problem}")
+    return card

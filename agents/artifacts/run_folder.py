@@ -4,14 +4,22 @@ A run folder (default ``runs/<scene>_n<n>_<algo>_s<seed>``) holds a run once it 
 its ``config.json`` or ``evaluations.csv``. A fresh training refuses such a folder
 unless told to overwrite it (then the files of the earlier run are removed first); a
 resumed training goes on in its checkpoint's own run folder.
+
+Nothing a run writes follows a symbolic link: a folder whose run files (config.json,
+evaluations.csv, the models, ``checkpoints/`` and what is in it, ``logs/``) include a
+link is refused (:func:`symlink_problem`), fresh, resumed or overwritten. While a run
+writes its folder it holds ``<run>/.lock`` (:class:`agents.artifacts.files.RunLock`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import shutil
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from agents.artifacts import files
 from agents.artifacts.cards import write_json
 from agents.artifacts.paths import card_path, curve_path, export_files, stats_path
 from agents.envs import scene_of
@@ -40,6 +48,16 @@ STALE_FILES = (
 )
 #: Folders of an earlier run removed likewise.
 STALE_FOLDERS = (CHECKPOINTS, RLLIB_CHECKPOINT)
+#: Everything else a run writes in its folder (checked for links with the above).
+RUN_FILES = (
+    FINAL_MODEL,
+    card_path(Path(FINAL_MODEL)).name,
+    stats_path(Path(FINAL_MODEL)).name,
+    "logs",
+    "ray_logs",
+    "dataset.npz",
+    files.LOCK_FILE,
+)
 
 
 class RunFolderError(ValueError):
@@ -70,22 +88,43 @@ def run_dir_of_checkpoint(checkpoint: Path) -> Path | None:
     return folder if (folder / CONFIG_FILE).is_file() else None
 
 
+def symlink_problem(folder: Path) -> str | None:
+    """The first symbolic link among the files a run writes in ``folder`` (None: none)."""
+    names = (*STALE_FILES, *STALE_FOLDERS, *RUN_FILES)
+    candidates = [folder / name for name in names]
+    for sub in (CHECKPOINTS, "logs", RLLIB_CHECKPOINT):
+        inside = folder / sub
+        if inside.is_dir() and not inside.is_symlink():
+            candidates += sorted(inside.rglob("*"))
+    for path in candidates:
+        if path.is_symlink():
+            return f"{path} is a symbolic link; a run never writes through links"
+    return None
+
+
 def choose_run_dir(
-    default: Path, run_dir: Path | None = None, resume: Path | None = None, overwrite: bool = False
+    default: Path,
+    run_dir: Path | None = None,
+    resume: Path | None = None,
+    overwrite: bool = False,
+    *,
+    clear: bool = True,
 ) -> Path:
     """The run folder: ``run_dir``, else the resumed checkpoint's run, else ``default``.
 
     A fresh start (or a resume into a folder that is not the checkpoint's run) in a
-    folder that already holds a run removes that run's files when ``overwrite``.
+    folder that already holds a run removes that run's files when ``overwrite`` (and
+    ``clear``: without it nothing is removed, the folder is only checked).
 
     Raises:
-        RunFolderError: If the folder is a file, or holds another run and ``overwrite``
-            is false.
+        RunFolderError: If the folder is a file or not writable, holds another run and
+            ``overwrite`` is false, or a run file in it is a symbolic link.
     """
     own_run = run_dir_of_checkpoint(resume) if resume is not None else None
     chosen = run_dir or own_run or default
-    if chosen.exists() and not chosen.is_dir():
-        raise RunFolderError(f"{chosen} exists and is not a folder")
+    problem = files.writable_problem(chosen, folder=True) or symlink_problem(chosen)
+    if problem is not None:
+        raise RunFolderError(problem)
     continuing = own_run is not None and chosen.resolve() == own_run
     if not continuing and holds_run(chosen):
         if not overwrite:
@@ -93,11 +132,24 @@ def choose_run_dir(
                 f"{chosen} already holds a run; pass --resume <checkpoint>, another "
                 "--run-dir, or --overwrite"
             )
-        for stale in STALE_FILES:
-            (chosen / stale).unlink(missing_ok=True)
-        for folder in STALE_FOLDERS:
-            shutil.rmtree(chosen / folder, ignore_errors=True)
+        if clear:
+            clear_run(chosen, everything=False)
     return chosen
+
+
+def clear_run(folder: Path, everything: bool = True) -> None:
+    """Remove an earlier run's files from ``folder``: :data:`STALE_FILES` and
+    :data:`STALE_FOLDERS` (``everything``: the other run files too, but the lock);
+    nothing else in the folder is touched."""
+    names = (*STALE_FILES, *STALE_FOLDERS, *(RUN_FILES if everything else ()))
+    for name in names:
+        path = folder / name
+        if name == files.LOCK_FILE or not (path.exists() or path.is_symlink()):
+            continue
+        if path.is_dir() and not path.is_symlink():
+            shutil.rmtree(path)
+        else:
+            path.unlink()
 
 
 def write_config(run_dir: Path, record: dict[str, Any]) -> Path:
@@ -105,12 +157,30 @@ def write_config(run_dir: Path, record: dict[str, Any]) -> Path:
     return write_json(run_dir / CONFIG_FILE, record)
 
 
+def export_problem(destination: Path, overwrite: bool = False) -> str | None:
+    """Why the run's model could not be exported to ``destination`` (None: it could),
+    found without writing: a file there without ``overwrite``, a link, no writable folder."""
+    try:
+        targets = export_files(destination)
+    except ValueError:  # "", ".", "..": no file name
+        return f"{str(destination)!r} names no file (give e.g. models/name.zip)"
+    for path in targets:
+        problem = files.writable_problem(path)
+        if problem is not None:
+            return problem
+        if path.exists() and not overwrite:
+            return f"{path} exists; pass --overwrite to replace it"
+    return None
+
+
 def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> Path:
-    """Copy the run's best model, its card, statistics and learning curve to ``destination``.
+    """Copy the run's best model, its card, statistics and learning curve to ``destination``
+    (each file atomically; the model last, so that it appears with its sidecars).
 
     Raises:
         FileNotFoundError: If the run has no best model.
         FileExistsError: If one of the destination files exists and ``overwrite`` is false.
+        UnsafeFileError: If one of them is a symbolic link.
     """
     source = run_dir / BEST_MODEL
     if not source.is_file():
@@ -118,13 +188,49 @@ def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> P
     existing = [path for path in export_files(destination) if path.exists()]
     if existing and not overwrite:
         raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
+    for path in export_files(destination):
+        files.refuse_symlink(path)
     destination = destination.with_suffix(".zip")
     destination.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(source, destination)
     for sidecar in (card_path, stats_path):
         if sidecar(source).is_file():
-            shutil.copyfile(sidecar(source), sidecar(destination))
+            files.atomic_write_bytes(sidecar(destination), sidecar(source).read_bytes())
     curve = run_dir / CURVE_FILE
     if curve.is_file():
-        shutil.copyfile(curve, curve_path(destination))
+        files.atomic_write_bytes(curve_path(destination), curve.read_bytes())
+    files.atomic_write_bytes(destination, source.read_bytes())
     return destination
+
+
+@contextlib.contextmanager
+def claimed_run_dir(
+    default: Path,
+    run_dir: Path | None = None,
+    resume: Path | None = None,
+    overwrite: bool = False,
+) -> Iterator[Path]:
+    """The run folder (:func:`choose_run_dir`), locked for the block and cleared of an
+    earlier run (with ``overwrite``) only once the lock is held.
+
+    A folder this created and that is left holding nothing (the block failed before
+    writing) is removed again.
+
+    Raises:
+        RunFolderError: As :func:`choose_run_dir`, or when another live process holds
+            the folder's lock.
+    """
+    chosen = choose_run_dir(default, run_dir, resume, overwrite, clear=False)
+    existed = chosen.exists()
+    lock = files.RunLock(chosen)
+    try:
+        lock.acquire()
+    except files.FolderLockedError as error:
+        raise RunFolderError(str(error)) from None
+    try:
+        chosen = choose_run_dir(default, run_dir, resume, overwrite)
+        yield chosen
+    finally:
+        lock.release()
+        if not existed:
+            with contextlib.suppress(OSError):
+                chosen.rmdir()  # only if empty: a refused run leaves nothing

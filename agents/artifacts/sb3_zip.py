@@ -1,13 +1,27 @@
-"""stable-baselines3 model zips, loaded without unpickling anything unless trusted."""
+"""stable-baselines3 model zips, loaded without unpickling anything unless trusted.
+
+Before anything is inflated, :func:`check_zip` reads the zip's directory and refuses
+a zip bomb: more than :data:`~agents.artifacts.limits.MAX_ZIP_MEMBERS` members, a member
+inflating past :data:`~agents.artifacts.limits.MAX_ZIP_MEMBER_BYTES` (all together past
+:data:`~agents.artifacts.limits.MAX_ZIP_TOTAL_BYTES`), or one over 1 MiB compressed more
+than :data:`~agents.artifacts.limits.MAX_ZIP_RATIO` times. The network the ``data``
+entry's ``policy_kwargs`` asks for is bounded (:func:`~agents.artifacts.limits.network_problem`)
+before SB3 builds it. Models are saved atomically (:func:`save_model`).
+"""
 
 from __future__ import annotations
 
-import json
+import io
 import math
 import re
 import zipfile
 from pathlib import Path
 from typing import Any
+
+import numpy as np
+
+from agents.artifacts import files, limits
+from agents.artifacts.files import UnsafeFileError
 
 #: Entries of an SB3 ``data`` that hold runtime state, rebuilt by SB3 when they are None.
 _RUNTIME_STATE = (
@@ -29,8 +43,7 @@ _POLICY_MODULES = {
 }
 
 
-class UnsafeFileError(ValueError):
-    """A file (or part of one) could only be read by unpickling it, which was not allowed."""
+__all__ = ["ALGOS", "UnsafeFileError", "algo_class", "check_zip", "load_sb3", "read_sb3_data"]
 
 
 #: Algorithm name (as on the command line) -> stable-baselines3 class name.
@@ -50,20 +63,81 @@ def algo_class(algo: str) -> Any:
     return getattr(stable_baselines3, ALGOS[algo])
 
 
+def check_zip(path: Path) -> None:
+    """Refuse a zip whose members would inflate too far (read from its directory only).
+
+    Raises:
+        ValueError: If it is not a zip, or is a zip bomb (see the module's docstring).
+    """
+    try:
+        with zipfile.ZipFile(path) as archive:
+            members = archive.infolist()
+    except (zipfile.BadZipFile, OSError, ValueError) as error:
+        raise ValueError(f"{path} is not a stable-baselines3 model: {error}") from None
+    if len(members) > limits.MAX_ZIP_MEMBERS:
+        raise UnsafeFileError(
+            f"{path} has {len(members)} members, over the limit of {limits.MAX_ZIP_MEMBERS}"
+        )
+    total = 0
+    for member in members:
+        total += member.file_size
+        ratio = member.file_size / max(member.compress_size, 1)
+        if member.file_size > limits.MAX_ZIP_MEMBER_BYTES or (
+            member.file_size > 2**20 and ratio > limits.MAX_ZIP_RATIO
+        ):
+            raise UnsafeFileError(
+                f"{path}: member {member.filename!r} inflates to {member.file_size} bytes "
+                f"({ratio:.0f} times its compressed size); limits: "
+                f"{limits.MAX_ZIP_MEMBER_BYTES} bytes, ratio {limits.MAX_ZIP_RATIO}"
+            )
+    if total > limits.MAX_ZIP_TOTAL_BYTES:
+        raise UnsafeFileError(
+            f"{path} inflates to {total} bytes, over the limit of {limits.MAX_ZIP_TOTAL_BYTES}"
+        )
+
+
 def read_sb3_data(path: Path) -> dict[str, Any]:
     """The JSON ``data`` entry of an SB3 zip, as text values (nothing unpickled).
 
     Raises:
-        ValueError: If the file is not a zip with a JSON ``data`` entry.
+        ValueError: If the file is not a zip with a JSON ``data`` entry, or is a zip bomb
+            (:func:`check_zip`).
     """
+    check_zip(path)
     try:
         with zipfile.ZipFile(path) as archive:
-            data = json.loads(archive.read("data"))
-    except (zipfile.BadZipFile, KeyError, json.JSONDecodeError, UnicodeDecodeError) as error:
+            raw = archive.read("data")
+    except (zipfile.BadZipFile, KeyError, OSError, ValueError, EOFError) as error:
+        raise ValueError(f"{path} is not a stable-baselines3 model: {error}") from None
+    try:
+        data = files.parse_json(raw, f"the data entry of {path}", allow_nan=True)
+    except ValueError as error:
         raise ValueError(f"{path} is not a stable-baselines3 model: {error}") from None
     if not isinstance(data, dict):
         raise ValueError(f"{path} is not a stable-baselines3 model: data is not a JSON object")
     return data
+
+
+def check_network(path: Path, data: dict[str, Any], observation_space: Any = None) -> None:
+    """Refuse a model whose ``policy_kwargs.net_arch`` is past the network bound.
+
+    Raises:
+        ValueError: Naming the file and the bound.
+    """
+    kwargs = data.get("policy_kwargs")
+    if not isinstance(kwargs, dict) or "net_arch" not in kwargs:
+        return
+    inputs = int(np.prod(observation_space.shape)) if observation_space is not None else 64
+    problem = limits.network_problem(kwargs["net_arch"], inputs=inputs)
+    if problem is not None:
+        raise ValueError(f"{path}: {problem}")
+
+
+def save_model(model: Any, path: Path) -> Path:
+    """``model.save`` made atomic: the zip is built in memory, then replaces ``path``."""
+    buffer = io.BytesIO()
+    model.save(buffer)
+    return files.atomic_write_bytes(path, buffer.getvalue())
 
 
 def _is_serialized(value: Any) -> bool:
@@ -120,6 +194,7 @@ def safe_custom_objects(
     from agents.artifacts.sb3_zip import algo_class
 
     data = read_sb3_data(path)
+    check_network(path, data, observation_space)
     kwargs = algo_kwargs or {}
     for key, space in (("observation_space", observation_space), ("action_space", action_space)):
         shape = saved_shape(data, key)
@@ -184,6 +259,8 @@ def load_sb3(
     """
     from agents.artifacts.sb3_zip import algo_class
 
+    if trust_pickle:
+        check_network(path, read_sb3_data(path), observation_space)
     custom = (
         None
         if trust_pickle

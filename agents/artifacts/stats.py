@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.artifacts import files
+
 #: Format tag of the statistics files.
 STATS_FORMAT = "trailer_env-vecnormalize/1"
 
@@ -37,30 +39,79 @@ def stats_document(vecnormalize: Any) -> dict[str, Any]:
 
 def save_stats(vecnormalize: Any, path: Path) -> Path:
     """Write a ``VecNormalize``'s statistics as JSON (Python's float repr round-trips exactly)."""
-    path.write_text(json.dumps(stats_document(vecnormalize), indent=1) + "\n")
-    return path
+    return files.atomic_write_text(path, json.dumps(stats_document(vecnormalize), indent=1) + "\n")
+
+
+#: The settings a statistics file holds beside its running statistics, and their types.
+_SETTINGS = {
+    "norm_obs": bool,
+    "norm_reward": bool,
+    "clip_obs": float,
+    "clip_reward": float,
+    "gamma": float,
+    "epsilon": float,
+}
+#: The longest observation a statistics file may describe.
+MAX_STATS_SIZE = 100_000
+
+
+def _vector(value: Any, where: str) -> np.ndarray:
+    """A non-empty flat list of finite numbers as float64 (booleans refused)."""
+    if (
+        not isinstance(value, list)
+        or not 0 < len(value) <= MAX_STATS_SIZE
+        or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in value)
+    ):
+        raise ValueError(f"{where} must be a non-empty list of at most {MAX_STATS_SIZE} numbers")
+    vector = np.asarray(value, dtype=np.float64)
+    if not np.all(np.isfinite(vector)):
+        raise ValueError(f"{where} holds non-finite values")
+    return vector
+
+
+def check_stats(document: Any, where: str) -> dict[str, Any]:
+    """``document`` if it is a statistics document of :func:`stats_document`'s form.
+
+    Raises:
+        ValueError: Naming ``where`` and what is missing or wrong.
+    """
+    if not isinstance(document, dict) or document.get("format") != STATS_FORMAT:
+        raise ValueError(f"{where} is not a {STATS_FORMAT} statistics file")
+    for key, kind in _SETTINGS.items():
+        value = document.get(key)
+        valid = isinstance(value, bool) if kind is bool else files.is_number(value)
+        if not valid:
+            raise ValueError(f"{where}: {key} must be a {'boolean' if kind is bool else 'number'}")
+    for key in ("obs_rms", "ret_rms"):
+        rms = document.get(key)
+        if not isinstance(rms, dict) or not {"mean", "var", "count"} <= set(rms):
+            raise ValueError(f"{where}: {key} needs mean, var and count")
+        mean, var = rms["mean"], rms["var"]
+        if key == "ret_rms" and not isinstance(mean, list):  # a scalar running statistic
+            mean, var = [mean], [var]
+        mean_vector = _vector(mean, f"{where}: {key}.mean")
+        var_vector = _vector(var, f"{where}: {key}.var")
+        count = rms["count"]
+        if not files.is_number(count) or count < 0:
+            raise ValueError(f"{where}: {key}.count must be a finite number >= 0")
+        if mean_vector.shape != var_vector.shape:
+            raise ValueError(f"{where}: {key} needs mean and var of one length")
+        if np.any(var_vector < 0):
+            raise ValueError(f"{where}: {key} holds negative-variance values")
+    return document
 
 
 def read_stats(path: Path) -> dict[str, Any]:
     """Read and check a statistics file written by :func:`save_stats`.
 
     Raises:
-        ValueError: If it is not such a file (format, keys, finite numbers).
+        ValueError: If it is not such a file (size, format, keys, types, finite numbers).
     """
     try:
-        document = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        document = files.read_json(path, "the file")
+    except ValueError as error:
         raise ValueError(f"{path} is not a statistics JSON file: {error}") from None
-    if not isinstance(document, dict) or document.get("format") != STATS_FORMAT:
-        raise ValueError(f"{path} is not a {STATS_FORMAT} statistics file")
-    for key in ("obs_rms", "ret_rms"):
-        rms = document.get(key)
-        if not isinstance(rms, dict) or not {"mean", "var", "count"} <= set(rms):
-            raise ValueError(f"{path}: {key} needs mean, var and count")
-        values = np.asarray([*np.ravel(rms["mean"]), *np.ravel(rms["var"]), rms["count"]], float)
-        if not np.all(np.isfinite(values)) or np.any(np.asarray(rms["var"]) < 0):
-            raise ValueError(f"{path}: {key} holds non-finite or negative-variance values")
-    return document
+    return check_stats(document, str(path))
 
 
 def _running_mean_std(data: dict[str, Any]) -> Any:

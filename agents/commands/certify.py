@@ -1,28 +1,64 @@
-"""``python -m agents.certify``: certify a scene's ceiling (:mod:`agents.oracles.certify`)."""
+"""``python -m agents.certify``: certify a scene's ceiling (:mod:`agents.oracles.certify`).
+
+Limits (checked before any start is screened; :mod:`agents.artifacts.limits`):
+
+====================  ===================================================
+argument              bound
+====================  ===================================================
+``--seeds``           10,000 seeds at most, each in 0 .. 2**32 - 1
+``--n-trailers``      the environment's (0 .. 256)
+``--samples``         2 .. 1,024 candidates per start
+``--iterations``      1 .. 100
+``--restarts``        0 .. 100
+====================  ===================================================
+
+``--out`` must be a writable folder; an existing one is written into only with
+``--overwrite``, which replaces the certificate's own files (certificate.json,
+certificate.md, actions/seed_*.npy) and nothing else; a link among them is refused.
+"""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from agents.artifacts.certificates import markdown, write_certificate
-from agents.envs import ENV_IDS, check_env_id
+from agents.artifacts import limits
+from agents.artifacts.certificates import markdown, write_certificate, write_problem
+from agents.commands import options as cli
+from agents.envs import ENV_IDS, check_env_id, env_settings
 from agents.oracles.certify import DEFAULT_RESTARTS, certify
 from agents.oracles.planner import PlannerConfig
 
 
-def parse_seeds(text: str) -> list[int]:
-    """ "1000-1099" -> [1000, ..., 1099]; "5" -> [5]; "1,4,9" -> [1, 4, 9]."""
+def parse_seeds(text: str, maximum: int = limits.MAX_CERTIFY_SEEDS) -> list[int]:
+    """ "1000-1099" -> [1000, ..., 1099]; "5" -> [5]; "1,4,9" -> [1, 4, 9].
+
+    Raises:
+        ValueError: On a malformed, empty or repeated seed, one outside 0 .. 2**32 - 1,
+            or more than ``maximum`` seeds (counted before any list is built).
+    """
     seeds: list[int] = []
     for part in text.split(","):
-        if "-" in part.strip()[1:]:
-            first, last = part.strip().split("-", 1)
-            low, high = int(first), int(last)
-            if high < low:
-                raise ValueError(f"empty seed range {part!r}")
-            seeds.extend(range(low, high + 1))
-        else:
-            seeds.append(int(part))
+        part = part.strip()
+        try:
+            if "-" in part[1:]:
+                first, last = part.split("-", 1) if not part.startswith("-") else ("", "")
+                low, high = int(first), int(last)
+            else:
+                low = high = int(part)
+        except ValueError:
+            raise ValueError(f"bad seed or seed range {part[:40]!r} (e.g. 1000-1099)") from None
+        if high < low:
+            raise ValueError(f"empty seed range {part[:40]!r}")
+        if low < 0 or high > limits.MAX_SEED:
+            raise ValueError(
+                f"seeds must lie in 0..{limits.MAX_SEED} (2**32 - 1), got {part[:40]!r}"
+            )
+        if len(seeds) + high - low + 1 > maximum:
+            raise ValueError(f"more than {maximum:,} seeds in {text[:60]!r}")
+        seeds.extend(range(low, high + 1))
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"a seed appears twice in {text[:60]!r}")
     return seeds
 
 
@@ -33,15 +69,25 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--env", default="trailer_env/Reverse-v1", choices=ENV_IDS,
                         metavar="ENV_ID", help=f"one of {', '.join(ENV_IDS)}")  # fmt: skip
-    parser.add_argument("--n-trailers", type=int, default=2, help="number of trailers")
-    parser.add_argument("--seeds", default="1000-1099", help="e.g. 1000-1099 (default)")
+    cli.add_n_trailers(parser)
+    parser.add_argument(
+        "--seeds",
+        default="1000-1099",
+        help=f"e.g. 1000-1099 (default) or 1,4,9; at most {limits.MAX_CERTIFY_SEEDS:,} seeds",
+    )
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
-    parser.add_argument("--samples", type=int, default=PlannerConfig.samples)
-    parser.add_argument("--iterations", type=int, default=PlannerConfig.iterations)
+    parser.add_argument(
+        "--samples", type=cli.at_least(2, 1024), default=PlannerConfig.samples,
+        help=f"planner candidates per start (default {PlannerConfig.samples}, at most 1024)",
+    )  # fmt: skip
+    parser.add_argument(
+        "--iterations", type=cli.at_least(1, 100), default=PlannerConfig.iterations,
+        help=f"planner CEM iterations (default {PlannerConfig.iterations}, at most 100)",
+    )  # fmt: skip
     parser.add_argument(
         "--restarts",
-        type=int,
+        type=cli.at_least(0, 100),
         default=DEFAULT_RESTARTS,
         help="plan the starts not kept safe again, up to this many times, with new planner "
         f"seeds (default {DEFAULT_RESTARTS})",
@@ -54,10 +100,15 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     env_id = check_env_id(args.env)
-    if args.n_trailers < 0:
-        parser.error(f"argument --n-trailers: must be >= 0, got {args.n_trailers}")
+    try:
+        env_settings({"n_trailers": args.n_trailers})
+    except (TypeError, ValueError) as error:
+        parser.error(f"argument --n-trailers: {error}")
     try:
         seeds = parse_seeds(args.seeds)
+    except ValueError as error:
+        parser.error(f"argument --seeds: {error}")
+    try:
         config = PlannerConfig(
             samples=args.samples,
             iterations=args.iterations,
@@ -65,10 +116,9 @@ def main(argv: list[str] | None = None) -> int:
         )
     except ValueError as error:
         parser.error(str(error))
-    if args.out.exists() and not args.overwrite:
-        parser.error(f"argument --out: {args.out} exists; pass --overwrite to replace it")
-    if args.restarts < 0:
-        parser.error(f"argument --restarts: must be >= 0, got {args.restarts}")
+    problem = write_problem(args.out, args.overwrite)
+    if problem is not None:
+        parser.error(f"argument --out: {problem}")
     certificate = certify(env_id, args.n_trailers, seeds, config, restarts=args.restarts)
     write_certificate(certificate, args.out, args.overwrite)
     print(markdown(certificate).split("\n\n| seed")[0])

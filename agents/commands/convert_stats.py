@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from agents.artifacts.files import writable_problem
 from agents.artifacts.stats import convert_pickled_stats
 
 
@@ -27,9 +28,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("argument --trust-pickle: required, the conversion unpickles the file")
     if not args.pickled.is_file():
         parser.error(f"argument pickled: no file {args.pickled}")
+    problem = writable_problem(args.destination)
+    if problem is not None:
+        parser.error(f"argument destination: {problem}")
     try:
         print(f"wrote {convert_pickled_stats(args.pickled, args.destination, args.overwrite)}")
-    except FileExistsError as error:
+    except (FileExistsError, ValueError) as error:
         parser.error(f"argument destination: {error}")
     return 0
 

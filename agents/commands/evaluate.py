@@ -24,16 +24,21 @@ All episodes of one policy run in one native batch; episode ``i`` is seeded
 Writes to ``--out``: ``results.json`` (every metric, per policy), ``results.md``
 (a Markdown table, also printed), and unless ``--no-plots``: ``margins.png``
 (singular-margin histograms), ``frames.png`` (a rendered episode per policy) and
-``curves.png`` (learning curves of the models that have them).
+``curves.png`` (learning curves of the models that have them), each atomically.
+Everything is checked before the first episode: ``--out`` and ``--video`` must be
+writable and no symbolic link (nor any of the files written in ``--out``), the
+episodes' seeds must stay below 2**32 and ``--episodes`` at most 100,000
+(:mod:`agents.artifacts.limits`); every model, card, statistics file and learning
+curve is loaded and checked first.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
+from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID, check_env_id, env_settings
@@ -48,6 +53,9 @@ from agents.evaluation.tables import markdown_table
 from agents.policies.baselines import BASELINES
 from agents.policies.sb3 import limit_torch_threads
 from agents.seeds import TEST_SEED
+
+#: The files written to --out.
+OUT_FILES = ("results.json", "results.md", "margins.png", "frames.png", "curves.png")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -101,7 +109,8 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    cli.check_out_folder(parser, args.out)
+    cli.check_out_folder(parser, args.out, files_in=OUT_FILES)
+    cli.check_seeds(parser, args.seed, args.episodes)
     if args.video is not None:
         from agents.evaluation.plots import VIDEO_SUFFIXES, missing_video_modules
 
@@ -113,6 +122,7 @@ def main(argv: list[str] | None = None) -> int:
                 f"argument --video: needs {', '.join(missing)}: "
                 "pip install 'trailer-env[rendering]'"
             )
+        cli.check_out_file(parser, args.video, "--video")
         if args.video.exists() and not args.overwrite:
             parser.error(f"argument --video: {args.video} exists; pass --overwrite to replace it")
     env_id = check_env_id(args.env)
@@ -141,11 +151,12 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --policy: {error}")
     args.out.mkdir(parents=True, exist_ok=True)
     document = results_document(evaluations, env_id, env_kwargs, args.episodes, args.seed)
-    (args.out / "results.json").write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
+    files.write_json(args.out / "results.json", document)
     table = markdown_table(evaluations, curve_metric(env_id))
-    (args.out / "results.md").write_text(
+    files.atomic_write_text(
+        args.out / "results.md",
         f"{env_id}, n = {args.n_trailers}: {args.episodes} episodes, seeds "
-        f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}"
+        f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}",
     )
     print(table, end="")
     print(f"evaluated {len(specs)} policies in {time.perf_counter() - started:.1f} s")

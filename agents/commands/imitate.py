@@ -1,16 +1,35 @@
-"""``python -m agents.imitate``: DAgger from the planner (:mod:`agents.training.imitate`)."""
+"""``python -m agents.imitate``: DAgger from the planner (:mod:`agents.training.imitate`).
+
+Limits (checked before anything is built or written; :mod:`agents.artifacts.limits`):
+
+=========================  ==========================================
+argument                   bound
+=========================  ==========================================
+``--episodes``             1 .. 4,096 convoys (one batch)
+``--iterations``           1 .. 1,000
+``--epochs``               1 .. 10,000
+``--planner-samples``      2 .. 1,024
+``--planner-iterations``   1 .. 100
+``--net-arch``             10,000,000 parameters, 64 layers
+``--seed``                 training seeds below 2**32
+=========================  ==========================================
+
+The run folder and ``--export`` are checked as by ``agents.train`` (writable, no
+symbolic link, locked while the run writes it).
+"""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from agents.artifacts.paths import export_files
+from agents.artifacts import limits
 from agents.artifacts.run_folder import (
     RunFolderError,
-    choose_run_dir,
+    claimed_run_dir,
     default_run_dir,
     export_model,
+    export_problem,
 )
 from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID
@@ -26,23 +45,30 @@ def build_parser() -> argparse.ArgumentParser:
     cli.add_env(parser, default=HEADLINE_ENV_ID)
     cli.add_n_trailers(parser)
     cli.add_seed(parser, 0, "seed of the network, the training episodes and the planner")
-    parser.add_argument("--iterations", type=cli.at_least(1), default=6, help="DAgger iterations")
-    cli.add_episodes(parser, 256, "convoys driven per iteration (one batch)")
     parser.add_argument(
-        "--epochs", type=cli.at_least(1), default=10, help="passes over the data per iteration"
+        "--iterations", type=cli.at_least(1, 1000), default=6, help="DAgger iterations (<= 1000)"
+    )
+    cli.add_episodes(
+        parser, 256, "convoys driven per iteration (one batch)", limits.MAX_IMITATION_EPISODES
+    )
+    parser.add_argument(
+        "--epochs",
+        type=cli.at_least(1, 10_000),
+        default=10,
+        help="passes over the data per iteration (<= 10,000)",
     )
     parser.add_argument(
         "--net-arch", type=cli.at_least(1), nargs="+", default=None, help="hidden layer sizes"
     )
     parser.add_argument(
         "--planner-samples",
-        type=cli.at_least(2),
+        type=cli.at_least(2, 1024),
         default=PlannerConfig.samples,
         help=f"the expert's candidates per iteration (default {PlannerConfig.samples})",
     )
     parser.add_argument(
         "--planner-iterations",
-        type=cli.at_least(1),
+        type=cli.at_least(1, 100),
         default=PlannerConfig.iterations,
         help=f"the expert's CEM iterations (default {PlannerConfig.iterations})",
     )
@@ -57,6 +83,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    if args.net_arch:
+        problem = limits.network_problem(args.net_arch)
+        if problem is not None:
+            parser.error(f"argument --net-arch: {problem}")
     try:
         config = ImitationConfig(
             env_id=args.env,
@@ -74,19 +104,19 @@ def main(argv: list[str] | None = None) -> int:
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))
+    if args.export is not None:
+        problem = export_problem(args.export, args.overwrite)
+        if problem is not None:
+            parser.error(f"argument --export: {problem}")
     default = default_run_dir(config.env_id, "dagger", config.n_trailers, config.seed)
     try:
-        run_dir = choose_run_dir(default, args.run_dir, overwrite=args.overwrite)
+        with claimed_run_dir(default, args.run_dir, overwrite=args.overwrite) as run_dir:
+            limit_torch_threads()
+            imitate(config, run_dir)
+            if args.export is not None:
+                print(f"exported {export_model(run_dir, args.export, overwrite=args.overwrite)}")
     except RunFolderError as error:
-        parser.error(str(error))
-    if args.export is not None and not args.overwrite:
-        existing = [path for path in export_files(args.export) if path.exists()]
-        if existing:
-            parser.error(f"argument --export: {existing[0]} exists; pass --overwrite to replace it")
-    limit_torch_threads()
-    imitate(config, run_dir)
-    if args.export is not None:
-        print(f"exported {export_model(run_dir, args.export, overwrite=args.overwrite)}")
+        parser.error(f"argument --run-dir: {error}")
     return 0
 
 

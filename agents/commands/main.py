@@ -20,18 +20,21 @@ Run with ``python -m agents.main [--out DIR] [--episodes K] [--planner | --no-pl
 
 Progress goes to standard error, the table to standard output; the measured times
 are in the docs (Agents: the main job).
+
+``--out`` must be a writable folder with no symbolic link among the files written,
+``--episodes`` at most 100,000; checked before anything runs. The short run is
+locked while it writes (``<out>/run/.lock``) and every file is written atomically.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
-import shutil
 import time
 from pathlib import Path
 
+from agents.artifacts import files, limits
 from agents.artifacts.paths import export_files, model_stem
-from agents.artifacts.run_folder import export_model
+from agents.artifacts.run_folder import clear_run, export_model, symlink_problem
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
 from agents.envs import env_settings
@@ -62,6 +65,10 @@ SHORT_ITERATIONS = 2
 SHORT_EPISODES = 64
 
 
+#: The files written to --out (besides the short run's).
+OUT_FILES = ("results.json", "results.md", "margins.png", "frames.png", "curves.png")
+
+
 def short_run_files(out: Path) -> list[Path]:
     """What :func:`train_short` writes under ``out`` and would replace: its run, its export."""
     return [out / "run", *export_files(_short_export(out))]
@@ -84,13 +91,26 @@ def train_short(
         FileExistsError: If ``out`` already holds such a run (or its export) and
             ``overwrite`` is false.
     """
-    from agents.training.imitate import ImitationConfig, imitate
-
     run_dir = out / "run"
     existing = [path for path in short_run_files(out) if path.exists()]
     if existing and not overwrite:
         raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
-    shutil.rmtree(run_dir, ignore_errors=True)
+    problem = symlink_problem(run_dir) or next(
+        (f"{path} is a symbolic link" for path in export_files(_short_export(out))
+         if path.is_symlink()), None,
+    )  # fmt: skip
+    if problem is not None:
+        raise files.UnsafeFileError(problem)
+    with files.RunLock(run_dir):
+        clear_run(run_dir)  # the earlier run's files only (nothing else in the folder)
+        return _imitate_short(out, run_dir, iterations, episodes, seed, overwrite)
+
+
+def _imitate_short(
+    out: Path, run_dir: Path, iterations: int, episodes: int, seed: int, overwrite: bool
+) -> Path:
+    from agents.training.imitate import ImitationConfig, imitate
+
     print(
         f"no committed agent: imitating the planner ({iterations} DAgger iterations of "
         f"{episodes} convoys) into {run_dir} ...",
@@ -120,15 +140,16 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--train-iterations",
-        type=cli.at_least(1),
+        type=cli.at_least(1, 1000),
         default=SHORT_ITERATIONS,
-        help=f"DAgger iterations when training (default {SHORT_ITERATIONS})",
+        help=f"DAgger iterations when training (default {SHORT_ITERATIONS}, at most 1000)",
     )
     parser.add_argument(
         "--train-episodes",
-        type=cli.at_least(1),
+        type=cli.at_least(1, limits.MAX_IMITATION_EPISODES),
         default=SHORT_EPISODES,
-        help=f"convoys per DAgger iteration when training (default {SHORT_EPISODES})",
+        help=f"convoys per DAgger iteration when training (default {SHORT_EPISODES}, "
+        f"at most {limits.MAX_IMITATION_EPISODES:,})",
     )
     parser.add_argument(
         "--retrain", action="store_true", help="train a fresh agent even if committed ones exist"
@@ -137,7 +158,8 @@ def main(argv: list[str] | None = None) -> int:
         parser, "with --retrain: replace the run (and exported model) already in --out"
     )
     args = parser.parse_args(argv)
-    cli.check_out_folder(parser, args.out)
+    cli.check_out_folder(parser, args.out, files_in=OUT_FILES)
+    cli.check_seeds(parser, TEST_SEED, args.episodes)
     limit_torch_threads()
     started = time.perf_counter()
     models = [] if args.retrain else committed_models(ENV_ID, N_TRAILERS)
@@ -148,11 +170,17 @@ def main(argv: list[str] | None = None) -> int:
                 f"argument --out: {existing[0]} holds an earlier run; pass --overwrite "
                 "to replace it, or another --out"
             )
-        models = [
-            train_short(
-                args.out, args.train_iterations, args.train_episodes, overwrite=args.overwrite
-            )
-        ]
+        problem = symlink_problem(args.out / "run")
+        if problem is not None:
+            parser.error(f"argument --out: {problem}")
+        try:
+            models = [
+                train_short(
+                    args.out, args.train_iterations, args.train_episodes, overwrite=args.overwrite
+                )
+            ]
+        except files.FolderLockedError as error:
+            parser.error(f"argument --out: {error}")
     env_kwargs = {"n_trailers": N_TRAILERS}
     env_settings(env_kwargs)
     planner = [] if args.no_planner else ["mpc" if args.planner else "mpc-replay"]
@@ -162,14 +190,14 @@ def main(argv: list[str] | None = None) -> int:
     document = results_document(evaluations, ENV_ID, env_kwargs, args.episodes, TEST_SEED)
     ceiling = ceiling_note(ENV_ID, N_TRAILERS, args.episodes, TEST_SEED)
     document["ceiling"] = ceiling
-    (args.out / "results.json").write_text(json.dumps(document, indent=2, sort_keys=True) + "\n")
+    files.write_json(args.out / "results.json", document)
     table = markdown_table(evaluations, curve_metric(ENV_ID))
     print(
         f"\n{ENV_ID}, n = {N_TRAILERS}: {args.episodes} episodes, seeds "
         f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "
         "(margin < 0.3), never folded, never slowed to 0.3 m/s\n"
     )
-    (args.out / "results.md").write_text(f"{table}\n{ceiling}\n")
+    files.atomic_write_text(args.out / "results.md", f"{table}\n{ceiling}\n")
     print(table)
     print(ceiling + "\n")
     for path in write_pictures(evaluations, ENV_ID, env_kwargs, args.out, TEST_SEED):

@@ -3,7 +3,9 @@
 The options every command spells the same way (``--env``, ``--n-trailers``, ``--seed``,
 ``--overwrite``, ``--trust-pickle``) and the number parsers behind them. A bad value
 exits with status 2 and a message naming the argument (argparse's ``type`` contract:
-the parsers raise :class:`argparse.ArgumentTypeError`).
+the parsers raise :class:`argparse.ArgumentTypeError`). Every count is bounded (the
+table of :mod:`agents.artifacts.limits`), and every output is checked writable before
+any work (:func:`check_out_folder`, :func:`check_out_file`).
 """
 
 from __future__ import annotations
@@ -13,6 +15,7 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
+from agents.artifacts import files, limits
 from agents.envs import ENV_IDS
 
 
@@ -24,7 +27,7 @@ def _integer(text: str, minimum: int, expected: str, *, float_text: bool = False
     except (ValueError, OverflowError):  # "abc", "nan"; "inf"
         valid = False
     if not valid:
-        raise argparse.ArgumentTypeError(f"expected {expected}, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected {expected}, got {text[:40]!r}")
     return value
 
 
@@ -38,6 +41,14 @@ def non_negative_int(text: str) -> int:
     return _integer(text, 0, "an integer >= 0")
 
 
+def seed_value(text: str) -> int:
+    """A seed: an integer in 0 .. 2**32 - 1."""
+    value = _integer(text, 0, "an integer >= 0")
+    if value > limits.MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be <= {limits.MAX_SEED} (2**32 - 1), got {value}")
+    return value
+
+
 def positive_float(text: str) -> float:
     """A finite number > 0."""
     try:
@@ -49,21 +60,39 @@ def positive_float(text: str) -> float:
     return value
 
 
-def at_least(minimum: int) -> Callable[[str], int]:
-    """A parser of integer counts >= ``minimum`` (episodes, trailers, steps)."""
+def at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
+    """A parser of integer counts >= ``minimum`` (and <= ``maximum``, when given)."""
 
     def parse(text: str) -> int:
         try:
             value = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"expected an integer >= {minimum}, got {text!r}"
+                f"expected an integer >= {minimum}, got {text[:40]!r}"
             ) from None
         if value < minimum:
             raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        if maximum is not None and value > maximum:
+            raise argparse.ArgumentTypeError(f"must be <= {maximum:,}, got {value:,}")
         return value
 
     parse.__name__ = f"integer >= {minimum}"  # argparse names the type in some messages
+    return parse
+
+
+def bounded(minimum: int, maximum: int) -> Callable[[str], int]:
+    """A parser of integers in ``minimum .. maximum``, also written as "1e6"."""
+
+    def parse(text: str) -> int:
+        expected = "a positive integer" if minimum == 1 else f"an integer >= {minimum}"
+        value = _integer(text, -(2**63), expected, float_text=True)
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
+        if value > maximum:
+            raise argparse.ArgumentTypeError(f"must be <= {maximum:,}, got {text[:40]}")
+        return value
+
+    parse.__name__ = f"integer in {minimum}..{maximum}"
     return parse
 
 
@@ -91,13 +120,33 @@ def add_n_trailers(parser: argparse.ArgumentParser, default: int = 2) -> None:
 
 
 def add_seed(parser: argparse.ArgumentParser, default: int, help: str) -> None:
-    """``--seed S`` (>= 0)."""
-    parser.add_argument("--seed", type=non_negative_int, default=default, help=help)
+    """``--seed S`` (0 .. 2**32 - 1; see :func:`check_seeds` for the episodes' seeds)."""
+    parser.add_argument(
+        "--seed",
+        type=seed_value,
+        default=default,
+        help=f"{help}; at most 2**32 - 1",
+    )
 
 
-def add_episodes(parser: argparse.ArgumentParser, default: int, help: str) -> None:
-    """``--episodes K`` (>= 1)."""
-    parser.add_argument("--episodes", type=at_least(1), default=default, help=help)
+def add_episodes(
+    parser: argparse.ArgumentParser,
+    default: int,
+    help: str,
+    maximum: int = limits.MAX_EPISODES,
+    flag: str = "--episodes",
+) -> None:
+    """``--episodes K`` (1 .. ``maximum``, default :data:`agents.artifacts.limits.MAX_EPISODES`)."""
+    parser.add_argument(
+        flag, type=bounded(1, maximum), default=default, help=f"{help}; at most {maximum:,}"
+    )
+
+
+def check_seeds(parser: argparse.ArgumentParser, seed: int, count: int) -> None:
+    """Exit 2 when episodes ``seed .. seed + count - 1`` need seeds past 2**32 - 1."""
+    problem = limits.seed_problem(seed, count)
+    if problem is not None:
+        parser.error(f"argument --seed: {problem}")
 
 
 def add_overwrite(parser: argparse.ArgumentParser, help: str) -> None:
@@ -114,7 +163,35 @@ def add_trust_pickle(parser: argparse.ArgumentParser, what: str) -> None:
     )
 
 
-def check_out_folder(parser: argparse.ArgumentParser, out: Path, name: str = "--out") -> None:
-    """Exit 2 naming the argument when ``out`` exists and is not a folder."""
-    if out.exists() and not out.is_dir():
-        parser.error(f"argument {name}: {out} exists and is not a folder")
+def check_out_folder(
+    parser: argparse.ArgumentParser, out: Path, name: str = "--out", files_in: tuple[str, ...] = ()
+) -> None:
+    """Exit 2 naming the argument when ``out`` could not be written as a folder (a file,
+    a path through a file, no writable ancestor, a link) or one of ``files_in`` in it
+    (the files the command will write there) is a symbolic link or a folder."""
+    problem = files.writable_problem(out, folder=True)
+    for name_in in files_in if problem is None else ():
+        problem = problem or (
+            files.writable_problem(out / name_in) if (out / name_in).exists() or
+            (out / name_in).is_symlink() else None
+        )  # fmt: skip
+    if problem is not None:
+        parser.error(f"argument {name}: {problem}")
+
+
+def check_out_file(parser: argparse.ArgumentParser, path: Path, name: str) -> None:
+    """Exit 2 naming the argument when the file ``path`` could not be written."""
+    problem = files.writable_problem(path)
+    if problem is not None:
+        parser.error(f"argument {name}: {problem}")
+
+
+def add_torch_threads(parser: argparse.ArgumentParser) -> None:
+    """``--torch-threads T`` (1 .. 4 x the CPUs)."""
+    top = limits.max_torch_threads()
+    parser.add_argument(
+        "--torch-threads",
+        type=at_least(1, top),
+        default=1,
+        help=f"torch CPU threads (default 1, at most {top}: 4 per CPU)",
+    )

@@ -17,16 +17,19 @@ By default it writes nothing that git tracks. ``--docs DIR`` (the site's folder,
 ``docs``) also writes the tables to ``DIR/generated/results_tables.md``, which the
 results page includes, and the pictures to ``DIR/img``. Its time on this machine is in
 the docs (Reproduce); progress goes to standard error.
+
+``--out`` and ``--docs`` must be writable folders (no file in the way, no symbolic
+link among the files written) and ``--episodes`` at most 100,000: checked before the
+first episode. Every file is written atomically.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from pathlib import Path
 
-from agents.artifacts.files import write_text
+from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
 from agents.envs import scene_baselines
@@ -45,9 +48,15 @@ from agents.policies.sb3 import limit_torch_threads
 from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
 
+#: The pictures the report writes (under ``<out>/img`` or ``<docs>/img``).
+PICTURES = (
+    "agents_curves.png", "agents_margins.png", "agents_frames.png",
+    "agents_margins_reverse_v1_n2.png", "agents_frames_reverse_v1_n2.png",
+)  # fmt: skip
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status."""
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
     parser = argparse.ArgumentParser(
         prog="python -m agents.report", description=(__doc__ or "").split("\n")[0]
     )
@@ -68,11 +77,22 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--no-planner", action="store_true", help="leave the scenes' oracle (mpc) out"
     )
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments exit with 2)."""
+    parser = build_parser()
     args = parser.parse_args(argv)
-    cli.check_out_folder(parser, args.out)
+    cli.check_out_folder(parser, args.out, files_in=("tables.md", "results.json"))
     if args.docs is not None:
         cli.check_out_folder(parser, args.docs, "--docs")
+        cli.check_out_folder(
+            parser, args.docs / "generated", "--docs", files_in=("results_tables.md",)
+        )
     img = args.out / "img" if args.docs is None else args.docs / "img"
+    cli.check_out_folder(parser, img, "--out" if args.docs is None else "--docs", files_in=PICTURES)
+    cli.check_seeds(parser, TEST_SEED, args.episodes)
     limit_torch_threads()
     started = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)
@@ -108,6 +128,7 @@ def main(argv: list[str] | None = None) -> int:
                         path.unlink()  # replaced by the grid of every scenario below
                         continue
                     final = path.with_name(path.stem + "_reverse_v1_n2.png")
+                    files.refuse_symlink(final)
                     path.replace(final)
                     print(f"wrote {final}")
             bar.advance(f"{env_id}, n = {n}")
@@ -120,13 +141,13 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(f"wrote {grid}")
     tables = "\n".join(sections)
-    write_text(args.out / "tables.md", tables)
-    write_text(args.out / "results.json", json.dumps(documents, indent=2, sort_keys=True) + "\n")
+    files.atomic_write_text(args.out / "tables.md", tables)
+    files.write_json(args.out / "results.json", documents)
     print(f"wrote {args.out / 'tables.md'} and results.json")
     if args.docs is not None:
         generated = args.docs / "generated"
         generated.mkdir(parents=True, exist_ok=True)
-        write_text(generated / "results_tables.md", tables)
+        files.atomic_write_text(generated / "results_tables.md", tables)
         print(f"wrote {generated / 'results_tables.md'}")
     print(f"report done in {duration(time.perf_counter() - started)}")
     return 0

@@ -37,6 +37,16 @@ replay buffer (SB3 saves it as a pickle) is refused without the flag.
 ``--backend rllib`` trains PPO on Ray RLlib instead (:mod:`agents.training.rllib`):
 ``--num-env-runners K`` remote runners, each stepping one native batch of
 ``--n-envs`` convoys, on a local Ray or the cluster at ``--address``.
+
+Everything is checked before anything is built or written (exit status 2 naming the
+argument): the hyperparameter file (:mod:`agents.training.config`), ``--resume``'s
+files, ``--export``'s target (writable, no link, no file there without
+``--overwrite``), the run folder (no link among its run files; ``<run>/.lock`` held by
+a live run refuses a second writer) and the bounds of :mod:`agents.artifacts.limits`:
+``--n-envs`` <= 65,536, ``--timesteps`` <= 2**31, ``--eval-episodes`` <= 100,000,
+``--torch-threads`` <= 4 per CPU, ``--seed`` + steps < 2**32, ``--num-env-runners``
+<= the cluster's CPUs, ``--address`` of the form ``auto``, ``HOST:PORT`` or
+``ray://HOST:PORT``.
 """
 
 from __future__ import annotations
@@ -46,13 +56,15 @@ import sys
 import time
 from pathlib import Path
 
-from agents.artifacts.paths import export_files, pickled_stats_path, replay_buffer_path, stats_path
+from agents.artifacts import limits
+from agents.artifacts.paths import pickled_stats_path, replay_buffer_path, stats_path
 from agents.artifacts.run_folder import (
     RLLIB_CHECKPOINT,
     RunFolderError,
-    choose_run_dir,
+    claimed_run_dir,
     default_run_dir,
     export_model,
+    export_problem,
 )
 from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError
 from agents.artifacts.stats import read_stats
@@ -65,7 +77,9 @@ from agents.training.sb3 import train
 
 def _optional_positive(parser: argparse.ArgumentParser, flag: str, help: str) -> None:
     """An optional count >= 1 whose default (None) is worked out from the other settings."""
-    parser.add_argument(flag, type=cli.positive_int, default=None, help=help)
+    parser.add_argument(
+        flag, type=cli.bounded(1, limits.MAX_TIMESTEPS), default=None, help=help
+    )
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -91,17 +105,19 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: n_timesteps of the hyperparameter file)",
     )
     cli.add_seed(parser, 0, "random seed (default 0)")
-    _optional_positive(
-        parser,
+    parser.add_argument(
         "--n-envs",
-        "environments per batch (default: from the hyperparameters); "
-        "with --backend rllib: per env runner",
+        type=cli.bounded(1, limits.MAX_N_ENVS),
+        default=None,
+        help="environments per batch (default: from the hyperparameters), at most "
+        f"{limits.MAX_N_ENVS:,}; with --backend rllib: per env runner",
     )
     parser.add_argument(
         "--num-env-runners",
         type=cli.non_negative_int,
         default=1,
-        help="rllib: remote env runners, each stepping one native batch (default 1)",
+        help="rllib: remote env runners, each stepping one native batch (default 1); at "
+        "most the CPUs of the machine (local Ray) or of the cluster (--address)",
     )
     parser.add_argument(
         "--address",
@@ -134,21 +150,14 @@ def build_parser() -> argparse.ArgumentParser:
         "legacy .pkl statistics)",
     )
     _optional_positive(parser, "--eval-freq", "steps between evaluations (default: budget / 20)")
-    parser.add_argument(
-        "--eval-episodes",
-        type=cli.positive_int,
-        default=50,
-        help="episodes per evaluation (default 50)",
-    )
+    cli.add_episodes(parser, 50, "episodes per evaluation (default 50)", flag="--eval-episodes")
     _optional_positive(
         parser, "--checkpoint-freq", "steps between checkpoints (default: budget / 5)"
     )
     parser.add_argument(
         "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
     )
-    parser.add_argument(
-        "--torch-threads", type=cli.positive_int, default=1, help="torch CPU threads (default 1)"
-    )
+    cli.add_torch_threads(parser)
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--quiet", action="store_true", help="no evaluation lines")
     return parser
@@ -201,6 +210,17 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
                 parser.error(f"argument {name}: not supported with --backend rllib")
         if args.algo != "ppo":
             parser.error(f"argument --algo: --backend rllib trains ppo, not {args.algo}")
+        from agents.training.rllib import address_problem, local_cpus
+
+        if args.address is not None:
+            problem = address_problem(args.address)
+            if problem is not None:
+                parser.error(f"argument --address: {problem}")
+        elif args.num_env_runners > local_cpus():
+            parser.error(
+                f"argument --num-env-runners: {args.num_env_runners} runners, but this "
+                f"machine has {local_cpus()} CPUs (one runner per CPU)"
+            )
     elif args.address is not None:
         parser.error("argument --address: only with --backend rllib")
 
@@ -220,26 +240,41 @@ def config_from_args(
             else load_hyperparams(args.algo, args.env)
         )
     except (FileNotFoundError, KeyError, ValueError) as error:
-        parser.error(f"argument --hyperparams: {str(error).strip(chr(34) + chr(39))}")
+        text = str(error.args[0]) if isinstance(error, KeyError) else str(error)
+        parser.error(f"argument --hyperparams: {text}")
     n_envs = args.n_envs
     if args.backend == "rllib":
         runners = max(args.num_env_runners, 1)
         n_envs = (n_envs or max(hp.n_envs // runners, 1)) * runners
-    config = TrainConfig.resolve(
-        args.env,
-        args.algo,
-        args.n_trailers,
-        args.seed,
-        hp,
-        timesteps=args.timesteps,
-        n_envs=n_envs,
-        backend=args.backend,
-        command=command,
-    )
+    try:
+        config = TrainConfig.resolve(
+            args.env,
+            args.algo,
+            args.n_trailers,
+            args.seed,
+            hp,
+            timesteps=args.timesteps,
+            n_envs=n_envs,
+            backend=args.backend,
+            command=command,
+        )
+    except ValueError as error:
+        parser.error(f"argument --timesteps, --n-envs or --seed (or the file's): {error}")
     try:
         env_settings(config.env_kwargs)
     except (TypeError, ValueError) as error:
         parser.error(f"argument --n-trailers (or the file's env_kwargs): {error}")
+    if (
+        args.resume is not None
+        and hp.normalize is not None
+        and hp.normalize.get("norm_obs", True)
+        and not stats_path(args.resume).is_file()
+        and pickled_stats_path(args.resume) is None
+    ):
+        parser.error(
+            f"argument --resume: {args.resume} has no observation statistics "
+            f"({stats_path(args.resume).name}), but the hyperparameters normalise observations"
+        )
     return config
 
 
@@ -253,18 +288,25 @@ def main(argv: list[str] | None = None) -> int:
     command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
     config = config_from_args(parser, args, command)
     if args.export is not None:
-        existing = [path for path in export_files(args.export) if path.exists()]
-        if existing and not args.overwrite:
-            parser.error(f"argument --export: {existing[0]} exists; pass --overwrite to replace it")
+        problem = export_problem(args.export, args.overwrite)
+        if problem is not None:
+            parser.error(f"argument --export: {problem}")
     default = default_run_dir(args.env, args.algo, args.n_trailers, args.seed)
     try:
-        run_dir = choose_run_dir(default, args.run_dir, args.resume, args.overwrite)
+        with claimed_run_dir(default, args.run_dir, args.resume, args.overwrite) as run_dir:
+            return _run(parser, args, config, run_dir)
     except RunFolderError as error:
         parser.error(f"argument --run-dir: {error}")
+
+
+def _run(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, config: TrainConfig, run_dir: Path
+) -> int:
+    """Train into the (locked) run folder."""
     limit_torch_threads(args.torch_threads)
     started = time.perf_counter()
     if args.backend == "rllib":
-        from agents.training.rllib import train_rllib
+        from agents.training.rllib import ClusterTooSmallError, train_rllib
 
         try:
             record = train_rllib(
@@ -276,6 +318,8 @@ def main(argv: list[str] | None = None) -> int:
             )
         except ConnectionError as error:
             parser.error(f"argument --address: {error}")
+        except ClusterTooSmallError as error:
+            parser.error(f"argument --num-env-runners: {error}")
         print(
             f"trained ppo on {args.env} (n = {args.n_trailers}) with RLlib to "
             f"{record['timesteps']} steps in {time.perf_counter() - started:.0f} s "

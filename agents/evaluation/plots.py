@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.artifacts import files
 from agents.artifacts.curves import read_curve
 from agents.evaluation.metrics import EpisodeResults
 from agents.policies.baselines import Policy
@@ -191,7 +192,8 @@ def _save(fig: Any, plt: Any, out: Path, title: str = "") -> Path:
         fig.suptitle(title)
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=80)
+    with files.replacing(out) as temporary:
+        fig.savefig(temporary, dpi=80)
     plt.close(fig)
     return out
 
@@ -255,18 +257,21 @@ def write_video(frames: Sequence[np.ndarray], out: Path, fps: float) -> Path:
         images = [Image.fromarray(frame) for frame in frames]
         # optimize=False and disposal=1 keep one GIF frame per env frame (Pillow would
         # otherwise merge frames that happen to be identical).
-        images[0].save(
-            out,
-            save_all=True,
-            append_images=images[1:],
-            duration=round(1000 / fps),
-            loop=0,
-            optimize=False,
-            disposal=1,
-        )
+        with files.replacing(out) as temporary:
+            images[0].save(
+                temporary,
+                format="GIF",
+                save_all=True,
+                append_images=images[1:],
+                duration=round(1000 / fps),
+                loop=0,
+                optimize=False,
+                disposal=1,
+            )
         return out
     import imageio.v2 as imageio
 
     # macro_block_size=1: the frames' size need not be a multiple of 16.
-    imageio.mimsave(out, list(frames), fps=fps, macro_block_size=1)
+    with files.replacing(out) as temporary:
+        imageio.mimsave(temporary, list(frames), fps=fps, macro_block_size=1)
     return out

@@ -17,6 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from agents.artifacts.cards import read_card
+from agents.artifacts.curves import CURVE_COLUMNS, read_curve
+from agents.artifacts.paths import curve_path, stats_path
 from agents.artifacts.run_folder import RLLIB_CHECKPOINT
 from agents.artifacts.shipped import resolve_model, shipped_models
 from agents.envs import (
@@ -167,7 +169,16 @@ def load_policy(
         return load_rllib_policy(
             path, probe.single_observation_space, probe.single_action_space, trust_pickle
         )
+    card = read_card(path)
     if not force:
-        check_card(read_card(path), spec, env_id, kwargs)
+        check_card(card, spec, env_id, kwargs)
+    read_curve(curve_path(path), CURVE_COLUMNS)  # a damaged curve fails now, not at the end
     model = load_model(path, env_id=env_id, env_kwargs=kwargs, trust_pickle=trust_pickle)
-    return ModelPolicy(model, load_stats(path, model.observation_space, trust_pickle))
+    stats = load_stats(path, model.observation_space, trust_pickle)
+    normalize = card.get("normalize")
+    if stats is None and isinstance(normalize, dict) and normalize.get("norm_obs", True):
+        raise ValueError(
+            f"model {path} was trained on normalised observations (its card), but its "
+            f"statistics {stats_path(path).name} are missing"
+        )
+    return ModelPolicy(model, stats)

@@ -11,7 +11,7 @@ model does not peek at the reported numbers.
 
 from __future__ import annotations
 
-import csv
+import io
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -19,10 +19,12 @@ from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
+from agents.artifacts import files
 from agents.artifacts.cards import read_card, write_card
-from agents.artifacts.curves import CURVE_COLUMNS, read_curve
+from agents.artifacts.curves import CURVE_COLUMNS, append_rows, read_curve, write_curve
 from agents.artifacts.paths import card_path, stats_path
 from agents.artifacts.run_folder import BEST_MODEL, CURVE_FILE
+from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import save_stats
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.sb3 import ModelPolicy
@@ -42,6 +44,9 @@ class StatsCheckpointCallback(CheckpointCallback):
     ``<prefix>_vecnormalize_<k>_steps.json`` beside each ``<prefix>_<k>_steps.zip``
     instead (:func:`agents.artifacts.stats.save_stats`). The replay buffer of SAC/TD3
     (``save_replay_buffer``) stays SB3's pickle: resuming from it needs ``--trust-pickle``.
+
+    Each file is written atomically, the zip last: a checkpoint zip that can be seen
+    has its statistics (and buffer) beside it.
     """
 
     def __init__(
@@ -56,12 +61,21 @@ class StatsCheckpointCallback(CheckpointCallback):
         )
 
     def _on_step(self) -> bool:
-        saving = self.n_calls % self.save_freq == 0
-        result = super()._on_step()
+        if self.n_calls % self.save_freq != 0:
+            return True
+        model_path = Path(self._checkpoint_path(extension="zip"))
         stats = self.model.get_vec_normalize_env()
-        if saving and stats is not None:
-            save_stats(stats, stats_path(Path(self._checkpoint_path(extension="zip"))))
-        return result
+        if stats is not None:
+            save_stats(stats, stats_path(model_path))
+        buffer = getattr(self.model, "replay_buffer", None)
+        if self.save_replay_buffer and buffer is not None:
+            data = io.BytesIO()
+            self.model.save_replay_buffer(data)  # type: ignore[attr-defined]
+            files.atomic_write_bytes(
+                Path(self._checkpoint_path("replay_buffer_", extension="pkl")), data.getvalue()
+            )
+        save_model(self.model, model_path)
+        return True
 
 
 class SafetyEvalCallback(BaseCallback):
@@ -100,7 +114,7 @@ class SafetyEvalCallback(BaseCallback):
         self.seed = seed
         self.curve_path = run_dir / CURVE_FILE
         self.best_path = run_dir / BEST_MODEL
-        previous = read_curve(self.curve_path) if resume_from is not None else []
+        previous = read_curve(self.curve_path, CURVE_COLUMNS) if resume_from is not None else []
         if resume_from is not None:
             previous = [row for row in previous if row["timesteps"] <= resume_from]
             self._write_rows(previous)
@@ -138,14 +152,12 @@ class SafetyEvalCallback(BaseCallback):
             self.evaluate()
 
     def _write_rows(self, rows: list[dict[str, Any]], append: bool = False) -> None:
-        """Write (or append) rows of evaluations.csv, with the header when the file starts."""
+        """Write (atomically) or append rows of evaluations.csv (header when it starts)."""
         self.run_dir.mkdir(parents=True, exist_ok=True)
-        header = not (append and self.curve_path.is_file())
-        with self.curve_path.open("a" if append else "w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=CURVE_COLUMNS)
-            if header:
-                writer.writeheader()
-            writer.writerows(rows)
+        if append:
+            append_rows(self.curve_path, rows, CURVE_COLUMNS)
+        else:
+            write_curve(self.curve_path, rows, CURVE_COLUMNS)
 
     @property
     def wall_seconds(self) -> float:
@@ -169,9 +181,9 @@ class SafetyEvalCallback(BaseCallback):
         self.logger.dump(steps)
         if self.best is None or score(summary) > self.best:
             self.best = score(summary)
-            self.model.save(self.best_path)
             if stats is not None:
                 save_stats(stats, stats_path(self.best_path))
+            save_model(self.model, self.best_path)
             write_card(self.best_path, {"selected_at_timesteps": steps, "validation": row})
         if self.verbose:
             print(

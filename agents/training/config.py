@@ -11,18 +11,60 @@ and the algorithm's own keyword arguments.
 :func:`load_hyperparams` turns an entry into what :mod:`agents.commands.train` needs. It does
 not ``eval`` anything: ``policy_kwargs`` is parsed by :func:`parse_policy_kwargs`,
 which accepts literals, ``dict(...)`` and the activations ``nn.ReLU`` / ``nn.Tanh``.
+
+An entry is checked before anything is built: ``policy`` must be ``MlpPolicy``; every
+other key must be one of rl-zoo3's (``n_envs``, ``normalize`` ...) or an argument of
+the algorithm's constructor (an unknown key is refused, naming it); counts
+(``batch_size``, ``n_steps`` ...) must be integers and rates numbers; and the sizes are
+bounded (:mod:`agents.artifacts.limits`):
+
+==========================  =====================================================
+key                         bound
+==========================  =====================================================
+``n_envs``                  1 .. 65,536 (:data:`~agents.artifacts.limits.MAX_N_ENVS`)
+``n_timesteps``             1 .. 2**31
+``policy_kwargs.net_arch``  10,000,000 parameters, 64 layers
+``buffer_size``             1 .. 10,000,000 transitions (:data:`MAX_BUFFER_SIZE`)
+``n_steps`` x ``n_envs``    10,000,000 steps per rollout (:data:`MAX_ROLLOUT_STEPS`)
+the file                    1 MiB (:data:`MAX_HYPERPARAMS_BYTES`)
+==========================  =====================================================
 """
 
 from __future__ import annotations
 
 import ast
+import inspect
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from agents.artifacts import files, limits
+
 HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
+
+#: The largest hyperparameter file read.
+MAX_HYPERPARAMS_BYTES = 2**20
+#: The largest replay buffer (SAC/TD3), in transitions.
+MAX_BUFFER_SIZE = 10_000_000
+#: The largest rollout (PPO's n_steps times the batch's environments).
+MAX_ROLLOUT_STEPS = 10_000_000
+#: rl-zoo3's keys of an entry that are not the algorithm's arguments.
+_ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "env_kwargs", "normalize", "noise_type",
+             "noise_std")  # fmt: skip
+#: Algorithm arguments that must be integers, and those that must be numbers.
+_INT_KEYS = ("n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
+             "gradient_steps", "policy_delay", "target_update_interval", "sde_sample_freq",
+             "stats_window_size")  # fmt: skip
+_NUMBER_KEYS = ("gamma", "gae_lambda", "vf_coef", "max_grad_norm", "tau",
+                "target_policy_noise", "target_noise_clip", "target_kl")  # fmt: skip
+#: Arguments the trainer sets itself (an entry may not).
+_RESERVED = ("self", "policy", "env", "verbose", "seed", "device", "_init_setup_model",
+             "tensorboard_log", "action_noise")  # fmt: skip
+#: Keyword arguments of VecNormalize an entry's ``normalize`` may set.
+_NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon")
 
 #: Activation functions allowed in policy_kwargs strings.
 _ACTIVATIONS = ("ReLU", "Tanh", "ELU", "LeakyReLU", "SiLU", "GELU")
@@ -90,11 +132,13 @@ def parse_policy_kwargs(text: str | dict[str, Any]) -> dict[str, Any]:
     """
     if isinstance(text, dict):
         return text
+    if not isinstance(text, str):
+        raise ValueError(f"policy_kwargs must be a dict or its text, got {text!r:.60}")
     try:
         tree = ast.parse(text.strip(), mode="eval")
-    except SyntaxError as error:
-        raise ValueError(f"policy_kwargs is not a Python expression: {text!r}") from error
-    value = _literal(tree.body)
+        value = _literal(tree.body)
+    except (SyntaxError, RecursionError, MemoryError) as error:
+        raise ValueError(f"policy_kwargs is not a Python expression: {text!r:.80}") from error
     if not isinstance(value, dict):
         raise ValueError(f"policy_kwargs must be a dict, got {text!r}")
     return value
@@ -142,37 +186,63 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
         ValueError: On a value the trainer cannot use.
     """
     path = hyperparams_file(algo, directory)
+    size = path.stat().st_size
+    if size > MAX_HYPERPARAMS_BYTES:
+        raise ValueError(f"{path} is {size} bytes, over the limit of {MAX_HYPERPARAMS_BYTES}")
     try:
         entries = yaml.safe_load(path.read_text())
-    except (yaml.YAMLError, UnicodeDecodeError) as error:
-        raise ValueError(f"{path} is not valid YAML: {error}") from None
+    except (yaml.YAMLError, UnicodeDecodeError, RecursionError) as error:
+        raise ValueError(f"{path} is not valid YAML: {str(error)[:200]}") from None
     if not isinstance(entries, dict):
         raise ValueError(f"{path} must map environment ids to entries")
     if env_id not in entries:
         raise KeyError(f"{path} has no entry for {env_id}; entries: {sorted(map(str, entries))}")
     if not isinstance(entries[env_id], dict):
         raise ValueError(f"{path}: the entry for {env_id} must be a mapping")
-    raw = dict(entries[env_id])
-    try:
-        result = Hyperparams(
-            n_envs=int(raw.pop("n_envs", 1)),
-            n_timesteps=int(float(raw.pop("n_timesteps", 100_000))),
-            policy=str(raw.pop("policy", "MlpPolicy")),
-            env_kwargs=dict(raw.pop("env_kwargs", None) or {}),
-        )
-    except (TypeError, ValueError, OverflowError) as error:
-        raise ValueError(f"{path}: bad n_envs, n_timesteps or env_kwargs: {error}") from None
-    if result.n_envs < 1 or result.n_timesteps < 1:
-        raise ValueError(f"{path}: n_envs and n_timesteps must be >= 1")
+    raw = {str(key): value for key, value in entries[env_id].items()}
+    where = f"{path}, entry {env_id}"
+    _check_keys(algo, raw, where)
+    env_kwargs = raw.pop("env_kwargs", None) or {}
+    if not isinstance(env_kwargs, dict):
+        raise ValueError(f"{where}: env_kwargs must be a mapping, got {env_kwargs!r:.60}")
+    result = Hyperparams(
+        n_envs=_count(raw.pop("n_envs", 1), "n_envs", limits.MAX_N_ENVS, where),
+        n_timesteps=_count(
+            raw.pop("n_timesteps", 100_000), "n_timesteps", limits.MAX_TIMESTEPS, where
+        ),
+        policy=str(raw.pop("policy", "MlpPolicy")),
+        env_kwargs=dict(env_kwargs),
+    )
+    if result.policy != "MlpPolicy":
+        raise ValueError(f"{where}: policy must be MlpPolicy, got {result.policy!r:.60}")
     normalize = raw.pop("normalize", False)
     if isinstance(normalize, str):
         result.normalize = parse_policy_kwargs(normalize)
     elif isinstance(normalize, dict):
-        result.normalize = dict(normalize)
+        result.normalize = {str(key): value for key, value in normalize.items()}
     elif normalize:
         result.normalize = {}
+    for key in result.normalize or {}:
+        if key not in _NORMALIZE_KEYS:
+            raise ValueError(f"{where}: normalize has no setting {key!r}; {list(_NORMALIZE_KEYS)}")
+    for key in _INT_KEYS:
+        if key in raw:
+            bound = MAX_BUFFER_SIZE if key == "buffer_size" else limits.MAX_TIMESTEPS
+            raw[key] = _count(raw[key], key, bound, where, minimum=0)
+    for key in _NUMBER_KEYS:
+        if key in raw and not files.is_number(raw[key]):
+            raise ValueError(f"{where}: {key} must be a finite number, got {raw[key]!r:.60}")
+    rollout = raw.get("n_steps", 0) * result.n_envs
+    if rollout > MAX_ROLLOUT_STEPS:
+        raise ValueError(
+            f"{where}: n_steps x n_envs = {rollout} steps per rollout, over the limit of "
+            f"{MAX_ROLLOUT_STEPS}"
+        )
     if "policy_kwargs" in raw:
         raw["policy_kwargs"] = parse_policy_kwargs(raw["policy_kwargs"])
+        problem = limits.network_problem(raw["policy_kwargs"].get("net_arch", [64, 64]))
+        if problem is not None:
+            raise ValueError(f"{where}: policy_kwargs: {problem}")
     for key in ("learning_rate", "clip_range"):
         if key in raw:
             raw[key] = _schedule(key, raw[key])
@@ -181,12 +251,42 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
     if "noise_type" in raw:
         if str(raw.pop("noise_type")).strip() != "normal":
             raise ValueError(f"{path}: only noise_type 'normal' is supported")
-        result.action_noise_std = float(raw.pop("noise_std"))
+        try:
+            result.action_noise_std = float(raw.pop("noise_std"))
+        except (KeyError, TypeError, ValueError):
+            raise ValueError(f"{where}: noise_type normal needs a number noise_std") from None
     for unsupported in ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback"):
         if unsupported in raw:
             raise ValueError(f"{path}: {unsupported!r} is not supported by agents.train")
     result.algo_kwargs = raw
     return result
+
+
+def _count(value: Any, key: str, maximum: int, where: str, minimum: int = 1) -> int:
+    """An integer count of an entry (``2e6`` allowed as a float of integral value)."""
+    valid = not isinstance(value, bool) and isinstance(value, (int, float))
+    if valid and isinstance(value, float):
+        valid = math.isfinite(value) and value == int(value)
+    if not valid or not minimum <= int(value) <= maximum:
+        raise ValueError(
+            f"{where}: {key} must be an integer in {minimum}..{maximum}, got {value!r:.60}"
+        )
+    return int(value)
+
+
+def _check_keys(algo: str, raw: dict[str, Any], where: str) -> None:
+    """Refuse an entry key that is neither rl-zoo3's nor an argument of the algorithm."""
+    from agents.artifacts.sb3_zip import algo_class
+
+    accepted = set(inspect.signature(algo_class(algo).__init__).parameters) - set(_RESERVED)
+    for key in raw:
+        if key not in accepted and key not in _ZOO_KEYS and key not in (
+            "env_wrapper", "vec_env_wrapper", "frame_stack", "callback"
+        ):  # fmt: skip
+            raise ValueError(
+                f"{where}: unknown key {key!r:.60} (neither rl-zoo3's nor an argument of "
+                f"{algo})"
+            )
 
 
 def jsonable(value: Any) -> Any:
@@ -234,6 +334,20 @@ class TrainConfig:
             raise ValueError(f"backend must be 'sb3' or 'rllib', got {self.backend!r}")
         if self.budget < 1 or self.n_envs < 1:
             raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
+        if self.budget > limits.MAX_TIMESTEPS:
+            raise ValueError(f"timesteps must be <= {limits.MAX_TIMESTEPS}, got {self.budget}")
+        if self.n_envs > limits.MAX_N_ENVS:
+            raise ValueError(f"n_envs must be <= {limits.MAX_N_ENVS}, got {self.n_envs}")
+        rollout = int(self.hyperparams.algo_kwargs.get("n_steps", 0)) * self.n_envs
+        if self.backend == "sb3" and rollout > MAX_ROLLOUT_STEPS:
+            raise ValueError(
+                f"n_steps x n_envs = {rollout} steps per rollout, over the limit of "
+                f"{MAX_ROLLOUT_STEPS}"
+            )
+        # Env i is seeded seed + i; a resumed run reseeds at seed + its step count.
+        problem = limits.seed_problem(self.seed, self.budget + self.n_envs + 1, "seed")
+        if problem is not None:
+            raise ValueError(problem)
 
     @classmethod
     def resolve(

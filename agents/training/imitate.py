@@ -9,8 +9,8 @@ Why: PPO from scratch stays below the LQR's basin (the figures are in the docs, 
 what limits performance), because the states that matter (near the edge of the
 recoverable set, where the rail saturates) are rare under its exploration. The ``mpc``
 planner (:mod:`agents.oracles.planner`) knows how to steer there but simulates
-thousands of steps per decision. DAgger (Ross, Gordon and Bagnell, 2011) trains a cheap policy on the
-planner's decisions at the states the *policy itself* visits, so that its own
+thousands of steps per decision. DAgger (Ross, Gordon and Bagnell, 2011) trains a cheap
+policy on the planner's decisions at the states the *policy itself* visits, so that its own
 mistakes are in its training data:
 
 1. iteration 0: the planner drives ``episodes`` convoys for one episode length, and
@@ -36,6 +36,7 @@ their cards and statistics.
 from __future__ import annotations
 
 import dataclasses
+import io
 import sys
 import time
 from dataclasses import asdict, dataclass, field
@@ -44,8 +45,10 @@ from typing import Any
 
 import numpy as np
 
+from agents.artifacts import limits
 from agents.artifacts.cards import read_card, write_card
 from agents.artifacts.curves import write_curve
+from agents.artifacts.files import atomic_write_bytes
 from agents.artifacts.paths import stats_path
 from agents.artifacts.run_folder import (
     BEST_MODEL,
@@ -53,6 +56,7 @@ from agents.artifacts.run_folder import (
     FINAL_MODEL,
     write_config,
 )
+from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import save_stats
 from agents.envs import check_env_id, env_settings, make_sb3_env
 from agents.evaluation.metrics import rollout, summarize
@@ -127,6 +131,21 @@ class ImitationConfig:
                 raise TypeError(f"{name} must be an int, got {type(value).__name__}")
             if value < 1:
                 raise ValueError(f"{name} must be >= 1, got {value}")
+        if self.episodes > limits.MAX_IMITATION_EPISODES:
+            raise ValueError(
+                f"episodes must be <= {limits.MAX_IMITATION_EPISODES} (one batch), "
+                f"got {self.episodes}"
+            )
+        last = TRAINING_SEED + self.seed * 10_000 + self.iterations * self.episodes
+        if limits.seed_problem(last) is not None:
+            raise ValueError(
+                f"seed {self.seed}: its training episodes would need seeds up to {last}, "
+                f"past {limits.MAX_SEED} (2**32 - 1)"
+            )
+        if self.net_arch is not None:
+            problem = limits.network_problem(list(self.net_arch))
+            if problem is not None:
+                raise ValueError(problem)
         if not (np.isfinite(self.learning_rate) and self.learning_rate > 0.0):
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
         if "mpc" not in core_class_of(self.env_id).oracle_baselines:
@@ -312,9 +331,9 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
                 "selected_at_timesteps": samples, "timesteps": samples}  # fmt: skip
         if best is None or score(summary) > best:
             best = score(summary)
-            model.save(run_dir / BEST_MODEL)
             save_stats(stats, stats_path(run_dir / BEST_MODEL))
             write_card(run_dir / BEST_MODEL, card)
+            save_model(model, run_dir / BEST_MODEL)
     record.update(
         {
             "timesteps": sum(len(chunk) for chunk in data_obs),
@@ -322,14 +341,14 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
             "simulated_steps": planner.simulated_steps,
         }
     )
+    dataset = io.BytesIO()
     np.savez_compressed(
-        run_dir / DATASET_FILE,
-        observations=np.concatenate(data_obs),
-        labels=np.concatenate(data_labels),
+        dataset, observations=np.concatenate(data_obs), labels=np.concatenate(data_labels)
     )
-    model.save(run_dir / FINAL_MODEL)
+    atomic_write_bytes(run_dir / DATASET_FILE, dataset.getvalue())
     save_stats(stats, stats_path(run_dir / FINAL_MODEL))
     write_card(run_dir / FINAL_MODEL, {**record, "validation": summary})
+    save_model(model, run_dir / FINAL_MODEL)
     # The best model's card keeps when it was selected, and gets the run's totals.
     best_card = read_card(run_dir / BEST_MODEL)
     write_card(run_dir / BEST_MODEL, {**best_card, **{key: record[key] for key in RUN_TOTALS}})

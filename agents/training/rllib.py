@@ -12,6 +12,17 @@ on exit, even after an error; its session's logs are copied to the run folder's
 sockets need a short path). With ``--address`` the driver joins that cluster and only
 disconnects at the end (the logs stay on the cluster).
 
+Before Ray starts, ``--address`` must be ``auto``, ``HOST:PORT`` or ``ray://HOST:PORT``
+(:func:`address_problem`) and reachable within :data:`CONNECT_TIMEOUT_S` (a TCP
+connection is tried first: an unknown or silent host fails in seconds, not after
+Ray's minutes of retries). ``--num-env-runners`` may not exceed the CPUs: this
+machine's (``os.cpu_count()``) for a local Ray, the cluster's
+(``ray.cluster_resources()["CPU"]``) with ``--address`` (checked right after
+connecting, before anything is built or written). No orphans: the local Ray is
+started by the driver, which owns it (Ray kills the processes of a head node it
+started when the driver exits, its fate-sharing); ``ray.shutdown()`` runs in a
+``finally`` block, and SIGTERM is turned into an exception so that it runs then too.
+
 How the env runners find the environment: :func:`register_trailer_env` registers
 the creator :func:`make_rllib_env` under :data:`RLLIB_ENV_NAME` with
 ``ray.tune.registry.register_env``. Ray stores the creator by reference to this
@@ -38,9 +49,13 @@ read with ``--trust-pickle``.
 
 from __future__ import annotations
 
-import csv
+import io
 import math
+import os
+import re
 import shutil
+import signal
+import socket
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -49,6 +64,8 @@ from typing import Any
 import numpy as np
 
 from agents.artifacts.cards import write_json
+from agents.artifacts.curves import write_curve
+from agents.artifacts.files import atomic_write_bytes
 from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS
 from agents.artifacts.run_folder import PROGRESS_FILE, RLLIB_CHECKPOINT, write_config
 from agents.training.config import Hyperparams, TrainConfig
@@ -59,6 +76,53 @@ RLLIB_ENV_NAME = "trailer_env_rllib"
 
 #: Algorithms the RLlib backend trains.
 RLLIB_ALGOS = ("ppo",)
+
+
+#: Seconds to wait for the cluster at ``--address`` to answer.
+CONNECT_TIMEOUT_S = 10.0
+
+
+_ADDRESS = re.compile(r"(?:ray://)?(\[[0-9a-fA-F:.]+\]|[A-Za-z0-9][A-Za-z0-9.-]{0,252}):(\d{1,5})")
+
+
+class ClusterTooSmallError(ValueError):
+    """More env runners were asked for than the cluster has CPUs."""
+
+
+def local_cpus() -> int:
+    """The CPUs of this machine (the local Ray's bound on runners)."""
+    return os.cpu_count() or 1
+
+
+def address_problem(address: str, timeout: float = CONNECT_TIMEOUT_S) -> str | None:
+    """Why ``address`` is no usable Ray address (None when it is), checked without Ray:
+    its form, then a TCP connection within ``timeout`` seconds."""
+    if address == "auto":
+        return None
+    match = _ADDRESS.fullmatch(address)
+    if match is None or not 1 <= int(match.group(2)) <= 65535:
+        return (
+            f"{address[:80]!r} is not auto, HOST:PORT or ray://HOST:PORT (port 1..65535)"
+        )
+    host = match.group(1).strip("[]")
+    try:
+        with socket.create_connection((host, int(match.group(2))), timeout=timeout):
+            return None
+    except OSError as error:
+        return f"cannot reach {address} within {timeout:.0f} s: {error.strerror or error}"
+
+
+def _raise_on_sigterm() -> Any:
+    """Make SIGTERM raise SystemExit (so that ``finally`` shuts Ray down); returns the
+    handler it replaced (None off the main thread, where it does nothing)."""
+
+    def handler(signum: int, frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    try:
+        return signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread
+        return None
 
 
 def make_rllib_env(env_config: Mapping[str, Any]) -> Any:
@@ -175,6 +239,7 @@ def _ray_init(address: str | None, num_env_runners: int) -> tuple[bool, Path | N
                 "(a cluster with token authentication, Ray's default, also needs "
                 "RAY_AUTH_MODE=token and its token in ~/.ray/auth_token or RAY_AUTH_TOKEN)"
             ) from None
+        _check_cluster_cpus(num_env_runners)
         return True, None
     context: Any = ray.init(
         # "local": a new instance even when `ray start` left a cluster on this machine
@@ -188,6 +253,18 @@ def _ray_init(address: str | None, num_env_runners: int) -> tuple[bool, Path | N
         configure_logging=False,
     )
     return True, Path(context.address_info["session_dir"]) / "logs"
+
+
+def _check_cluster_cpus(num_env_runners: int) -> None:
+    """Refuse more runners than the joined cluster has CPUs (disconnecting first)."""
+    import ray
+
+    cpus = int(ray.cluster_resources().get("CPU", 0))
+    if num_env_runners > cpus:
+        ray.shutdown()
+        raise ClusterTooSmallError(
+            f"{num_env_runners} runners, but the cluster has {cpus} CPUs (one runner per CPU)"
+        )
 
 
 def _shutdown(started: bool, logs: Path | None, run_dir: Path) -> None:
@@ -242,8 +319,13 @@ def train_rllib(
     env_kwargs = config.env_kwargs
     budget = config.budget
     per_runner = max(config.n_envs // max(num_env_runners, 1), 1)
-    run_dir.mkdir(parents=True, exist_ok=True)
+    if address is None and num_env_runners > local_cpus():
+        raise ClusterTooSmallError(
+            f"{num_env_runners} runners, but this machine has {local_cpus()} CPUs"
+        )
     started_ray, ray_logs = _ray_init(address, num_env_runners)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    previous_handler = _raise_on_sigterm()
     try:
         rllib_config = ppo_config(
             config.env_id, env_kwargs, config.hyperparams, config.seed, num_env_runners, per_runner
@@ -305,10 +387,7 @@ def train_rllib(
                     flush=True,
                 )
         wall = time.perf_counter() - started
-        with (run_dir / PROGRESS_FILE).open("w", newline="") as handle:
-            writer = csv.DictWriter(handle, fieldnames=list(rows[0]))
-            writer.writeheader()
-            writer.writerows(rows)
+        write_curve(run_dir / PROGRESS_FILE, rows, list(rows[0]))
         checkpoint = run_dir / RLLIB_CHECKPOINT
         algorithm.save_to_path(str(checkpoint.resolve()))
         record.update(
@@ -324,6 +403,8 @@ def train_rllib(
         algorithm.stop()
         return record
     finally:
+        if previous_handler is not None:
+            signal.signal(signal.SIGTERM, previous_handler)
         _shutdown(started_ray, ray_logs, run_dir)
 
 
@@ -347,7 +428,9 @@ def export_policy(algorithm: Any, checkpoint: Path, card: dict[str, Any]) -> Non
     import torch
 
     checkpoint.mkdir(parents=True, exist_ok=True)
-    torch.save(learner_policy_state(algorithm), checkpoint / POLICY_WEIGHTS)
+    weights = io.BytesIO()
+    torch.save(learner_policy_state(algorithm), weights)
+    atomic_write_bytes(checkpoint / POLICY_WEIGHTS, weights.getvalue())
     module = algorithm.get_module()
     spaces = {
         "observation_shape": list(module.observation_space.shape),

@@ -16,7 +16,7 @@ from agents.artifacts.run_folder import (
     FINAL_MODEL,
     write_config,
 )
-from agents.artifacts.sb3_zip import UnsafeFileError, algo_class, load_sb3
+from agents.artifacts.sb3_zip import UnsafeFileError, algo_class, load_sb3, save_model
 from agents.artifacts.stats import load_pickled_stats, read_stats, restore_stats, save_stats
 from agents.envs import env_settings, make_sb3_env
 from agents.training.config import TrainConfig
@@ -137,11 +137,11 @@ def train(
     wall = round(evaluator.wall_seconds, 1)
     record.update({"timesteps": int(model.num_timesteps), "wall_time_s": wall})
     final = run_dir / FINAL_MODEL
-    model.save(final)
     stats = model.get_vec_normalize_env()
     if stats is not None:
         save_stats(stats, stats_path(final))
     write_card(final, record)
+    save_model(model, final)
     best = run_dir / BEST_MODEL
     if best.is_file():
         write_card(best, {**record, **read_card(best)})
@@ -153,6 +153,7 @@ def _restore_checkpoint_stats(venv: Any, checkpoint: Path, trust_pickle: bool) -
 
     Raises:
         UnsafeFileError: If they exist only as a pickle and ``trust_pickle`` is false.
+        ValueError: If there are none.
     """
     saved = stats_path(checkpoint)
     if saved.is_file():
@@ -160,7 +161,10 @@ def _restore_checkpoint_stats(venv: Any, checkpoint: Path, trust_pickle: bool) -
         return
     pickled = pickled_stats_path(checkpoint)
     if pickled is None:
-        return
+        raise ValueError(
+            f"{checkpoint} has no observation statistics ({saved.name}), but the run "
+            "normalises observations: it cannot be resumed as it was trained"
+        )
     if not trust_pickle:
         raise UnsafeFileError(
             f"the statistics {pickled} are a pickle; pass --trust-pickle to load them"

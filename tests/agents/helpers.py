@@ -39,7 +39,9 @@ def model_copy(folder: Path, stem: str = "ppo_reverse_n2") -> Path:
     return folder / f"{stem}.zip"
 
 
-def rewrite_zip(path: Path, replace: dict[str, bytes | None]) -> None:
+def rewrite_zip(
+    path: Path, replace: dict[str, bytes | None], compression: int = zipfile.ZIP_STORED
+) -> None:
     """Rewrite the zip at ``path`` with some entries replaced (None: dropped)."""
     with zipfile.ZipFile(path) as archive:
         entries = {name: archive.read(name) for name in archive.namelist()}
@@ -48,6 +50,6 @@ def rewrite_zip(path: Path, replace: dict[str, bytes | None]) -> None:
             entries.pop(name, None)
         else:
             entries[name] = content
-    with zipfile.ZipFile(path, "w") as archive:
+    with zipfile.ZipFile(path, "w", compression) as archive:
         for name, content in entries.items():
             archive.writestr(name, content)

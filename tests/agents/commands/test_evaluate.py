@@ -74,6 +74,10 @@ def _certificate(folder: Path, statuses: list[str], env_id: str = V1, n: int = 2
         "env_kwargs": {"n_trailers": n},
         "seeds": [1000, 999 + len(statuses)],
         "ceiling": feasible / len(statuses),
+        "episodes": len(statuses),
+        "feasible": feasible,
+        "not_recoverable": statuses.count("not recoverable"),
+        "open": statuses.count("open"),
         "starts": starts,
     }
     folder.mkdir(exist_ok=True)
