@@ -137,14 +137,16 @@ def test_evaluate_errors_name_their_argument(
     cases = [
         (["--seed", "-1"], "argument --seed: expected an integer >= 0, got '-1'"),
         (["--out", str(a_file)], f"argument --out: {a_file} exists and is not a folder"),
-        (["--policy", str(garbage)], "argument --policy: cannot load model"),
+        (["--env", "trailer_env/Reverse-v0", "--policy", str(garbage)],
+         "argument --policy: cannot load model"),
         (
             # Coast-v0 observations have Reverse-v0's shape: only the card tells them apart.
             ["--env", "trailer_env/Coast-v0", "--policy", "ppo_reverse_n2"],
             "was trained on trailer_env/Reverse-v0 with n_trailers = 2, not "
             "trailer_env/Coast-v0 with n_trailers = 2; pass --force",
         ),
-        (["--n-trailers", "1", "--policy", "ppo_reverse_n2"], "with n_trailers = 2, not"),
+        (["--env", "trailer_env/Reverse-v0", "--n-trailers", "1", "--policy", "ppo_reverse_n2"],
+         "with n_trailers = 2, not"),
         (["--video", str(tmp_path / "v.avi")], "argument --video: must end in .mp4 or .gif"),
     ]
     for argv, message in cases:
@@ -164,7 +166,8 @@ def test_evaluate_forced_onto_another_scene_runs(tmp_path: Path) -> None:
 def test_shipped_models_are_named_by_stem_from_any_folder(tmp_path: Path) -> None:
     """A fresh process in an unrelated folder: the stem resolves through the package."""
     done = subprocess.run(
-        [sys.executable, "-m", "agents.evaluate", "--policy", "ppo_reverse_n2", "lqr",
+        [sys.executable, "-m", "agents.evaluate", "--env", "trailer_env/Reverse-v0",
+         "--policy", "ppo_reverse_n2", "lqr",
          "--episodes", "3", "--no-plots", "--out", "out"],
         cwd=tmp_path, capture_output=True, text=True, timeout=300, check=False,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
@@ -186,7 +189,8 @@ def test_evaluate_writes_a_video_of_one_episode(
 
     video = tmp_path / f"episode{suffix}"
     cut = [] if steps is None else ["--video-steps", str(steps)]
-    argv = ["--policy", "zero", "--episodes", "1", "--seed", "3", "--video", str(video), *cut]
+    argv = ["--env", REVERSE, "--policy", "zero", "--episodes", "1", "--seed", "3",
+            "--video", str(video), *cut]  # fmt: skip
     assert evaluate.main([*argv, "--no-plots", "--out", str(tmp_path / "out")]) == 0
     settings = env_settings({"n_trailers": 2})
     length = int(rollout(make_baseline("zero", settings, REVERSE), REVERSE, 1, 3).lengths[0])

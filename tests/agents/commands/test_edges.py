@@ -431,7 +431,7 @@ def test_edited_certificates_are_refused(tmp_path: Path, edit: Any, message: str
 def test_report_refuses_a_file_as_out(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     a_file = tmp_path / "FILE"
     a_file.write_text("x")
-    refused(report.main, ["--out", str(a_file), "--img", str(tmp_path / "img")],
+    refused(report.main, ["--out", str(a_file), "--docs", str(tmp_path / "docs")],
             f"argument --out: {a_file} exists and is not a folder", tmp_path, capsys)  # fmt: skip
 
 

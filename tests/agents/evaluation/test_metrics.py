@@ -82,5 +82,5 @@ def test_wilson_interval() -> None:
 
 
 def test_rollout_rejects_no_episodes() -> None:
-    with pytest.raises(ValueError, match="episodes must be >= 1"):
+    with pytest.raises(ValueError, match=r"episodes must be in 1\.\.100000"):
         rollout(_baseline("zero", 2), REVERSE, 0, 0, {"n_trailers": 2})

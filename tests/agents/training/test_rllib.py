@@ -73,7 +73,8 @@ def test_rllib_trains_with_a_remote_runner_and_its_checkpoint_evaluates(tmp_path
     assert (checkpoint / POLICY_WEIGHTS).is_file() and (checkpoint / POLICY_CARD).is_file()
 
     out = tmp_path / "eval"
-    argv = ["--n-trailers", "1", "--policy", str(checkpoint), "zero", "--episodes", "10"]
+    argv = ["--env", "trailer_env/Reverse-v0", "--n-trailers", "1", "--policy", str(checkpoint)]
+    argv += ["zero", "--episodes", "10"]
     assert evaluate.main([*argv, "--no-plots", "--out", str(out)]) == 0
     document = json.loads((out / "results.json").read_text())
     model = document["policies"][0]
