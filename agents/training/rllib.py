@@ -212,12 +212,16 @@ def ppo_config(
     )
 
 
-def _runner_env(runner: Any) -> tuple[str, bool]:
-    """An env runner's env class and whether it is the native batch (runs on the runner)."""
+def _runner_env(runner: Any) -> tuple[str, bool, str]:
+    """An env runner's env class, whether it is the native batch, and the Ray node it runs
+    on (runs on the runner)."""
+    import ray
+
     from trailer_env.vector import ConvoyVectorEnv
 
     env = runner.env.unwrapped
-    return type(env).__name__, isinstance(env, ConvoyVectorEnv)
+    node = ray.get_runtime_context().get_node_id()
+    return type(env).__name__, isinstance(env, ConvoyVectorEnv), node
 
 
 def _ray_init(address: str | None, num_env_runners: int) -> tuple[bool, Path | None]:
@@ -342,7 +346,8 @@ def train_rllib(
             "num_env_runners": num_env_runners,
             "envs_per_runner": per_runner,
             "address": address,
-            # What each runner steps: (class name, is a native ConvoyVectorEnv batch).
+            # What each runner steps and where: (class name, is a native ConvoyVectorEnv
+            # batch, Ray node id).
             "runner_envs": runner_envs,
             "hyperparams": {
                 "train_batch_size": rllib_config.train_batch_size_per_learner,

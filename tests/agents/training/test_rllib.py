@@ -60,7 +60,8 @@ def test_rllib_trains_with_a_remote_runner_and_its_checkpoint_evaluates(tmp_path
     config = json.loads((run / "config.json").read_text())
     assert config["backend"] == "rllib" and config["num_env_runners"] == 1
     # The remote runner stepped the native batched env, not 8 Python envs.
-    ((env_class, native),) = config["runner_envs"]
+    ((env_class, native, node),) = config["runner_envs"]
+    assert isinstance(node, str) and len(node) == 56  # a Ray node id (hex)
     assert native and env_class.endswith("VectorEnv")
     assert 2000 <= config["timesteps"] < 2000 + 1024 + 8  # one iteration ~ 1024 steps
     assert np.isfinite(config["episode_return_mean"]) and config["env_steps_per_s"] > 0
