@@ -66,6 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     cli.add_env(parser, default=HEADLINE_ENV_ID)
     cli.add_n_trailers(parser)
+    cli.add_env_kwargs(parser)
     parser.add_argument(
         "--policy",
         nargs="+",
@@ -126,11 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.video.exists() and not args.overwrite:
             parser.error(f"argument --video: {args.video} exists; pass --overwrite to replace it")
     env_id = check_env_id(args.env)
-    env_kwargs = {"n_trailers": args.n_trailers}
-    try:
-        env_settings(env_kwargs)
-    except (TypeError, ValueError) as error:
-        parser.error(f"argument --n-trailers: {error}")
+    env_kwargs = cli.env_kwargs_from(parser, args)
     specs = args.policy or [
         *default_baselines(env_id),
         *(str(path) for path in committed_models(env_id, args.n_trailers)),

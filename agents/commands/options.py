@@ -11,9 +11,11 @@ any work (:func:`check_out_folder`, :func:`check_out_file`).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from agents.artifacts import files, limits
 from agents.envs import ENV_IDS
@@ -117,6 +119,45 @@ def add_n_trailers(parser: argparse.ArgumentParser, default: int = 2) -> None:
         default=default,
         help=f"number of trailers (default {default})",
     )
+
+
+def add_env_kwargs(parser: argparse.ArgumentParser) -> None:
+    """``--set KEY=VALUE`` (repeatable): any ``gym.make`` keyword but ``n_trailers``."""
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="an environment keyword, repeatable: a ConvoyParams field (M=1.2, mu=0.4), dt, "
+        "fidelity (fidelity=dopri5 or a JSON object), action_mode ...; VALUE is read as JSON "
+        "when it parses, else as text",
+    )
+
+
+def env_kwargs_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict[str, Any]:
+    """``{"n_trailers": args.n_trailers, **--set}``, validated as ``gym.make`` would; exits 2
+    naming ``--set`` (or ``--n-trailers``) and what is wrong."""
+    from agents.envs import env_settings
+
+    kwargs: dict[str, Any] = {"n_trailers": args.n_trailers}
+    for item in getattr(args, "set", []):
+        key, equals, text = item.partition("=")
+        if not equals or not key.isidentifier():
+            parser.error(f"argument --set: expected KEY=VALUE, got {item!r}")
+        if key == "n_trailers":
+            parser.error("argument --set: give n_trailers with --n-trailers")
+        if key in kwargs:
+            parser.error(f"argument --set: {key} given twice")
+        try:
+            kwargs[key] = json.loads(text)
+        except json.JSONDecodeError:
+            kwargs[key] = text
+    for flag, candidate in (("--n-trailers", {"n_trailers": args.n_trailers}), ("--set", kwargs)):
+        try:
+            env_settings(candidate)
+        except (TypeError, ValueError) as error:
+            parser.error(f"argument {flag}: {error}")
+    return kwargs
 
 
 def add_seed(parser: argparse.ArgumentParser, default: int, help: str) -> None:

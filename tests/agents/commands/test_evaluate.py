@@ -112,3 +112,40 @@ def test_committed_certificates_meet_the_ceiling_targets() -> None:
         assert certificate["feasible"] >= 99, n
         strokes = [start["screen_stroke_fraction"] for start in certificate["starts"]]
         assert max(strokes) <= 0.8, n
+
+
+def test_env_keywords_reach_the_episodes_and_the_json(tmp_path: Path) -> None:
+    from agents.commands import evaluate as command
+
+    out = tmp_path / "heavy"
+    argv = ["--policy", "lqr", "--set", "M=1.2", "--set", "fidelity=dopri5"]
+    assert command.main([*argv, "--episodes", "6", "--no-plots", "--out", str(out)]) == 0
+    document = json.loads((out / "results.json").read_text())
+    assert document["env_kwargs"] == {"n_trailers": 2, "M": 1.2, "fidelity": "dopri5"}
+    nominal = tmp_path / "nominal"
+    assert command.main(["--policy", "lqr", "--episodes", "6", "--no-plots",
+                         "--out", str(nominal)]) == 0  # fmt: skip
+    other = json.loads((nominal / "results.json").read_text())
+    assert other["policies"][0]["mean_return"] != document["policies"][0]["mean_return"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--set", "M=-1"], "argument --set: M must be in [1e-06, 1e+06], got -1"),
+        (["--set", "frameskip=2"], "argument --set: unexpected keyword argument 'frameskip'"),
+        (["--set", "n_trailers=3"], "argument --set: give n_trailers with --n-trailers"),
+        (["--set", "M"], "argument --set: expected KEY=VALUE, got 'M'"),
+        (["--set", "M=1", "--set", "M=2"], "argument --set: M given twice"),
+        (["--policy", "mpc-replay", "--set", "M=1.2"], "default settings only"),
+    ],
+)
+def test_bad_env_keywords_exit_2_before_any_episode(
+    argv: list[str], message: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from agents.commands import evaluate as command
+
+    with pytest.raises(SystemExit) as raised:
+        command.main([*argv, "--out", str(tmp_path / "out")])
+    assert raised.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
