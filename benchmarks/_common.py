@@ -87,7 +87,6 @@ def cpu_seconds_once(
             return elapsed / calls
 
 
-
 def best_of_rounds(
     runs: Sequence[Callable[[], Any]],
     rounds: int = 3,

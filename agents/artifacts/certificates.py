@@ -239,8 +239,7 @@ def actions_path(env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DI
 def write_actions(actions: dict[int, np.ndarray], path: Path) -> Path:
     """Write the action records of a certificate as one ``.npz`` (no pickles)."""
     arrays = {
-        f"seed_{seed}": np.asarray(sequence, dtype=np.float64)
-        for seed, sequence in actions.items()
+        f"seed_{seed}": np.asarray(sequence, dtype=np.float64) for seed, sequence in actions.items()
     }
     with files.replacing(path) as temporary:
         np.savez_compressed(temporary, **arrays)  # type: ignore[arg-type]

@@ -70,11 +70,7 @@ def is_integer(value: Any, minimum: int | None = None) -> bool:
 
 def is_number(value: Any) -> bool:
     """Whether a JSON value is a finite number (not a boolean)."""
-    return (
-        isinstance(value, (int, float))
-        and not isinstance(value, bool)
-        and math.isfinite(value)
-    )
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
 def refuse_symlink(path: Path) -> None:

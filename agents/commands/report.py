@@ -136,9 +136,7 @@ def main(argv: list[str] | None = None) -> int:
         bar.advance("actuator sweep")
     sections.append(f"#### LQR on Reverse-v0 as the actuator gets stronger\n\n{sweep}")
     print(sections[-1], flush=True)
-    grid = plots.plot_curve_grid(
-        [panel for panel in panels if panel[1]], img / "agents_curves.png"
-    )
+    grid = plots.plot_curve_grid([panel for panel in panels if panel[1]], img / "agents_curves.png")
     print(f"wrote {grid}")
     tables = "\n".join(sections)
     files.atomic_write_text(args.out / "tables.md", tables)

@@ -77,9 +77,7 @@ from agents.training.sb3 import train
 
 def _optional_positive(parser: argparse.ArgumentParser, flag: str, help: str) -> None:
     """An optional count >= 1 whose default (None) is worked out from the other settings."""
-    parser.add_argument(
-        flag, type=cli.bounded(1, limits.MAX_TIMESTEPS), default=None, help=help
-    )
+    parser.add_argument(flag, type=cli.bounded(1, limits.MAX_TIMESTEPS), default=None, help=help)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -91,9 +91,7 @@ def plot_curve_grid(
     plt = _pyplot()
     columns = min(CURVE_GRID_COLUMNS, max(len(panels), 1))
     rows = -(-len(panels) // columns)
-    fig, axes = plt.subplots(
-        rows, columns, figsize=(4.2 * columns, 3.8 * rows), squeeze=False
-    )
+    fig, axes = plt.subplots(rows, columns, figsize=(4.2 * columns, 3.8 * rows), squeeze=False)
     for axis in axes.flat[len(panels) :]:
         axis.set_visible(False)
     for axis, (title, curves, baselines, metric) in zip(axes.flat, panels, strict=False):

@@ -120,9 +120,7 @@ def evaluate_policies(
                     [str(path) for path in siblings[spec]], env_id, env_kwargs, seed,
                     trust_pickle=trust_pickle, force=force,
                 ):  # fmt: skip
-                    sibling_results = rollout(
-                        sibling_policy, env_id, episodes, seed, env_kwargs
-                    )
+                    sibling_results = rollout(sibling_policy, env_id, episodes, seed, env_kwargs)
                     card = model_card(sibling)
                     seed_summaries.append((card.get("seed"), summarize(sibling_results)))
                     bar.advance(policy_label(sibling))

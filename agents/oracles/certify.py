@@ -201,8 +201,6 @@ def certify(
     }
 
 
-
-
 def ceiling_note(
     env_id: str, n_trailers: int, episodes: int, seed: int, directory: Path = CERTIFICATES_DIR
 ) -> str:

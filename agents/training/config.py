@@ -284,8 +284,7 @@ def _check_keys(algo: str, raw: dict[str, Any], where: str) -> None:
             "env_wrapper", "vec_env_wrapper", "frame_stack", "callback"
         ):  # fmt: skip
             raise ValueError(
-                f"{where}: unknown key {key!r:.60} (neither rl-zoo3's nor an argument of "
-                f"{algo})"
+                f"{where}: unknown key {key!r:.60} (neither rl-zoo3's nor an argument of {algo})"
             )
 
 

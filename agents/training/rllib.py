@@ -101,9 +101,7 @@ def address_problem(address: str, timeout: float = CONNECT_TIMEOUT_S) -> str | N
         return None
     match = _ADDRESS.fullmatch(address)
     if match is None or not 1 <= int(match.group(2)) <= 65535:
-        return (
-            f"{address[:80]!r} is not auto, HOST:PORT or ray://HOST:PORT (port 1..65535)"
-        )
+        return f"{address[:80]!r} is not auto, HOST:PORT or ray://HOST:PORT (port 1..65535)"
     host = match.group(1).strip("[]")
     try:
         with socket.create_connection((host, int(match.group(2))), timeout=timeout):

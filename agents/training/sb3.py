@@ -131,9 +131,7 @@ def train(
     callbacks: list[Any] = [evaluator, checkpoints]
     if progress_bar:
         callbacks.append(ProgressCallback(f"training {algo} on {config.env_id}"))
-    model.learn(
-        total_timesteps=remaining, callback=callbacks, reset_num_timesteps=resume is None
-    )
+    model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=resume is None)
     wall = round(evaluator.wall_seconds, 1)
     record.update({"timesteps": int(model.num_timesteps), "wall_time_s": wall})
     final = run_dir / FINAL_MODEL

@@ -137,16 +137,20 @@ def test_evaluate_errors_name_their_argument(
     cases = [
         (["--seed", "-1"], "argument --seed: expected an integer >= 0, got '-1'"),
         (["--out", str(a_file)], f"argument --out: {a_file} exists and is not a folder"),
-        (["--env", "trailer_env/Reverse-v0", "--policy", str(garbage)],
-         "argument --policy: cannot load model"),
+        (
+            ["--env", "trailer_env/Reverse-v0", "--policy", str(garbage)],
+            "argument --policy: cannot load model",
+        ),
         (
             # Coast-v0 observations have Reverse-v0's shape: only the card tells them apart.
             ["--env", "trailer_env/Coast-v0", "--policy", "ppo_reverse_n2"],
             "was trained on trailer_env/Reverse-v0 with n_trailers = 2, not "
             "trailer_env/Coast-v0 with n_trailers = 2; pass --force",
         ),
-        (["--env", "trailer_env/Reverse-v0", "--n-trailers", "1", "--policy", "ppo_reverse_n2"],
-         "with n_trailers = 2, not"),
+        (
+            ["--env", "trailer_env/Reverse-v0", "--n-trailers", "1", "--policy", "ppo_reverse_n2"],
+            "with n_trailers = 2, not",
+        ),
         (["--video", str(tmp_path / "v.avi")], "argument --video: must end in .mp4 or .gif"),
     ]
     for argv, message in cases:

@@ -127,8 +127,9 @@ def test_random_arguments_parse_or_exit_2_long(command: Any, stubbed: Path) -> N
 
 JSON = st.recursive(
     st.none() | st.booleans() | st.integers(-(2**70), 2**70) | st.floats() | st.text(max_size=6),
-    lambda children: st.lists(children, max_size=4)
-    | st.dictionaries(st.text(max_size=6), children, max_size=4),
+    lambda children: (
+        st.lists(children, max_size=4) | st.dictionaries(st.text(max_size=6), children, max_size=4)
+    ),
     max_leaves=12,
 )
 
@@ -246,4 +247,3 @@ def test_loaders_return_or_raise_value_errors(name: str, tmp_path: Path) -> None
 @pytest.mark.parametrize("name", LOADERS)
 def test_loaders_return_or_raise_value_errors_long(name: str, tmp_path: Path) -> None:
     _check_loader(name, tmp_path, LONG)
-

@@ -11,14 +11,14 @@ import pytest
 from agents.commands import evaluate
 from agents.policies.registry import is_callable_spec, is_model_spec, load_policy, policy_label
 
-MODULE = '''
+MODULE = """
 import numpy as np
 
 def act(obs):
     return np.zeros((len(obs), 1))
 
 not_callable = 3
-'''
+"""
 
 
 @pytest.fixture
