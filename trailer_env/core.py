@@ -90,8 +90,8 @@ from trailer_env.kernels import (
     step_serial,
 )
 from trailer_env.settings import EnvSettings
-from trailer_env.substeps import MAX_STEP_WORK
 from trailer_env.shaping import shaped_rewards
+from trailer_env.substeps import MAX_STEP_WORK
 
 #: The ``info`` keys of every environment and the core arrays behind them (None:
 #: ``actuator_work``, derived as ``energy - energy0``); the single env, the vector env
@@ -109,6 +109,11 @@ INFO_FIELDS: tuple[tuple[str, str | None], ...] = (
 class NonFiniteStateError(ValueError):
     """The state holds NaN or infinite values."""
 
+
+#: Largest magnitude of a task value set by hand (``reset(options=...)``, ``set_state``):
+#: target positions in metres, headings in radians. Beyond it the observation's
+#: distances lose their meaning (1e308 gave a -inf observation).
+MAX_TASK_MAGNITUDE = 1e6
 
 #: Substeps used to retry a step whose result was not finite (never seen with "auto").
 _RETRY_FACTOR = 8
@@ -199,9 +204,9 @@ class ConvoyCore:
         if fidelity.uses_substeps:
             work = fidelity.fixed_substeps * (n + 1) * size
             if work > MAX_STEP_WORK:
-                what = (
-                    "one substep each" if fidelity.auto else f"fidelity.substeps = {fidelity.substeps}"
-                )
+                what = f"fidelity.substeps = {fidelity.substeps}"
+                if fidelity.auto:
+                    what = "one substep each"
                 raise ValueError(
                     f"{size} environment(s) of {n + 1} bodies (n_trailers = {n}) with {what} "
                     f"need {work:.3g} body-substeps per control step, over the budget of "
@@ -609,7 +614,9 @@ class ConvoyCore:
             shown = f"u = {values[0, 0]:.4g} m/s" if np.isfinite(values[0, 0]) else ""
             self._give_up(stepped, failed, cause + (f", {shown}" if shown else ""), retried=True)
 
-    def _give_up(self, stepped: np.ndarray, failed: np.ndarray, cause: str, *, retried: bool) -> None:
+    def _give_up(
+        self, stepped: np.ndarray, failed: np.ndarray, cause: str, *, retried: bool
+    ) -> None:
         """Put every stepped row back at its state before the step and raise FloatingPointError."""
         self.z[stepped] = self._z_backup[stepped]
         self.act[stepped] = self._act_backup[stepped]
