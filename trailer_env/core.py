@@ -187,6 +187,20 @@ class ConvoyCore:
             or batch_size < 1
         ):
             raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+        # Refused before any array is allocated (module docstring, "Cost").
+        n, size, fidelity = settings.n_trailers, int(batch_size), settings.fidelity
+        if fidelity.uses_substeps:
+            work = fidelity.fixed_substeps * (n + 1) * size
+            if work > MAX_STEP_WORK:
+                what = f"fidelity.substeps = {fidelity.substeps}"
+                if fidelity.auto:
+                    what = "one substep each"
+                raise ValueError(
+                    f"{size} environment(s) of {n + 1} bodies (n_trailers = {n}) with {what} "
+                    f"need {work:.3g} body-substeps per control step, over the budget of "
+                    f"{MAX_STEP_WORK:.3g} (trailer_env.substeps.MAX_STEP_WORK); use fewer "
+                    "environments, trailers or substeps"
+                )
         self.settings = settings
         self.params = settings.params
         self.n = settings.n_trailers
@@ -201,18 +215,6 @@ class ConvoyCore:
         self.act = np.zeros((size, 6))
         self.act[:, 0] = self.params.b
         fidelity = settings.fidelity
-        if fidelity.uses_substeps:
-            work = fidelity.fixed_substeps * (n + 1) * size
-            if work > MAX_STEP_WORK:
-                what = f"fidelity.substeps = {fidelity.substeps}"
-                if fidelity.auto:
-                    what = "one substep each"
-                raise ValueError(
-                    f"{size} environment(s) of {n + 1} bodies (n_trailers = {n}) with {what} "
-                    f"need {work:.3g} body-substeps per control step, over the budget of "
-                    f"{MAX_STEP_WORK:.3g} (trailer_env.substeps.MAX_STEP_WORK); use fewer "
-                    "environments, trailers or substeps"
-                )
         self.substeps = np.full(size, fidelity.fixed_substeps, dtype=np.int64)
         self.obs = np.zeros((size, self.obs_dim), dtype=np.float32)
         self.singular_margin = np.ones(size)
@@ -298,6 +300,8 @@ class ConvoyCore:
         self._state = tuple(self.step_state)
         self._outputs = tuple(self.step_outputs)
         self._observe_args = (n, self.planar, observe_settings, self._packed, self._outputs)
+        # After an integrator outside the kernel ("dopri5"): the divergence bound applies.
+        self._step_observe_args = (n, self.planar, step_observe_settings, *self._observe_args[3:])
         self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
 
     def _scene_arguments(self) -> tuple:
@@ -524,7 +528,7 @@ class ConvoyCore:
             self._integrator.step(z, act, self._dt, self.substeps[rows])
             self.z[rows], self.act[rows] = z, act
         clamp_rows_to_rail(self.act, rows, self._b, self._s_max)
-        return -1, observe(self.z, self.act, rows, *self._observe_args), over
+        return -1, observe(self.z, self.act, rows, *self._step_observe_args), over
 
     def step(self, action: np.ndarray, rows: np.ndarray | None = None) -> None:
         """Advance every environment (or ``rows``, an int array) by ``dt`` under ``action``
