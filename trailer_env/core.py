@@ -78,6 +78,7 @@ from dynamics.jit import pack_params
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.kernels import (
     DIVERGENCE_BOUND,
+    OBS_BOUND,
     OVER_BUDGET,
     PARALLEL_MIN_ROWS,
     StepConfig,
@@ -612,7 +613,8 @@ class ConvoyCore:
             failed = rows[self._nonfinite[rows]]
             values = self.z[failed]
             if np.all(np.isfinite(values)):
-                cause = f"a value beyond {DIVERGENCE_BOUND:g} in magnitude"
+                bound = self.step_config.obs_settings[OBS_BOUND]
+                cause = f"a value beyond {bound:g} in magnitude"
             else:
                 cause = "a non-finite value (NaN or inf)"
             shown = f"u = {values[0, 0]:.4g} m/s" if np.isfinite(values[0, 0]) else ""
