@@ -32,8 +32,11 @@ Divergence: a step whose result is not finite, or holds a value beyond
 one step has been seen with in-range parameters), is redone with 8 times the substeps on
 the rows concerned; if it still diverges, :meth:`ConvoyCore.step` raises
 FloatingPointError naming the rows and the cause, with every row back at its state
-before the step. Growth that stays below the bound is not detected here (the auto rule's
-AccuracyWarning flags steps whose substeps were capped).
+before the step. With ``fidelity.substeps="auto"``, a step whose substeps a cap kept
+inaccurate (an AccuracyWarning step) and whose speed scale ``max(|u|, l |omega|)`` grew
+more than :data:`~trailer_env.substeps.GROWTH_LIMIT` (1000) times over its start's (plus
+the mass's speed scale) has diverged too (u = 1.3 -> 5.9e6 m/s in one step was seen).
+Slower growth below the bound is not detected.
 
 Cost: one step's work, substeps x (n + 1) bodies summed over the rows stepped, is
 bounded by :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps, ~15 s on one
@@ -92,7 +95,7 @@ from trailer_env.kernels import (
 )
 from trailer_env.settings import EnvSettings
 from trailer_env.shaping import shaped_rewards
-from trailer_env.substeps import MAX_STEP_WORK
+from trailer_env.substeps import GROWTH_LIMIT, MAX_STEP_WORK
 
 #: The ``info`` keys of every environment and the core arrays behind them (None:
 #: ``actuator_work``, derived as ``energy - energy0``); the single env, the vector env
@@ -267,7 +270,12 @@ class ConvoyCore:
             dt=float(settings.dt),
             frequency=float(settings.servo_frequency),
             auto=bool(fidelity.auto),
-            auto_settings=fidelity.auto_settings(self.params, settings.dt, self.planar),
+            auto_settings=fidelity.auto_settings(
+                self.params,
+                settings.dt,
+                self.planar,
+                settings.rail_speed_max + settings.rail_accel_max * settings.dt,
+            ),
             pv=self._packed,
             n=n,
             with_pose=self.with_pose,
@@ -612,9 +620,20 @@ class ConvoyCore:
         if nonfinite:
             failed = rows[self._nonfinite[rows]]
             values = self.z[failed]
+            grew = (
+                self.accuracy_exceeded[failed].all()
+                and np.isnan(values[:, 0]).all()
+                and np.all(np.isfinite(values[:, 1:]))
+            )
             if np.all(np.isfinite(values)):
                 bound = self.step_config.obs_settings[OBS_BOUND]
                 cause = f"a value beyond {bound:g} in magnitude"
+            elif grew:  # marked by the step kernel (trailer_env.substeps.GROWTH_LIMIT)
+                cause = (
+                    f"a speed max(|u|, l |omega|) more than {GROWTH_LIMIT:g} times its start's "
+                    "while fidelity.max_substeps = "
+                    f"{self.settings.fidelity.max_substeps} capped the substeps"
+                )
             else:
                 cause = "a non-finite value (NaN or inf)"
             shown = f"u = {values[0, 0]:.4g} m/s" if np.isfinite(values[0, 0]) else ""

@@ -205,9 +205,11 @@ class Fidelity:
             )
         return RK4Integrator(params, with_pose=with_pose, preserve_energy=preserve_energy)
 
-    def auto_settings(self, params: ConvoyParams, dt: float, planar: bool) -> np.ndarray:
+    def auto_settings(
+        self, params: ConvoyParams, dt: float, planar: bool, speed_floor: float = 0.0
+    ) -> np.ndarray:
         """The packed settings of the auto rule (:func:`trailer_env.substeps.auto_settings`)."""
-        return auto_settings(params, dt, planar, self.tolerance, self.max_substeps)
+        return auto_settings(params, dt, planar, self.tolerance, self.max_substeps, speed_floor)
 
 
 __all__ = [

@@ -51,7 +51,7 @@ from dynamics.jit import (
 )
 from trailer_env import actuator, substeps
 from trailer_env.actuator import apply_action_row, clamp_row_to_rail, first_non_finite_row
-from trailer_env.substeps import AUTO_WORK_SUBSTEPS, auto_substeps_row
+from trailer_env.substeps import AUTO_WORK_SUBSTEPS, auto_substeps_row, grew_absurdly_row
 
 #: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
 SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
@@ -343,6 +343,16 @@ def _step_chunk(
                 clamp_row_to_rail(act, i, b, s_max)
                 for j in range(4):
                     mass0[j, lane] = act[i, j]
+        if config.auto:
+            # A step the substep cap left inaccurate whose speed grew absurdly has diverged:
+            # poisoned, it is reported as non-finite below (redone or refused by the core).
+            y = workspace[0]
+            for lane in range(nb):
+                i = block[lane]
+                if state.exceeded[i] and grew_absurdly_row(z, state.z_backup,
+                                                           config.auto_settings, i):  # fmt: skip
+                    z[i, 0] = np.nan
+                    y[0, lane] = np.nan
         bad += observe_block(z, block, nb, n, config.planar, config.obs_settings, pv, outputs,
                              workspace, fold_angle < np.inf)  # fmt: skip
         first = last

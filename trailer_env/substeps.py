@@ -93,6 +93,10 @@ MAX_TOLERANCE = 1e-3
 MIN_TOLERANCE = 1e-13
 #: Substeps the stability bound may ask for, at most (dt |u| / l ~ 1e6).
 HARD_MAX_SUBSTEPS = 1_000_000
+#: A step whose substeps a cap kept below what the error estimate asks for, and whose
+#: speed scale ``max(|u|, l |omega|)`` grew more than this factor over its start's (plus
+#: the mass's speed scale), has diverged (u = 1.3 -> 5.9e6 m/s in one step was seen).
+GROWTH_LIMIT = 1e3
 #: The work budget of one control step of a batch, in body-substeps: substeps x (n + 1)
 #: bodies, summed over the batch's environments. RK4 advances ~1.2e7 body-substeps per
 #: second on one core (n = 256: 1e6 substeps took 20.7 s), so a step within the budget
@@ -113,7 +117,9 @@ MAX_STEP_WORK = 200_000_000
     AUTO_INV_X_SAFE,
     AUTO_MAX_SUBSTEPS,
     AUTO_WORK_SUBSTEPS,
-) = range(10)
+    AUTO_LENGTH,
+    AUTO_SPEED_FLOOR,
+) = range(12)
 
 
 class AccuracyWarning(UserWarning):
@@ -154,13 +160,19 @@ def cart_rate_coefficient(params: ConvoyParams, planar: bool) -> float:
 
 
 def auto_settings(
-    params: ConvoyParams, dt: float, planar: bool, tolerance: float, max_substeps: int
+    params: ConvoyParams,
+    dt: float,
+    planar: bool,
+    tolerance: float,
+    max_substeps: int,
+    speed_floor: float = 0.0,
 ) -> np.ndarray:
-    """The packed float64 settings :func:`auto_substeps_row` reads (module docstring)."""
+    """The packed float64 settings :func:`auto_substeps_row` reads (module docstring);
+    ``speed_floor`` is the mass's speed scale of :func:`grew_absurdly_row`."""
     n = params.n_trailers
     speed_rate = max(1.0 / params.l, cart_rate_coefficient(params, planar))
     x_safe = STABILITY_FRACTION * stability_limit(n)
-    settings = np.empty(10)
+    settings = np.empty(12)
     settings[AUTO_SPEED_RATE] = speed_rate
     settings[AUTO_CHAIN] = chain_growth(n)
     settings[AUTO_MASS_SPEED] = MASS_WEIGHTS[0] / params.s_max
@@ -174,6 +186,8 @@ def auto_settings(
     settings[AUTO_MAX_SUBSTEPS] = max_substeps
     # The batch's substeps may add up to MAX_STEP_WORK / (n + 1) (the work budget).
     settings[AUTO_WORK_SUBSTEPS] = MAX_STEP_WORK / (n + 1)
+    settings[AUTO_LENGTH] = params.l
+    settings[AUTO_SPEED_FLOOR] = speed_floor
     return settings
 
 
@@ -202,6 +216,16 @@ def auto_substeps_row(z: np.ndarray, act: np.ndarray, settings: np.ndarray, i: i
     stable = np.ceil(x_plain * inv_x_safe)
     chosen = min(max(accurate, stable, 1.0), HARD_MAX_SUBSTEPS)
     return int(chosen), chosen >= wanted
+
+
+@njit(cache=True, nogil=True)
+def grew_absurdly_row(z: np.ndarray, start: np.ndarray, settings: np.ndarray, i: int) -> bool:
+    """Whether row ``i``'s speed scale grew more than :data:`GROWTH_LIMIT`-fold from
+    ``start[i]`` (the step's start) to ``z[i]``, over the mass's speed scale."""
+    length = settings[AUTO_LENGTH]
+    before = max(abs(start[i, 0]), length * abs(start[i, 1])) + settings[AUTO_SPEED_FLOOR]
+    after = max(abs(z[i, 0]), length * abs(z[i, 1]))
+    return after > GROWTH_LIMIT * before
 
 
 @njit(cache=True)

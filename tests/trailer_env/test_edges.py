@@ -16,7 +16,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import trailer_env  # noqa: F401  (registers the ids)
+import trailer_env
 from trailer_env.kernels import OBS_BOUND
 from trailer_env.registry import core_class_of
 from trailer_env.substeps import MAX_STEP_WORK
@@ -77,6 +77,29 @@ def test_a_finite_result_beyond_the_bound_is_a_divergence() -> None:
     core.step_config.obs_settings[OBS_BOUND] = 1e6
     env.step(np.zeros(1))  # retried with 8 substeps: finite and within the bound
     assert abs(core.z[0, 0]) < 1e6
+
+
+#: In-range parameters of the issue's report (Coast-v0, planar, auto fidelity).
+REPORTED = {
+    "n_trailers": 5, "M": 834.83, "m": 31241.4, "l": 0.04825, "J0": 0.00182, "a": -0.04593,
+    "b": -0.004914, "s_max": 0.3133, "dt": 0.1608, "rail_accel_max": 1.45e-5,
+    "servo_bandwidth": 29.99, "action_mode": "planar", "fidelity": {"tolerance": 5.6e-5},
+}  # fmt: skip
+
+
+def test_a_capped_step_whose_speed_explodes_is_redone() -> None:
+    # From this state the capped step (64 substeps) took u from 1.29 to 5.9e6 m/s, flagged
+    # only by the AccuracyWarning; its speed grew > 1000-fold, so it is redone with 8 times
+    # the substeps, which lands at u = -3.09 m/s.
+    env = gym.make("trailer_env/Coast-v0", **REPORTED).unwrapped
+    state = [1.28669372, 2.62996153, -0.04801466, -0.08863604, -0.52386798, -0.98456931,
+             -1.46374242]  # fmt: skip
+    env.reset(seed=0, options={"state": state, "s": 0.29465181802558954})
+    with pytest.warns(trailer_env.AccuracyWarning):
+        obs, *_ = env.step(np.zeros(2, dtype=np.float32))
+    assert env.core.accuracy_exceeded[0]
+    assert abs(env.core.z[0, 0]) < 10.0 and abs(obs[0]) < 10.0
+    assert np.all(np.isfinite(obs))
 
 
 def test_divergence_in_the_vector_env_and_sb3_names_the_row() -> None:
