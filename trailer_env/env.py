@@ -289,7 +289,11 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
 
         Raises:
             TypeError: If the action is None, a bool, a string, complex or not numeric.
-            ValueError: If the action is NaN, infinite or of the wrong shape.
+            ValueError: If the action is NaN, infinite, of the wrong shape, or a masked
+                array with masked entries.
+            FloatingPointError: If the step diverged (a non-finite result or one beyond
+                1e12, see :mod:`trailer_env.core`) or would exceed the work budget of 2e8
+                body-substeps; the state, observation and generator are left as they were.
         """
         if not self._has_reset:
             raise gym.error.ResetNeeded("call reset() before step()")

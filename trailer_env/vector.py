@@ -362,7 +362,11 @@ class ConvoyVectorEnv(VectorEnv):
         """Step every environment (autoreset as ``autoreset_mode`` says).
 
         Raises:
-            ValueError: On NaN or infinite actions or a wrong shape (nothing is stepped).
+            ValueError: On NaN or infinite actions (of the environments stepped), a wrong
+                shape, or a masked array with masked entries (nothing is stepped).
+            FloatingPointError: If a step diverged or would exceed the work budget
+                (:mod:`trailer_env.core`), naming the environments; every environment is
+                left at its state before the step.
             RuntimeError: Before the first reset, or (autoreset disabled) when an
                 environment that ended was not reset.
         """
