@@ -359,6 +359,10 @@ class ConvoyCore:
     def _after_reset(self, rows: np.ndarray) -> None:
         """Initialise per-episode bookkeeping (potentials, counters) of ``rows`` after a reset."""
 
+    def _after_restore(self, rows: np.ndarray) -> None:
+        """Undo a refused step's per-step bookkeeping in ``rows``, back at their states before
+        it (a scene kernel's outcome has already run on the rows that did not diverge)."""
+
     def _task_feature_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the task features (default unbounded)."""
         return np.full(self.n_task_features, -np.inf), np.full(self.n_task_features, np.inf)
@@ -646,6 +650,7 @@ class ConvoyCore:
         self.z[stepped] = self._z_backup[stepped]
         self.act[stepped] = self._act_backup[stepped]
         self.refresh(stepped)
+        self._after_restore(stepped)
         how = (
             f"even with {_RETRY_FACTOR} times the substeps"
             if retried
@@ -716,6 +721,10 @@ class ShapedCore(ConvoyCore):
         raise NotImplementedError
 
     def _after_reset(self, rows: np.ndarray) -> None:
+        self.previous_potential[rows] = self._potential()[rows]
+
+    def _after_restore(self, rows: np.ndarray) -> None:
+        # The potential of every row's state is its previous potential between steps.
         self.previous_potential[rows] = self._potential()[rows]
 
     def _reward(self) -> np.ndarray:

@@ -122,6 +122,19 @@ def test_divergence_in_the_vector_env_and_sb3_names_the_row() -> None:
     np.testing.assert_array_equal(venv.core.z, z)
 
 
+def test_a_refused_batch_step_restores_the_other_rows_bookkeeping() -> None:
+    envs = make_vec("trailer_env/Coast-v0", 2, fidelity=1)
+    states = np.array([[1.0, 0.1, 0.2, -0.1], [20000.0, 0.0, 0.1, -0.1]])
+    envs.reset(seed=0, options={"state": states})
+    core = envs.unwrapped.core
+    potential = core.previous_potential.copy()
+    before = snapshot(envs)
+    with pytest.raises(FloatingPointError, match=r"environment\(s\) \[1\]"):
+        envs.step(np.zeros((2, 1)))
+    assert_unchanged(before, snapshot(envs))
+    np.testing.assert_array_equal(core.previous_potential, potential)
+
+
 # ---------------------------------------------------------------- 2. bounded cost
 def test_an_auto_step_over_the_work_budget_is_refused_before_integrating() -> None:
     env = gym.make("trailer_env/Reverse-v1", n_trailers=256)
