@@ -96,3 +96,64 @@ def test_any_input_works_or_is_refused_changing_nothing_at_length(
     env_id: str, seed: Any, option: Any, action: Any
 ) -> None:
     check(env_id, seed, option, action)
+
+
+vector_states = st.one_of(
+    values,
+    st.tuples(st.integers(1, 4), st.integers(3, 5)).map(lambda shape: np.zeros(shape)),
+    st.sampled_from([np.bool_, np.complex128, np.int64, np.float32]).map(
+        lambda dtype: np.ones((3, 4), dtype=dtype)
+    ),
+    st.lists(st.lists(numbers, min_size=4, max_size=4), min_size=3, max_size=3),
+)
+vector_options = st.one_of(
+    st.none(),
+    st.fixed_dictionaries(
+        {},
+        optional={
+            "state": vector_states,
+            "reset_mask": st.one_of(values, st.lists(st.booleans(), min_size=3, max_size=3)),
+            "bogus": values,
+        },
+    ),
+)
+
+
+@cache
+def vector_environment() -> Any:
+    return gym.make_vec(
+        "trailer_env/Reverse-v0", num_envs=3, vectorization_mode="vector_entry_point"
+    )
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.one_of(seeds, st.lists(seeds, min_size=2, max_size=4)), vector_options, actions)
+def test_vector_inputs_work_or_are_refused_changing_nothing(
+    seed: Any, option: Any, action: Any
+) -> None:
+    envs = vector_environment()
+    envs.reset(seed=0)
+    core = envs.unwrapped.core
+
+    def state() -> tuple:
+        generators = envs.unwrapped._generators
+        return (core.z.copy(), core.obs.copy(), repr([g.bit_generator.state for g in generators]))
+
+    before = state()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            envs.reset(seed=seed, options=option)
+        except (ValueError, TypeError):
+            after = state()
+            np.testing.assert_array_equal(before[0], after[0])
+            np.testing.assert_array_equal(before[1], after[1])
+            assert before[2] == after[2]
+        envs.reset(seed=0)
+        before = state()
+        try:
+            envs.step(action)
+        except (ValueError, TypeError):
+            after = state()
+            np.testing.assert_array_equal(before[0], after[0])
+            assert before[2] == after[2]
