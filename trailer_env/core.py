@@ -394,9 +394,9 @@ class ConvoyCore:
         """
         state = np.asarray(z, dtype=np.float64)
         if state.ndim != 1 or state.shape[0] not in (self.n + 2, self.z.shape[1]):
-            raise ValueError(
-                f"z must have length {self.n + 2} or {self.z.shape[1]}, got shape {state.shape}"
-            )
+            lengths = sorted({self.n + 2, self.z.shape[1]})
+            shown = " or ".join(str(length) for length in lengths)
+            raise ValueError(f"z must have length {shown}, got shape {state.shape}")
         if not np.all(np.isfinite(state)) or not (np.isfinite(s) and np.isfinite(s_dot)):
             raise ValueError("z, s and s_dot must be finite")
         s_max = self._s_max

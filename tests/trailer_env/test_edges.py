@@ -212,7 +212,7 @@ SINGLE_REFUSALS: list[tuple[str, dict[str, Any], type[Exception], str]] = [
     ("Reverse-v0", {"seed": True}, TypeError, r"got bool True"),
     ("Reverse-v0", {"seed": -1}, ValueError, r"non-negative integer, got -1"),
     ("Reverse-v0", {"seed": "1"}, TypeError, r"got str '1'"),
-    ("Reverse-v0", {"options": {"state": [0.0, 0.0, 0.0]}}, ValueError, r"z must have length 4"),
+    ("Reverse-v0", {"options": {"state": [0.0] * 3}}, ValueError, r"length 4, got shape \(3,\)"),
     ("Reverse-v0", {"options": {"state": [0.0] * 4, "s": 0.6}}, ValueError, r"on the rail"),
     ("Reverse-v0", {"options": {"state": [0.0] * 4, "s_dot": 9.0}}, ValueError, r"stop before"),
     ("Reverse-v0", {"options": {"state": [0.0] * 4, "target": 1}}, ValueError, r"unknown reset"),
