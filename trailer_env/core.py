@@ -27,6 +27,23 @@ only at speeds far beyond the scenes', e.g. ``|u| = 1000`` m/s). Such a step is 
 silent: :attr:`ConvoyCore.accuracy_exceeded` flags its rows and an
 :class:`~trailer_env.substeps.AccuracyWarning` is issued (once per core).
 
+Divergence: a step whose result is not finite, or holds a value beyond
+:data:`~trailer_env.kernels.DIVERGENCE_BOUND` (1e12) in magnitude (u = 1.2 -> 2e96 m/s in
+one step has been seen with in-range parameters), is redone with 8 times the substeps on
+the rows concerned; if it still diverges, :meth:`ConvoyCore.step` raises
+FloatingPointError naming the rows and the cause, with every row back at its state
+before the step. With ``fidelity.substeps="auto"``, a step whose substeps a cap kept
+inaccurate (an AccuracyWarning step) and whose speed scale ``max(|u|, l |omega|)`` grew
+more than :data:`~trailer_env.substeps.GROWTH_LIMIT` (1000) times over its start's (plus
+the mass's speed scale) has diverged too (u = 1.3 -> 5.9e6 m/s in one step was seen).
+Slower growth below the bound is not detected.
+
+Cost: one step's work, substeps x (n + 1) bodies summed over the rows stepped, is
+bounded by :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps, ~15 s on one
+core): fixed substeps beyond it (or ``(n + 1) B`` beyond it with "auto") are refused at
+construction (ValueError), and an auto step whose chosen substeps exceed it raises
+FloatingPointError before anything is integrated.
+
 Scenes override the hooks (``_reset_row``, ``_update_task``, ``_advance``,
 ``_is_success``, ``_is_terminated``, ``_reward``, ``_after_reset``,
 ``_task_feature_bounds``); they never step the physics themselves. Per-row work
@@ -63,6 +80,9 @@ import numpy as np
 from dynamics.jit import pack_params
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.kernels import (
+    DIVERGENCE_BOUND,
+    OBS_BOUND,
+    OVER_BUDGET,
     PARALLEL_MIN_ROWS,
     StepConfig,
     StepOutputs,
@@ -75,6 +95,7 @@ from trailer_env.kernels import (
 )
 from trailer_env.settings import EnvSettings
 from trailer_env.shaping import shaped_rewards
+from trailer_env.substeps import GROWTH_LIMIT, MAX_STEP_WORK
 
 #: The ``info`` keys of every environment and the core arrays behind them (None:
 #: ``actuator_work``, derived as ``energy - energy0``); the single env, the vector env
@@ -92,6 +113,11 @@ INFO_FIELDS: tuple[tuple[str, str | None], ...] = (
 class NonFiniteStateError(ValueError):
     """The state holds NaN or infinite values."""
 
+
+#: Largest magnitude of a task value set by hand (``reset(options=...)``, ``set_state``):
+#: target positions in metres, headings in radians. Beyond it the observation's
+#: distances lose their meaning (1e308 gave a -inf observation).
+MAX_TASK_MAGNITUDE = 1e6
 
 #: Substeps used to retry a step whose result was not finite (never seen with "auto").
 _RETRY_FACTOR = 8
@@ -165,6 +191,20 @@ class ConvoyCore:
             or batch_size < 1
         ):
             raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+        # Refused before any array is allocated (module docstring, "Cost").
+        n, size, fidelity = settings.n_trailers, int(batch_size), settings.fidelity
+        if fidelity.uses_substeps:
+            work = fidelity.fixed_substeps * (n + 1) * size
+            if work > MAX_STEP_WORK:
+                what = f"fidelity.substeps = {fidelity.substeps}"
+                if fidelity.auto:
+                    what = "one substep each"
+                raise ValueError(
+                    f"{size} environment(s) of {n + 1} bodies (n_trailers = {n}) with {what} "
+                    f"need {work:.3g} body-substeps per control step, over the budget of "
+                    f"{MAX_STEP_WORK:.3g} (trailer_env.substeps.MAX_STEP_WORK); use fewer "
+                    "environments, trailers or substeps"
+                )
         self.settings = settings
         self.params = settings.params
         self.n = settings.n_trailers
@@ -206,6 +246,8 @@ class ConvoyCore:
         self._b = self.params.b
         self._s_max = self.params.s_max
         self._warned_accuracy = False
+        # The last entry bounds the values a row may hold: none for hand-built states, the
+        # divergence bound for a step's result (kernels.DIVERGENCE_BOUND).
         observe_settings = np.array(
             [
                 self._b,
@@ -213,8 +255,11 @@ class ConvoyCore:
                 settings.rail_speed_max,
                 settings.singular_band,
                 settings.fold_angle,
+                np.inf,
             ]
         )
+        step_observe_settings = observe_settings.copy()
+        step_observe_settings[-1] = DIVERGENCE_BOUND
         # Kernel arguments fixed for the core's life, packed once (a single env's step is a
         # few microseconds).
         self.step_config = StepConfig(
@@ -225,13 +270,18 @@ class ConvoyCore:
             dt=float(settings.dt),
             frequency=float(settings.servo_frequency),
             auto=bool(fidelity.auto),
-            auto_settings=fidelity.auto_settings(self.params, settings.dt, self.planar),
+            auto_settings=fidelity.auto_settings(
+                self.params,
+                settings.dt,
+                self.planar,
+                settings.rail_speed_max + settings.rail_accel_max * settings.dt,
+            ),
             pv=self._packed,
             n=n,
             with_pose=self.with_pose,
             preserve_energy=preserve_energy,
             planar=self.planar,
-            obs_settings=observe_settings,
+            obs_settings=step_observe_settings,
         )
         self.step_state = StepState(
             z=self.z,
@@ -259,6 +309,8 @@ class ConvoyCore:
         self._state = tuple(self.step_state)
         self._outputs = tuple(self.step_outputs)
         self._observe_args = (n, self.planar, observe_settings, self._packed, self._outputs)
+        # After an integrator outside the kernel ("dopri5"): the divergence bound applies.
+        self._step_observe_args = (n, self.planar, step_observe_settings, *self._observe_args[3:])
         self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
 
     def _scene_arguments(self) -> tuple:
@@ -307,14 +359,55 @@ class ConvoyCore:
     def _after_reset(self, rows: np.ndarray) -> None:
         """Initialise per-episode bookkeeping (potentials, counters) of ``rows`` after a reset."""
 
+    def _after_restore(self, rows: np.ndarray) -> None:
+        """Undo a refused step's per-step bookkeeping in ``rows``, back at their states before
+        it (a scene kernel's outcome has already run on the rows that did not diverge)."""
+
     def _task_feature_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the task features (default unbounded)."""
         return np.full(self.n_task_features, -np.inf), np.full(self.n_task_features, np.inf)
 
-    def set_task(self, i: int, **task: Any) -> None:
-        """Set row ``i``'s task values by hand (e.g. a target); scenes without any refuse all."""
+    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+        """The task values :meth:`set_task` would set, validated, changing nothing.
+
+        Scenes with task values override it (and :meth:`set_task`); scenes without any
+        refuse all.
+
+        Raises:
+            TypeError: If a value is not of the right type (a string or bool for a number).
+            ValueError: If a value is unknown, not finite or out of its documented range.
+        """
         if task:
             raise ValueError(f"unknown task value(s) {sorted(task)} for {type(self).__name__}")
+        return {}
+
+    def set_task(self, i: int, **task: Any) -> None:
+        """Set row ``i``'s task values by hand (e.g. a target); scenes without any refuse all."""
+        self.check_task(task)
+
+    def check_row_state(self, z: Any, s: float = 0.0, s_dot: float = 0.0) -> np.ndarray:
+        """The state :meth:`set_row_state` would set, as float64, checked; changes nothing.
+
+        Raises:
+            ValueError: If the shape is wrong, a value is not finite, or the mass is off
+                the rail or could not stop before its ends.
+        """
+        state = np.asarray(z, dtype=np.float64)
+        if state.ndim != 1 or state.shape[0] not in (self.n + 2, self.z.shape[1]):
+            lengths = sorted({self.n + 2, self.z.shape[1]})
+            shown = " or ".join(str(length) for length in lengths)
+            raise ValueError(f"z must have length {shown}, got shape {state.shape}")
+        if not np.all(np.isfinite(state)) or not (np.isfinite(s) and np.isfinite(s_dot)):
+            raise ValueError("z, s and s_dot must be finite")
+        s_max = self._s_max
+        accel = self.settings.rail_accel_max
+        if (
+            abs(s) > s_max
+            or s + max(s_dot, 0.0) ** 2 / (2 * accel) > s_max
+            or (s - max(-s_dot, 0.0) ** 2 / (2 * accel) < -s_max)
+        ):
+            raise ValueError("the mass must be on the rail and able to stop before its ends")
+        return state
 
     def set_row_state(
         self, i: int, z: Any, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
@@ -333,21 +426,7 @@ class ConvoyCore:
             ValueError: If the shape is wrong, a value is not finite, the mass is off the
                 rail or could not stop before its ends, or a task value is unknown.
         """
-        state = np.asarray(z, dtype=np.float64)
-        if state.ndim != 1 or state.shape[0] not in (self.n + 2, self.z.shape[1]):
-            raise ValueError(
-                f"z must have length {self.n + 2} or {self.z.shape[1]}, got shape {state.shape}"
-            )
-        if not np.all(np.isfinite(state)) or not (np.isfinite(s) and np.isfinite(s_dot)):
-            raise ValueError("z, s and s_dot must be finite")
-        s_max = self._s_max
-        accel = self.settings.rail_accel_max
-        if (
-            abs(s) > s_max
-            or s + max(s_dot, 0.0) ** 2 / (2 * accel) > s_max
-            or (s - max(-s_dot, 0.0) ** 2 / (2 * accel) < -s_max)
-        ):
-            raise ValueError("the mass must be on the rail and able to stop before its ends")
+        state = self.check_row_state(z, s, s_dot)
         rows = np.array([i], dtype=np.int64)
         self.set_task(i, **task)  # validates the task values before anything else changes
         self.z[i] = 0.0
@@ -437,7 +516,7 @@ class ConvoyCore:
                 )
             result = step_parallel(action, rows, prepare, self._config, self._state,
                                    self._outputs)  # fmt: skip
-            if result[0] < 0:
+            if result[0] == -1:
                 self.scene_outcome(rows, self._outputs, scene)
             return result
         kernel = step_parallel if parallel else step_serial
@@ -462,23 +541,31 @@ class ConvoyCore:
             self._integrator.step(z, act, self._dt, self.substeps[rows])
             self.z[rows], self.act[rows] = z, act
         clamp_rows_to_rail(self.act, rows, self._b, self._s_max)
-        return -1, observe(self.z, self.act, rows, *self._observe_args), over
+        return -1, observe(self.z, self.act, rows, *self._step_observe_args), over
 
-    def step(self, action: np.ndarray) -> None:
-        """Advance every environment by ``dt`` under ``action`` (B, action_dim), float64.
+    def step(self, action: np.ndarray, rows: np.ndarray | None = None) -> None:
+        """Advance every environment (or ``rows``, an int array) by ``dt`` under ``action``
+        (B, action_dim), float64; rows not stepped keep their state (their results of
+        this step are meaningless: the vector env resets them).
 
         Raises:
-            ValueError: If an action is NaN or infinite (nothing is stepped).
-            FloatingPointError: If a step diverged even with more substeps (the state
-                is left at the previous step).
+            ValueError: If an action of a stepped row is NaN or infinite (nothing is stepped).
+            FloatingPointError: If a step diverged (a non-finite result, or a value beyond
+                :data:`~trailer_env.kernels.DIVERGENCE_BOUND` in magnitude) even with 8
+                times the substeps, or the auto rule's substeps would exceed the work
+                budget :data:`~trailer_env.substeps.MAX_STEP_WORK` (nothing is integrated).
+                Every row is left at its state before the step.
         """
-        bad, nonfinite, over = self._physics_step(action, self._all_rows, True)
+        stepped = self._all_rows if rows is None else rows
+        bad, nonfinite, over = self._physics_step(action, stepped, True)
         if bad >= 0:
             raise ValueError(
                 f"action contains non-finite values (NaN or inf), environment {bad}: {action[bad]}"
             )
+        if bad == OVER_BUDGET:
+            self._refuse_over_budget(stepped)
         if nonfinite:
-            self._retry_finer(action)
+            self._retry_finer(action, stepped)
         if over and not self._warned_accuracy:
             self._warned_accuracy = True
             warnings.warn(
@@ -493,7 +580,7 @@ class ConvoyCore:
         self._update_task(slice(None))
         if self.scene_outcome is not None:
             if not self._fused:  # the same compiled formulas the fused step runs
-                self.scene_outcome(self._all_rows, self._outputs, self._scene_tuple())
+                self.scene_outcome(stepped, self._outputs, self._scene_tuple())
         else:
             self._advance()
             self.success[:] = self._is_success()
@@ -501,16 +588,33 @@ class ConvoyCore:
             self.terminated[:] = self._is_terminated()
             self.reward[:] = self._reward()
 
-    def _retry_finer(self, action: np.ndarray) -> None:
-        """Redo the rows whose step produced non-finite values with more substeps, or give up.
+    def _refuse_over_budget(self, rows: np.ndarray) -> None:
+        """Raise FloatingPointError for a step the auto rule priced over the work budget."""
+        counts = self.substeps[rows]
+        worst = int(rows[int(np.argmax(counts))])
+        work = float(counts.sum()) * (self.n + 1)
+        raise FloatingPointError(
+            f"the step would take {work:.3g} body-substeps (substeps x {self.n + 1} bodies, "
+            f"summed over {rows.size} environment(s)), over the budget of {MAX_STEP_WORK:.3g} "
+            f"per control step (trailer_env.substeps.MAX_STEP_WORK): environment {worst} at "
+            f"u = {self.z[worst, 0]:.4g} m/s, omega = {self.z[worst, 1]:.4g} rad/s needs "
+            f"{int(self.substeps[worst])} substeps; nothing was stepped (lower the speed, dt, "
+            "the number of environments or of trailers)"
+        )
+
+    def _retry_finer(self, action: np.ndarray, stepped: np.ndarray) -> None:
+        """Redo the rows whose step produced non-finite (or beyond the divergence bound)
+        values with more substeps, or give up.
 
         Only the failed rows are redone; their substep counts are restored afterwards with
         fixed substeps (the auto rule recomputes them at every step anyway).
         """
-        rows = np.flatnonzero(self._nonfinite).astype(np.int64)
+        rows = stepped[self._nonfinite[stepped]].astype(np.int64)
         self.z[rows] = self._z_backup[rows]
         self.act[rows] = self._act_backup[rows]
         used = self.substeps[rows].copy()
+        if float(used.sum()) * _RETRY_FACTOR * (self.n + 1) > MAX_STEP_WORK:
+            self._give_up(stepped, rows, "non-finite or beyond the divergence bound", retried=False)
         self.substeps[rows] = used * _RETRY_FACTOR
         try:
             _, nonfinite, _ = self._physics_step(action, rows, False)
@@ -519,14 +623,44 @@ class ConvoyCore:
                 self.substeps[rows] = used
         if nonfinite:
             failed = rows[self._nonfinite[rows]]
-            np.copyto(self.z, self._z_backup)
-            np.copyto(self.act, self._act_backup)
-            self.refresh()
-            raise FloatingPointError(
-                "the integration diverged even with more substeps in environment(s) "
-                f"{failed.tolist()}; the state was left at the previous step "
-                "(use fidelity='auto' or more substeps)"
+            values = self.z[failed]
+            grew = (
+                self.accuracy_exceeded[failed].all()
+                and np.isnan(values[:, 0]).all()
+                and np.all(np.isfinite(values[:, 1:]))
             )
+            if np.all(np.isfinite(values)):
+                bound = self.step_config.obs_settings[OBS_BOUND]
+                cause = f"a value beyond {bound:g} in magnitude"
+            elif grew:  # marked by the step kernel (trailer_env.substeps.GROWTH_LIMIT)
+                cause = (
+                    f"a speed max(|u|, l |omega|) more than {GROWTH_LIMIT:g} times its start's "
+                    "while fidelity.max_substeps = "
+                    f"{self.settings.fidelity.max_substeps} capped the substeps"
+                )
+            else:
+                cause = "a non-finite value (NaN or inf)"
+            shown = f"u = {values[0, 0]:.4g} m/s" if np.isfinite(values[0, 0]) else ""
+            self._give_up(stepped, failed, cause + (f", {shown}" if shown else ""), retried=True)
+
+    def _give_up(
+        self, stepped: np.ndarray, failed: np.ndarray, cause: str, *, retried: bool
+    ) -> None:
+        """Put every stepped row back at its state before the step and raise FloatingPointError."""
+        self.z[stepped] = self._z_backup[stepped]
+        self.act[stepped] = self._act_backup[stepped]
+        self.refresh(stepped)
+        self._after_restore(stepped)
+        how = (
+            f"even with {_RETRY_FACTOR} times the substeps"
+            if retried
+            else f"(a retry with {_RETRY_FACTOR} times the substeps would exceed the work budget)"
+        )
+        raise FloatingPointError(
+            f"the integration diverged in environment(s) {failed.tolist()[:8]}: the step's "
+            f"result holds {cause}, {how}; the state was left at the previous step "
+            "(use fidelity='auto', more substeps or a smaller dt)"
+        )
 
     def _info_sources(self) -> list[tuple[str, np.ndarray | None]]:
         # The arrays are updated in place for the core's life, so they are looked up once.
@@ -587,6 +721,10 @@ class ShapedCore(ConvoyCore):
         raise NotImplementedError
 
     def _after_reset(self, rows: np.ndarray) -> None:
+        self.previous_potential[rows] = self._potential()[rows]
+
+    def _after_restore(self, rows: np.ndarray) -> None:
+        # The potential of every row's state is its previous potential between steps.
         self.previous_potential[rows] = self._potential()[rows]
 
     def _reward(self) -> np.ndarray:

@@ -46,6 +46,41 @@ def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, A
     return options
 
 
+def checked_seed(seed: Any) -> int | None:
+    """A ``reset(seed=...)`` value as a Python int (or None), never truncated.
+
+    Raises:
+        TypeError: If it is not None or an integer (a bool, a float such as 1.5, a string).
+        ValueError: If it is negative.
+    """
+    if seed is None:
+        return None
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)):
+        raise TypeError(
+            f"seed must be None or a non-negative integer, got {type(seed).__name__} {seed!r}"
+        )
+    if seed < 0:
+        raise ValueError(f"seed must be None or a non-negative integer, got {seed!r}")
+    return int(seed)
+
+
+def refuse_masked(value: Any, name: str) -> Any:
+    """``value`` itself, or its data if it is a numpy masked array with nothing masked.
+
+    Raises:
+        ValueError: If it is a masked array with a masked entry (its hidden data would be
+            used otherwise).
+    """
+    if isinstance(value, np.ma.MaskedArray):
+        if np.ma.getmaskarray(value).any():
+            raise ValueError(
+                f"{name} is a masked array with masked entries ({np.ma.count_masked(value)} of "
+                f"{value.size}); pass plain values"
+            )
+        return np.ma.getdata(value)
+    return value
+
+
 def check_render_mode(render_mode: object) -> None:
     """Refuse a render mode other than None, "human" or "rgb_array".
 
@@ -89,10 +124,11 @@ def as_action_array(
 
     Raises:
         TypeError: For None, bools, strings, complex numbers or other non-numbers.
-        ValueError: For a wrong shape (a ragged sequence included).
+        ValueError: For a wrong shape (a ragged sequence included), or a numpy masked
+            array with masked entries.
     """
     if isinstance(action, np.ndarray):
-        array = action
+        array = refuse_masked(action, name)
     elif action is None or isinstance(action, (str, bytes, bool, np.bool_)):
         raise TypeError(
             f"{name} must be an array of real numbers of shape {shape}, "
@@ -129,10 +165,11 @@ def checked_state(z: Any, s: Any, s_dot: Any) -> tuple[np.ndarray, float, float]
         TypeError: If ``z``, ``s`` or ``s_dot`` is not made of real numbers (bools,
             strings, complex numbers, None).
         ValueError: If a value is not finite or beyond 1e30 in magnitude
-            (:data:`MAX_STATE_MAGNITUDE`), or ``z`` is ragged.
+            (:data:`MAX_STATE_MAGNITUDE`), ``z`` is ragged, or a masked array with masked
+            entries.
     """
     if isinstance(z, np.ndarray):
-        given = z
+        given = refuse_masked(z, "z")
     elif z is None or isinstance(z, (str, bytes, bool, np.bool_)):
         raise TypeError(f"z must be a sequence of real numbers, got {type(z).__name__}")
     else:
@@ -207,16 +244,28 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
                 is drawn first either way, so the generator's stream does not depend on the
                 options; given values then replace it.
 
+        Every argument is checked before anything changes: a refused reset leaves the
+        state, the observation and the generator as they were.
+
         Raises:
-            TypeError: If ``options`` is not a dict.
-            ValueError: On an unknown option or an invalid value (naming it).
+            TypeError: If ``options`` is not a dict, ``seed`` is not an integer (1.5, True),
+                or a value is not made of real numbers (a string or bool for a number).
+            ValueError: On an unknown option or an invalid value (naming it): a negative
+                seed, a state of the wrong length, a mass off the rail, a task value out
+                of range.
         """
+        seed = checked_seed(seed)
         options = check_reset_options(options, self.core.task_keys)
-        # A bad start state is refused before anything changes (generator included).
-        given = (
-            checked_state(options["state"], options.get("s", 0.0), options.get("s_dot", 0.0))
-            if "state" in options
-            else None
+        # A bad start state or task value is refused before anything changes (generator
+        # included).
+        given = None
+        if "state" in options:
+            given = checked_state(
+                options["state"], options.get("s", 0.0), options.get("s_dot", 0.0)
+            )
+            self.core.check_row_state(*given)
+        self.core.check_task(
+            {key: value for key, value in options.items() if key not in STATE_OPTIONS}
         )
         super().reset(seed=seed)
         self.core.reset_rows(self._rows, [self.np_random])
@@ -240,7 +289,11 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
 
         Raises:
             TypeError: If the action is None, a bool, a string, complex or not numeric.
-            ValueError: If the action is NaN, infinite or of the wrong shape.
+            ValueError: If the action is NaN, infinite, of the wrong shape, or a masked
+                array with masked entries.
+            FloatingPointError: If the step diverged (a non-finite result or one beyond
+                1e12, see :mod:`trailer_env.core`) or would exceed the work budget of 2e8
+                body-substeps; the state, observation and generator are left as they were.
         """
         if not self._has_reset:
             raise gym.error.ResetNeeded("call reset() before step()")
@@ -293,9 +346,11 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
             ValueError: If the shape is wrong, a value is not finite or overflows, or the
                 mass is off the rail.
         """
+        state, s, s_dot = checked_state(z, s, s_dot)
+        self.core.check_row_state(state, s, s_dot)  # refused before anything changes
+        self.core.check_task(task)
         if not self._has_reset:
             self.reset()
-        state, s, s_dot = checked_state(z, s, s_dot)
         self.core.set_row_state(0, state, s=s, s_dot=s_dot, **task)
         self._path.clear()
         self._record_path()

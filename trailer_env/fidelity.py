@@ -19,6 +19,16 @@ Integrators:
   per-environment step control (``rtol = atol = tolerance``, Hairer's RMS norm per
   internal step); ``substeps`` is ignored. Each environment's step size is carried
   from one control step to the next.
+
+Bounds (:mod:`trailer_env.core`): a step's work, substeps x (n + 1) bodies summed over
+the batch, is capped at :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps,
+~15 s on one core): fixed ``substeps`` beyond it are refused when the environment is
+built, an auto step beyond it raises FloatingPointError before integrating. A step whose
+result is not finite or beyond :data:`~trailer_env.kernels.DIVERGENCE_BOUND` (1e12) in
+magnitude, or (auto, a substep cap binding) whose speed grew over 1000-fold
+(:data:`~trailer_env.substeps.GROWTH_LIMIT`), is redone with 8 times the substeps, then
+refused with FloatingPointError, the state left as it was. "dopri5" is held to the
+divergence bound but not to the work budget (its own step control has its own limits).
 """
 
 from __future__ import annotations
@@ -87,7 +97,8 @@ class Fidelity:
         integrator: "rk4" (default), "rk4-energy" (``mu = 0`` only)
             or "dopri5" (adaptive).
         substeps: An int in [1, 10_000] (:data:`MAX_FIXED_SUBSTEPS`), or "auto" (default)
-            for the per-environment rule of the module docstring.
+            for the per-environment rule of the module docstring; either way a batch's
+            step is held to the work budget (module docstring, "Bounds").
         tolerance: Bound on the estimated error of one control step in "auto" mode
             (module docstring), and ``rtol = atol`` of "dopri5"; in [1e-13, 1e-3],
             default 1e-4.
@@ -205,9 +216,11 @@ class Fidelity:
             )
         return RK4Integrator(params, with_pose=with_pose, preserve_energy=preserve_energy)
 
-    def auto_settings(self, params: ConvoyParams, dt: float, planar: bool) -> np.ndarray:
+    def auto_settings(
+        self, params: ConvoyParams, dt: float, planar: bool, speed_floor: float = 0.0
+    ) -> np.ndarray:
         """The packed settings of the auto rule (:func:`trailer_env.substeps.auto_settings`)."""
-        return auto_settings(params, dt, planar, self.tolerance, self.max_substeps)
+        return auto_settings(params, dt, planar, self.tolerance, self.max_substeps, speed_floor)
 
 
 __all__ = [

@@ -51,7 +51,7 @@ from dynamics.jit import (
 )
 from trailer_env import actuator, substeps
 from trailer_env.actuator import apply_action_row, clamp_row_to_rail, first_non_finite_row
-from trailer_env.substeps import auto_substeps_row
+from trailer_env.substeps import AUTO_WORK_SUBSTEPS, auto_substeps_row, grew_absurdly_row
 
 #: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
 SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
@@ -61,8 +61,17 @@ PARALLEL_MIN_ROWS = 1024
 #: Rows per parallel chunk (a multiple of the block size).
 _CHUNK = 4 * LANES
 
-# Indices into the packed observation settings.
-OBS_B, OBS_S_MAX, OBS_SPEED_MAX, OBS_BAND, OBS_FOLD = range(5)
+# Indices into the packed observation settings (OBS_BOUND: a row holding a value beyond it
+# in magnitude is flagged as non-finite; infinite for resets, DIVERGENCE_BOUND for steps).
+OBS_B, OBS_S_MAX, OBS_SPEED_MAX, OBS_BAND, OBS_FOLD, OBS_BOUND = range(6)
+#: A step whose result holds a value beyond this in magnitude has diverged (u = 1e12 m/s
+#: is far beyond any physical meaning; float32 observations and the energy ~ M u^2 stay
+#: finite up to it): it is treated as a non-finite result (retried with more substeps,
+#: then FloatingPointError). Hand-built states (resets) are not subject to it.
+DIVERGENCE_BOUND = 1e12
+#: The step kernels' first result when the auto rule's substeps exceed the work budget
+#: (nothing was integrated).
+OVER_BUDGET = -2
 _DEPENDS = (actuator, substeps)
 
 
@@ -153,11 +162,14 @@ def observe_block(
     y, _, deriv, _, mass0, work, lane_scalars, trig, _ = workspace
     width = y.shape[0]
     finite = lane_scalars[2]
+    limit = settings[OBS_BOUND]
     for lane in range(nb):
         finite[lane] = 0.0
     for j in range(width):
         for lane in range(nb):
-            finite[lane] += y[j, lane] * 0.0  # stays 0 unless a value is NaN or infinite
+            value = y[j, lane]
+            # Stays 0 unless a value is NaN, infinite or beyond the bound.
+            finite[lane] += value * 0.0 + (abs(value) > limit)
     for k in range(n):
         sincos_block(y[2 + k], trig[k], trig[n + k], nb)
     energies = lane_scalars[0]
@@ -331,10 +343,35 @@ def _step_chunk(
                 clamp_row_to_rail(act, i, b, s_max)
                 for j in range(4):
                     mass0[j, lane] = act[i, j]
+        if config.auto:
+            # A step the substep cap left inaccurate whose speed grew absurdly has diverged:
+            # poisoned, it is reported as non-finite below (redone or refused by the core).
+            y = workspace[0]
+            for lane in range(nb):
+                i = block[lane]
+                if state.exceeded[i] and grew_absurdly_row(z, state.z_backup,
+                                                           config.auto_settings, i):  # fmt: skip
+                    z[i, 0] = np.nan
+                    y[0, lane] = np.nan
         bad += observe_block(z, block, nb, n, config.planar, config.obs_settings, pv, outputs,
                              workspace, fold_angle < np.inf)  # fmt: skip
         first = last
     return bad, over_tolerance
+
+
+@cached_njit(depends_on=_DEPENDS)
+def _prepare_chunk(
+    action: np.ndarray, rows: np.ndarray, start: int, stop: int, config: StepConfig,
+    state: StepState,
+) -> tuple:  # fmt: skip
+    """:func:`_prepare_row` for ``rows[start:stop]``: (rows over the tolerance, substeps)."""
+    over = 0
+    total = 0
+    for j in range(start, stop):
+        i = rows[j]
+        over += _prepare_row(action, i, config, state)
+        total += state.substeps[i]
+    return over, total
 
 
 @cached_njit(depends_on=_DEPENDS)
@@ -351,14 +388,24 @@ def step_serial(
     tolerance), a backup of the state; without (a retry): the accelerations and
     ``substeps`` as they are. Then RK4 with a fold test after every substep, the rail
     guard and the observations. Returns ``(bad action row or -1, non-finite rows, rows
-    over the tolerance)``; on a bad action nothing is changed.
+    over the tolerance)``; on a bad action nothing is changed. With the auto rule, when
+    the rows' substeps add up to more than its work budget
+    (:data:`trailer_env.substeps.MAX_STEP_WORK` body-substeps), nothing is integrated
+    and the first value is :data:`OVER_BUDGET` (the state is unchanged; the chosen
+    counts are in ``substeps``).
     """
+    named_config = StepConfig(*config)
+    named_state = StepState(*state)
+    over = 0
     if prepare:
         bad_action = first_non_finite_row(action, rows)
         if bad_action >= 0:
             return bad_action, 0, 0
-    bad, over = _step_chunk(action, rows, 0, rows.shape[0], prepare, StepConfig(*config),
-                            StepState(*state), StepOutputs(*outputs))  # fmt: skip
+        over, total = _prepare_chunk(action, rows, 0, rows.shape[0], named_config, named_state)
+        if named_config.auto and total > named_config.auto_settings[AUTO_WORK_SUBSTEPS]:
+            return OVER_BUDGET, 0, over
+    bad, _ = _step_chunk(action, rows, 0, rows.shape[0], False, named_config, named_state,
+                         StepOutputs(*outputs))  # fmt: skip
     return -1, bad, over
 
 
@@ -367,11 +414,7 @@ def step_parallel(
     action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
     outputs: tuple,
 ) -> tuple:  # fmt: skip
-    """:func:`step_serial` over chunks of rows on numba's threads."""
-    if prepare:
-        bad_action = first_non_finite_row(action, rows)
-        if bad_action >= 0:
-            return bad_action, 0, 0
+    """:func:`step_serial` over chunks of rows on numba's threads (the same results)."""
     named_config = StepConfig(*config)
     named_state = StepState(*state)
     named_outputs = StepOutputs(*outputs)
@@ -379,10 +422,22 @@ def step_parallel(
     n_chunks = (count + _CHUNK - 1) // _CHUNK
     bad = np.zeros(n_chunks, dtype=np.int64)
     over = np.zeros(n_chunks, dtype=np.int64)
+    if prepare:
+        bad_action = first_non_finite_row(action, rows)
+        if bad_action >= 0:
+            return bad_action, 0, 0
+        total = np.zeros(n_chunks, dtype=np.int64)
+        for chunk in prange(n_chunks):
+            stop = min(count, (chunk + 1) * _CHUNK)
+            over[chunk], total[chunk] = _prepare_chunk(
+                action, rows, chunk * _CHUNK, stop, named_config, named_state
+            )
+        if named_config.auto and total.sum() > named_config.auto_settings[AUTO_WORK_SUBSTEPS]:
+            return OVER_BUDGET, 0, over.sum()
     for chunk in prange(n_chunks):
         stop = min(count, (chunk + 1) * _CHUNK)
-        bad[chunk], over[chunk] = _step_chunk(
-            action, rows, chunk * _CHUNK, stop, prepare, named_config, named_state, named_outputs
+        bad[chunk], _ = _step_chunk(
+            action, rows, chunk * _CHUNK, stop, False, named_config, named_state, named_outputs
         )
     return -1, bad.sum(), over.sum()
 

@@ -35,9 +35,10 @@ from gymnasium import spaces
 from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
+from dynamics.params import bounded_integer
 from trailer_env.registry import core_class_of
 from trailer_env.settings import settings_from_kwargs
-from trailer_env.vector import as_action_batch, seed_generators
+from trailer_env.vector import MAX_NUM_ENVS, as_action_batch, seed_generators
 
 
 class ConvoySB3VecEnv(VecEnv):
@@ -45,14 +46,20 @@ class ConvoySB3VecEnv(VecEnv):
 
     Args:
         env_id: A registered id, e.g. "trailer_env/Reverse-v0".
-        num_envs: Number of environments.
+        num_envs: Number of environments, an integer in [1, 2**24]
+            (:data:`trailer_env.vector.MAX_NUM_ENVS`).
         max_episode_steps: Truncation length; default the id's registered value.
         **kwargs: Settings as for ``gym.make`` (``n_trailers``, ``mu``, ``dt`` ...).
+
+    Raises:
+        TypeError, ValueError: On a bad argument (``num_envs`` out of range included),
+            naming it, before any memory is allocated.
     """
 
     def __init__(
         self, env_id: str, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any
     ):
+        num_envs = bounded_integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
         core_class = core_class_of(env_id)
         self.env_id = env_id
         self.settings = settings_from_kwargs(**kwargs)

@@ -52,6 +52,13 @@ class EnvSettings:
     rule's safe step otherwise. Settings that would diverge at the first step, or
     take minutes per step, are refused up front.
 
+    Bounded cost: one control step of a batch may take at most
+    :data:`~trailer_env.substeps.MAX_STEP_WORK` = 2e8 body-substeps (substeps x
+    (n_trailers + 1), summed over the environments; ~15 s on one core). The batch core
+    refuses fixed substeps beyond it when it is built (ValueError), and with
+    ``substeps="auto"`` a step whose chosen substeps exceed it raises FloatingPointError,
+    naming the speed and the budget, before anything is integrated.
+
     Attributes:
         params: Physical parameters (``params.n_trailers`` trailers).
         dt: Control period in seconds (the action is held over it), in [1e-5, 10].

@@ -48,6 +48,12 @@ tolerance. Such a step is never silent: the environments flag its rows
 (``core.accuracy_exceeded``) and issue an :class:`AccuracyWarning` once per batch
 (:mod:`trailer_env.core`). Raise ``max_substeps`` to hold the tolerance there, or use
 ``"dopri5"``.
+
+Work budget. One control step of a batch costs substeps x (n + 1) body-substeps per
+environment; their sum over the batch is capped at :data:`MAX_STEP_WORK` (2e8, at most
+~15 s on one core). A step whose chosen substeps would exceed it (e.g. n = 256 at
+|u| = 1e8 m/s: 1e6 substeps, 2.6e8 body-substeps) raises FloatingPointError naming the
+speed and the budget before anything is integrated, instead of running for minutes.
 """
 
 from __future__ import annotations
@@ -87,6 +93,17 @@ MAX_TOLERANCE = 1e-3
 MIN_TOLERANCE = 1e-13
 #: Substeps the stability bound may ask for, at most (dt |u| / l ~ 1e6).
 HARD_MAX_SUBSTEPS = 1_000_000
+#: A step whose substeps a cap kept below what the error estimate asks for, and whose
+#: speed scale ``max(|u|, l |omega|)`` grew more than this factor over its start's (plus
+#: the mass's speed scale), has diverged (u = 1.3 -> 5.9e6 m/s in one step was seen).
+GROWTH_LIMIT = 1e3
+#: The work budget of one control step of a batch, in body-substeps: substeps x (n + 1)
+#: bodies, summed over the batch's environments. RK4 advances ~1.2e7 body-substeps per
+#: second on one core (n = 256: 1e6 substeps took 20.7 s), so a step within the budget
+#: takes at most ~15 s on one core. Fixed substeps beyond it are refused when the
+#: environment is built; with "auto", a step whose chosen substeps exceed it raises
+#: FloatingPointError before anything is integrated (trailer_env.core).
+MAX_STEP_WORK = 200_000_000
 
 # Indices into the packed settings of auto_substeps.
 (
@@ -99,7 +116,10 @@ HARD_MAX_SUBSTEPS = 1_000_000
     AUTO_SCALE,
     AUTO_INV_X_SAFE,
     AUTO_MAX_SUBSTEPS,
-) = range(9)
+    AUTO_WORK_SUBSTEPS,
+    AUTO_LENGTH,
+    AUTO_SPEED_FLOOR,
+) = range(12)
 
 
 class AccuracyWarning(UserWarning):
@@ -140,13 +160,19 @@ def cart_rate_coefficient(params: ConvoyParams, planar: bool) -> float:
 
 
 def auto_settings(
-    params: ConvoyParams, dt: float, planar: bool, tolerance: float, max_substeps: int
+    params: ConvoyParams,
+    dt: float,
+    planar: bool,
+    tolerance: float,
+    max_substeps: int,
+    speed_floor: float = 0.0,
 ) -> np.ndarray:
-    """The packed float64 settings :func:`auto_substeps_row` reads (module docstring)."""
+    """The packed float64 settings :func:`auto_substeps_row` reads (module docstring);
+    ``speed_floor`` is the mass's speed scale of :func:`grew_absurdly_row`."""
     n = params.n_trailers
     speed_rate = max(1.0 / params.l, cart_rate_coefficient(params, planar))
     x_safe = STABILITY_FRACTION * stability_limit(n)
-    settings = np.empty(9)
+    settings = np.empty(12)
     settings[AUTO_SPEED_RATE] = speed_rate
     settings[AUTO_CHAIN] = chain_growth(n)
     settings[AUTO_MASS_SPEED] = MASS_WEIGHTS[0] / params.s_max
@@ -158,6 +184,10 @@ def auto_settings(
     settings[AUTO_SCALE] = (ERROR_CONSTANT / tolerance) ** 0.25
     settings[AUTO_INV_X_SAFE] = 1.0 / x_safe
     settings[AUTO_MAX_SUBSTEPS] = max_substeps
+    # The batch's substeps may add up to MAX_STEP_WORK / (n + 1) (the work budget).
+    settings[AUTO_WORK_SUBSTEPS] = MAX_STEP_WORK / (n + 1)
+    settings[AUTO_LENGTH] = params.l
+    settings[AUTO_SPEED_FLOOR] = speed_floor
     return settings
 
 
@@ -186,6 +216,16 @@ def auto_substeps_row(z: np.ndarray, act: np.ndarray, settings: np.ndarray, i: i
     stable = np.ceil(x_plain * inv_x_safe)
     chosen = min(max(accurate, stable, 1.0), HARD_MAX_SUBSTEPS)
     return int(chosen), chosen >= wanted
+
+
+@njit(cache=True, nogil=True)
+def grew_absurdly_row(z: np.ndarray, start: np.ndarray, settings: np.ndarray, i: int) -> bool:
+    """Whether row ``i``'s speed scale grew more than :data:`GROWTH_LIMIT`-fold from
+    ``start[i]`` (the step's start) to ``z[i]``, over the mass's speed scale."""
+    length = settings[AUTO_LENGTH]
+    before = max(abs(start[i, 0]), length * abs(start[i, 1])) + settings[AUTO_SPEED_FLOOR]
+    after = max(abs(z[i, 0]), length * abs(z[i, 1]))
+    return after > GROWTH_LIMIT * before
 
 
 @njit(cache=True)

@@ -21,7 +21,14 @@ Autoreset modes (Gymnasium 1.x, ``autoreset_mode=``; the attribute and
 Reset options: ``reset_mask`` (above) and ``state``, an ``(N, n + 2)`` array of
 starting states (u, omega, alpha_1..alpha_n) for the environments being reset.
 Rendering: ``render_mode="rgb_array"`` makes ``render()`` return a tuple of one
-frame per environment, as :class:`gymnasium.vector.SyncVectorEnv` does.
+frame per environment, as :class:`gymnasium.vector.SyncVectorEnv` does, for the first
+:data:`MAX_RENDER_ENVS` (16) environments at most: a frame is ~1 MB (600 x 600 x 3), so
+rendering 4096 environments would return 4.4 GB per call. With more environments
+``render()`` returns the first 16 frames and warns once. The env pickles and deep-copies
+after rendering too (the renderer is left out and recreated by the next ``render()``).
+
+Ended environments under ``"next_step"`` are not integrated on the step that resets
+them (their action is ignored, finite or not): only the other environments' physics runs.
 
 Seeding: ``reset(seed=s)`` seeds environment ``i`` with ``s + i`` (a list of N
 seeds sets them one by one). Environment ``i`` then draws every starting state,
@@ -37,6 +44,7 @@ import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from gymnasium.envs.registration import EnvSpec
@@ -46,7 +54,13 @@ from gymnasium.vector.utils import batch_space
 
 from dynamics.params import bounded_integer
 from trailer_env.core import ConvoyCore
-from trailer_env.env import PATH_LENGTH, as_action_array, checked_state
+from trailer_env.env import (
+    PATH_LENGTH,
+    as_action_array,
+    checked_seed,
+    checked_state,
+    refuse_masked,
+)
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
 from trailer_env.settings import settings_from_kwargs
 
@@ -61,28 +75,47 @@ def seed_generators(
     """Per-environment generators: ``seed + i``, a list of seeds, or (None) keep/draw fresh ones.
 
     Raises:
-        ValueError: If a list of seeds does not have ``count`` entries.
+        TypeError: If a seed is not an integer (a float such as 1.5 or a bool is refused,
+            never truncated) or the seeds are not an int or a sequence.
+        ValueError: If a list of seeds does not have ``count`` entries, or a seed is negative.
     """
-    if seed is None:
+    seeds = checked_seeds(seed, count)
+    if seeds is None:
         return (
             current if current is not None else [seeding.np_random(None)[0] for _ in range(count)]
         )
-    if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-        return [seeding.np_random(int(seed) + i)[0] for i in range(count)]
-    if isinstance(seed, bool):
-        raise ValueError(f"seed must be an int or a list of {count} seeds, got {seed!r}")
-    seeds = list(seed)
-    if len(seeds) != count:
-        raise ValueError(f"seed must be an int or a list of {count} seeds, got {len(seeds)}")
+    if isinstance(seeds, int):
+        return [seeding.np_random(seeds + i)[0] for i in range(count)]
     generators = []
     for i, value in enumerate(seeds):
         if value is not None:
-            generators.append(seeding.np_random(int(value))[0])
+            generators.append(seeding.np_random(value)[0])
         elif current is not None:
             generators.append(current[i])
         else:
             generators.append(seeding.np_random(None)[0])
     return generators
+
+
+def checked_seeds(
+    seed: int | Sequence[int | None] | None, count: int
+) -> int | list[int | None] | None:
+    """``seed`` checked (:func:`trailer_env.env.checked_seed`): None, an int, or a list of
+    ``count`` ints or Nones; changes nothing.
+
+    Raises:
+        TypeError, ValueError: As :func:`seed_generators`.
+    """
+    if seed is None or isinstance(seed, (int, np.integer, bool, np.bool_)):
+        return checked_seed(seed)
+    if isinstance(seed, (str, bytes)) or not isinstance(seed, (Sequence, np.ndarray)):
+        raise TypeError(
+            f"seed must be an int or a list of {count} seeds, got {type(seed).__name__} {seed!r}"
+        )
+    seeds = list(seed)
+    if len(seeds) != count:
+        raise ValueError(f"seed must be an int or a list of {count} seeds, got {len(seeds)}")
+    return [checked_seed(value) for value in seeds]
 
 
 def parse_autoreset_mode(mode: Any) -> AutoresetMode:
@@ -121,6 +154,8 @@ def as_action_batch(actions: Any, count: int, action_dim: int) -> np.ndarray:
     return batch.astype(np.float64, copy=False).reshape(count, action_dim)
 
 
+#: Most environments ``render()`` draws (the first ones): ~1 MB per frame.
+MAX_RENDER_ENVS = 16
 #: Largest num_envs: 2**24 environments of a 256-trailer convoy would already need
 #: ~40 GiB for their states and observations.
 MAX_NUM_ENVS = 2**24
@@ -210,6 +245,7 @@ class ConvoyVectorEnv(VectorEnv):
         }
         self._paths = PathTrace(self.num_envs, PATH_LENGTH) if render_mode else None
         self._renderer: Any = None
+        self._warned_render = False
         low, high = self.core.observation_bounds()
         self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
         self.single_action_space = spaces.Box(
@@ -236,10 +272,16 @@ class ConvoyVectorEnv(VectorEnv):
         mask, only the masked environments' generators are reseeded. Options:
         ``reset_mask`` (bool array (N,)) and ``state`` (float array (N, n + 2)).
 
+        Every argument is checked before anything changes: a refused reset leaves the
+        states, observations and generators as they were.
+
         Raises:
-            TypeError: If ``options`` is not a dict.
-            ValueError: On an unknown option or a mask or state of the wrong shape.
+            TypeError: If ``options`` is not a dict, a seed is not an integer (1.5, True),
+                or ``state`` is not made of real numbers (bool, string, complex arrays).
+            ValueError: On an unknown option, a mask or state of the wrong shape, a state
+                value that is not finite or too large, or a negative seed.
         """
+        checked_seeds(seed, self.num_envs)
         rows, states = self._reset_options(options)
         if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
             super().reset(seed=int(seed))
@@ -275,13 +317,30 @@ class ConvoyVectorEnv(VectorEnv):
         states = None
         if "state" in options:
             width = self.core.n + 2
-            states = np.asarray(options["state"], dtype=np.float64)
+            given = refuse_masked(options["state"], "state")
+            if given is None or isinstance(given, (str, bytes, bool, np.bool_)):
+                raise TypeError(
+                    f"state must be an array of real numbers of shape ({self.num_envs}, "
+                    f"{width}), got {type(given).__name__} {given!r}"
+                )
+            try:
+                array = np.asarray(given)
+            except (ValueError, TypeError) as error:
+                raise ValueError(
+                    f"state must be an array of real numbers of shape ({self.num_envs}, {width})"
+                ) from error
+            if array.dtype.kind not in "iuf":
+                raise TypeError(
+                    f"state must hold real numbers (not bools, strings or complex numbers), "
+                    f"got dtype {array.dtype}"
+                )
+            states = array.astype(np.float64)
             if states.shape != (self.num_envs, width):
                 raise ValueError(
                     f"state must have shape ({self.num_envs}, {width}), got {states.shape}"
                 )
             for i in rows.tolist():  # every row checked before any environment changes
-                checked_state(states[i], 0.0, 0.0)
+                self.core.check_row_state(checked_state(states[i], 0.0, 0.0)[0])
         return rows, states
 
     def _start(self, rows: np.ndarray, states: np.ndarray | None = None) -> None:
@@ -303,7 +362,11 @@ class ConvoyVectorEnv(VectorEnv):
         """Step every environment (autoreset as ``autoreset_mode`` says).
 
         Raises:
-            ValueError: On NaN or infinite actions or a wrong shape (nothing is stepped).
+            ValueError: On NaN or infinite actions (of the environments stepped), a wrong
+                shape, or a masked array with masked entries (nothing is stepped).
+            FloatingPointError: If a step diverged or would exceed the work budget
+                (:mod:`trailer_env.core`), naming the environments; every environment is
+                left at its state before the step.
             RuntimeError: Before the first reset, or (autoreset disabled) when an
                 environment that ended was not reset.
         """
@@ -317,7 +380,14 @@ class ConvoyVectorEnv(VectorEnv):
                 "reset(options={'reset_mask': mask}) before stepping (autoreset_mode disabled)"
             )
         core = self.core
-        core.step(as_action_batch(actions, self.num_envs, self.settings.action_dim))
+        batch = as_action_batch(actions, self.num_envs, self.settings.action_dim)
+        if mode == AutoresetMode.NEXT_STEP and self._needs_reset.any():
+            # Ended environments are reset below, not integrated: their actions are ignored.
+            live = np.flatnonzero(~self._needs_reset)
+            if live.size:
+                core.step(batch, live)
+        else:
+            core.step(batch)
         self.elapsed_steps += 1
         if self._paths is not None:
             self._record_paths(self._all_rows)
@@ -357,17 +427,33 @@ class ConvoyVectorEnv(VectorEnv):
         self._paths.record(self.core.z[rows, n + 2 : n + 4], rows)
 
     def render(self) -> tuple[np.ndarray, ...] | None:  # type: ignore[override]
-        """One ``(height, width, 3)`` uint8 frame per environment ("rgb_array"); None otherwise."""
+        """One ``(height, width, 3)`` uint8 frame per environment ("rgb_array") for the first
+        :data:`MAX_RENDER_ENVS` (16) environments at most (a one-time warning says so when
+        there are more); None without a render mode."""
         if self.render_mode is None or self._paths is None:
             return None
         if self._generators is None:
             raise RuntimeError("call reset() before render()")
         if self._renderer is None:
             self._renderer = make_renderer(self.core, self.render_mode, self.metadata["render_fps"])
+        count = min(self.num_envs, MAX_RENDER_ENVS)
+        if count < self.num_envs and not self._warned_render:
+            self._warned_render = True
+            gym.logger.warn(
+                f"render() draws the first {MAX_RENDER_ENVS} of {self.num_envs} environments "
+                "(trailer_env.vector.MAX_RENDER_ENVS; ~1 MB per frame)"
+            )
         frames = []
-        for i in range(self.num_envs):
+        for i in range(count):
             frames.append(self._renderer.draw(core_frame(self.core, i, self._paths.path(i))))
         return tuple(frames)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickle (and deep-copy) everything but the renderer (it holds pygame objects); it
+        is recreated by the next :meth:`render`."""
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
 
     def close_extras(self, **kwargs: Any) -> None:
         """Release the renderer, if any."""

@@ -122,7 +122,7 @@ def coast_step(
 ) -> tuple:
     """The control step of Coast-v0 in one call: physics, then :func:`coast_outcome`."""
     result = step_serial(action, rows, prepare, config, state, outputs)
-    if result[0] < 0:
+    if result[0] == -1:  # not refused (a bad action row, or kernels.OVER_BUDGET)
         coast_outcome(rows, outputs, scene)
     return result
 

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from dynamics import body_poses
-from trailer_env.core import ShapedCore
+from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.rendering import Marker
 from trailer_env.scenes.heading import wrap_angle
@@ -78,18 +78,45 @@ class DockCore(ShapedCore):
         self.target[i, 1] = rng.uniform(-LATERAL_RANGE, LATERAL_RANGE)
         self.target[i, 2] = rng.uniform(-HEADING_RANGE, HEADING_RANGE)
 
-    def set_task(self, i: int, **task: Any) -> None:
-        """Accepts ``target`` = (x, y, heading) of the dock."""
-        unknown = sorted(set(task) - {"target"})
+    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+        """Accepts ``target`` = (x, y, heading) of the dock: 3 real numbers (not bools or
+        strings), each within +-1e6 (m, m, rad; :data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
+        unknown = sorted(set(task) - {"target"}, key=str)
         if unknown:
             raise ValueError(f"unknown task value(s) {unknown} for Dock; valid: ['target']")
-        if "target" in task:
-            target = np.asarray(task["target"], dtype=np.float64)
-            if target.shape != (3,) or not np.all(np.isfinite(target)):
-                raise ValueError(
-                    f"target must be 3 finite numbers (x, y, heading), got {task['target']!r}"
-                )
-            self.target[i] = target
+        if "target" not in task:
+            return {}
+        given = task["target"]
+        shown = f"{type(given).__name__} {given!r}"
+        if given is None or isinstance(given, (str, bytes, bool, np.bool_)):
+            raise TypeError(f"target must be 3 real numbers (x, y, heading), got {shown}")
+        if isinstance(given, np.ma.MaskedArray) and np.ma.getmaskarray(given).any():
+            raise ValueError(f"target must not have masked entries, got {given!r}")
+        try:
+            array = np.asarray(given)
+        except (ValueError, TypeError) as error:
+            raise ValueError(
+                f"target must be 3 real numbers (x, y, heading), got {shown}"
+            ) from error
+        if array.dtype.kind not in "iuf":
+            raise TypeError(
+                f"target must be 3 real numbers (x, y, heading), got dtype {array.dtype}: {shown}"
+            )
+        target = array.astype(np.float64)
+        if target.shape != (3,) or not np.all(np.isfinite(target)):
+            raise ValueError(f"target must be 3 finite numbers (x, y, heading), got {given!r}")
+        if np.max(np.abs(target)) > MAX_TASK_MAGNITUDE:
+            raise ValueError(
+                f"target must be within +-{MAX_TASK_MAGNITUDE:g} (x, y in m, heading in rad), "
+                f"got {given!r}"
+            )
+        return {"target": target}
+
+    def set_task(self, i: int, **task: Any) -> None:
+        """Accepts ``target`` = (x, y, heading) of the dock, see :meth:`check_task`."""
+        values = self.check_task(task)
+        if "target" in values:
+            self.target[i] = values["target"]
 
     def render_markers(self, i: int) -> tuple[Marker, ...]:
         x, y, heading = (float(value) for value in self.target[i])

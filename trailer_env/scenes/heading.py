@@ -6,7 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from trailer_env.core import ShapedCore
+from dynamics.params import bounded_real
+from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.rendering import Marker
 
@@ -55,18 +56,27 @@ class HeadingCore(ShapedCore):
         sign = 1.0 if rng.random() < 0.5 else -1.0
         self.target_heading[i] = sign * rng.uniform(*TARGET_RANGE)
 
-    def set_task(self, i: int, **task: Any) -> None:
-        """Accepts ``target_heading`` (rad)."""
-        unknown = sorted(set(task) - {"target_heading"})
+    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+        """Accepts ``target_heading`` (rad), a real number (not a bool or a string) in
+        [-1e6, 1e6] (:data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
+        unknown = sorted(set(task) - {"target_heading"}, key=str)
         if unknown:
             raise ValueError(
                 f"unknown task value(s) {unknown} for Heading; valid: ['target_heading']"
             )
-        if "target_heading" in task:
-            value = float(task["target_heading"])
-            if not np.isfinite(value):
-                raise ValueError("target_heading must be finite")
-            self.target_heading[i] = value
+        if "target_heading" not in task:
+            return {}
+        value = task["target_heading"]
+        if isinstance(value, np.ndarray) and value.shape == ():
+            value = value[()]
+        bound = MAX_TASK_MAGNITUDE
+        return {"target_heading": bounded_real("target_heading", value, -bound, bound)}
+
+    def set_task(self, i: int, **task: Any) -> None:
+        """Accepts ``target_heading`` (rad), see :meth:`check_task`."""
+        values = self.check_task(task)
+        if "target_heading" in values:
+            self.target_heading[i] = values["target_heading"]
 
     def render_markers(self, i: int) -> tuple[Marker, ...]:
         n = self.n  # the arrow starts at the cart's axle midpoint

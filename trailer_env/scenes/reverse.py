@@ -111,7 +111,7 @@ def reverse_step(
 ) -> tuple:
     """The control step of Reverse-v0 in one call: physics, then :func:`reverse_outcome`."""
     result = step_serial(action, rows, prepare, config, state, outputs)
-    if result[0] < 0:
+    if result[0] == -1:  # not refused (a bad action row, or kernels.OVER_BUDGET)
         reverse_outcome(rows, outputs, scene)
     return result
 
