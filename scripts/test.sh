@@ -19,6 +19,7 @@ if ! command -v chromium >/dev/null 2>&1 || ! command -v chromedriver >/dev/null
 fi
 export SDL_VIDEODRIVER=dummy SDL_AUDIODRIVER=dummy MPLBACKEND=Agg NO_MKDOCS_2_WARNING=1
 .venv/bin/python -m ruff check .
+.venv/bin/python -m ruff format --check .
 .venv/bin/python -m mypy
 .venv/bin/python -m mkdocs build --strict --quiet --site-dir site
 .venv/bin/python -m pytest -m "not slow" -q "$@"

@@ -119,7 +119,7 @@ def servo_target_for_accel(
 @njit(cache=True, nogil=True)
 def servo_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
               accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
-    """"servo": the action is the target position ``a s_max`` on the rail."""
+    """ "servo": the action is the target position ``a s_max`` on the rail."""
     command = min(max(action[i, 0], -1.0), 1.0)
     act[i, 5] = servo_accel(command * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt,
                             frequency)  # fmt: skip
@@ -128,7 +128,7 @@ def servo_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: floa
 @njit(cache=True, nogil=True)
 def accel_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
               accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
-    """"accel": the action is the rail acceleration ``a A``, through the guard."""
+    """ "accel": the action is the rail acceleration ``a A``, through the guard."""
     command = min(max(action[i, 0], -1.0), 1.0)
     act[i, 5] = guard_accel(command * accel_max, act[i, 1], act[i, 3], s_max, accel_max, dt)
 
@@ -136,7 +136,7 @@ def accel_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: floa
 @njit(cache=True, nogil=True)
 def planar_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
                accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
-    """"planar": axis 0 is a target ``xi - b = a_0 s_max``, axis 1 ``eta = a_1 s_max``."""
+    """ "planar": axis 0 is a target ``xi - b = a_0 s_max``, axis 1 ``eta = a_1 s_max``."""
     command = min(max(action[i, 0], -1.0), 1.0)
     act[i, 4] = servo_accel(
         command * s_max, act[i, 0] - b, act[i, 2], s_max, accel_max, dt, frequency

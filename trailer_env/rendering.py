@@ -187,8 +187,15 @@ class ConvoyRenderer:
     """
 
     def __init__(
-        self, params: ConvoyParams, *, render_mode: str, width: int = 600, height: int = 600,
-        singular_band: float = 0.3, fps: int = 20, view_size: float | None = None,
+        self,
+        params: ConvoyParams,
+        *,
+        render_mode: str,
+        width: int = 600,
+        height: int = 600,
+        singular_band: float = 0.3,
+        fps: int = 20,
+        view_size: float | None = None,
     ) -> None:
         if render_mode not in RENDER_MODES:
             raise ValueError(f"render_mode must be one of {RENDER_MODES}, got {render_mode!r}")
@@ -228,13 +235,23 @@ class ConvoyRenderer:
         pixels = np.stack([self.width / 2 + offset[..., 0], self.height / 2 - offset[..., 1]], -1)
         return np.clip(pixels, -_MAX_PIXEL, _MAX_PIXEL)
 
-    def _box(self, x: float, y: float, heading: float, back: float, front: float,
-             left: float, right: float) -> list[tuple[int, int]]:
+    def _box(
+        self,
+        x: float,
+        y: float,
+        heading: float,
+        back: float,
+        front: float,
+        left: float,
+        right: float,
+    ) -> list[tuple[int, int]]:
         """Pixel corners of a rectangle given in a body frame (back/front along the heading)."""
         local = np.array([[back, right], [front, right], [front, left], [back, left]])
         cos, sin = math.cos(heading), math.sin(heading)
-        world = np.stack([x + cos * local[:, 0] - sin * local[:, 1],
-                          y + sin * local[:, 0] + cos * local[:, 1]], -1)
+        world = np.stack(
+            [x + cos * local[:, 0] - sin * local[:, 1], y + sin * local[:, 0] + cos * local[:, 1]],
+            -1,
+        )
         return [(round(px), round(py)) for px, py in self._to_pixels(world)]
 
     def _bar(self, start: np.ndarray, end: np.ndarray, half_width: float) -> list[tuple[int, int]]:
@@ -256,16 +273,33 @@ class ConvoyRenderer:
         self._pg.gfxdraw.filled_circle(self._surface, px, py, r, colour)
         self._pg.gfxdraw.aacircle(self._surface, px, py, r, colour)
 
-    def _vehicle(self, x: float, y: float, heading: float, back: float, front: float,
-                 half_width: float, fill: RGB | None, edge: RGB) -> None:
+    def _vehicle(
+        self,
+        x: float,
+        y: float,
+        heading: float,
+        back: float,
+        front: float,
+        half_width: float,
+        fill: RGB | None,
+        edge: RGB,
+    ) -> None:
         """A body rectangle with its axle and two wheels at the axle midpoint (x, y)."""
         l = self.params.l
         self._polygon(self._box(x, y, heading, back, front, half_width, -half_width), fill, edge)
-        self._polygon(self._box(x, y, heading, -0.01 * l, 0.01 * l, half_width, -half_width),
-                      edge, edge)
+        self._polygon(
+            self._box(x, y, heading, -0.01 * l, 0.01 * l, half_width, -half_width), edge, edge
+        )
         for side in (1.0, -1.0):
-            wheel = self._box(x, y, heading, -0.13 * l, 0.13 * l,
-                              side * (half_width + 0.05 * l), side * (half_width - 0.02 * l))
+            wheel = self._box(
+                x,
+                y,
+                heading,
+                -0.13 * l,
+                0.13 * l,
+                side * (half_width + 0.05 * l),
+                side * (half_width - 0.02 * l),
+            )
             self._polygon(wheel, None if fill is None else edge, edge)
 
     # -- drawing --------------------------------------------------------------------------------
@@ -305,12 +339,18 @@ class ConvoyRenderer:
         self._vehicle(xs[0], ys[0], thetas[0], back, front, 0.25 * l, colour, INK)
         for i in range(n):
             self._disc(axles[i], 0.04 * l, INK)
-        rail = self._box(xs[0], ys[0], thetas[0], p.b - 0.01 * l, p.b + 0.01 * l,
-                         p.s_max, -p.s_max)
+        rail = self._box(xs[0], ys[0], thetas[0], p.b - 0.01 * l, p.b + 0.01 * l, p.s_max, -p.s_max)
         self._polygon(rail, RAIL, RAIL)
         for side in (1.0, -1.0):  # end stops at +-s_max
-            stop = self._box(xs[0], ys[0], thetas[0], p.b - 0.04 * l, p.b + 0.04 * l,
-                             side * p.s_max, side * (p.s_max - 0.02 * l))
+            stop = self._box(
+                xs[0],
+                ys[0],
+                thetas[0],
+                p.b - 0.04 * l,
+                p.b + 0.04 * l,
+                side * p.s_max,
+                side * (p.s_max - 0.02 * l),
+            )
             self._polygon(stop, RAIL, RAIL)
         xi, eta = frame.mass_xy_body
         cos, sin = math.cos(thetas[0]), math.sin(thetas[0])

@@ -131,9 +131,7 @@ class GoalConditioned(gym.Wrapper[dict[str, np.ndarray], Any, Any, Any]):
         obs, info = self.env.reset(seed=seed, options=options)
         return self._observation(obs), info
 
-    def step(
-        self, action: Any
-    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         goal_obs = self._observation(obs)
         info = {**info, "scene_reward": float(reward)}

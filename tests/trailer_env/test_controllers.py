@@ -22,9 +22,7 @@ def _jackknife_rate(policy: str, seeds: int = 24, n: int = 2) -> tuple[float, fl
     folded = np.zeros(seeds, dtype=bool)
     lifetime = np.zeros(seeds)
     for _ in range(400):
-        actions = (
-            controller(obs) if policy == "lqr" else np.zeros((seeds, 1), dtype=np.float32)
-        )
+        actions = controller(obs) if policy == "lqr" else np.zeros((seeds, 1), dtype=np.float32)
         obs, _, terminated, truncated, infos = envs.step(actions)
         folded |= alive & infos["jackknifed"]
         lifetime += alive

@@ -20,8 +20,9 @@ def test_reset_with_a_given_state_matches_set_state() -> None:
     )
     other = make("Heading", n_trailers=1)
     other.reset(seed=3)
-    np.testing.assert_array_equal(obs, other.unwrapped.set_state([0.5, 0.1, 0.2], s=0.1,
-                                                                 target_heading=0.1))
+    np.testing.assert_array_equal(
+        obs, other.unwrapped.set_state([0.5, 0.1, 0.2], s=0.1, target_heading=0.1)
+    )
     assert info["actuator_work"] == 0.0
     assert env.unwrapped.core.target_heading[0] == 0.1
 
@@ -83,7 +84,8 @@ def test_version_and_command_line_listing() -> None:
     assert "Reverse-v0" in listing and "400" in listing
     failed = subprocess.run(
         [sys.executable, "-m", "trailer_env", "--play", "trailer_env/Nope-v0"],
-        capture_output=True, text=True,
+        capture_output=True,
+        text=True,
     )
     assert failed.returncode == 2 and "Nope-v0" in failed.stderr
 

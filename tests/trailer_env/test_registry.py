@@ -28,7 +28,9 @@ def test_the_spec_goes_to_json_and_back(env_id: str) -> None:
     spec = EnvSpec.from_json(text)
     registered = gym.spec(env_id)
     assert (spec.id, spec.entry_point, spec.vector_entry_point) == (
-        env_id, registered.entry_point, registered.vector_entry_point
+        env_id,
+        registered.entry_point,
+        registered.vector_entry_point,
     )
     again = gym.make(spec)
     assert type(again.unwrapped) is ENVIRONMENTS[env_id]

@@ -39,14 +39,18 @@ def make_frame(
     """A straight convoy with the cart's axle midpoint at the origin."""
     xs, ys, thetas = body_poses(params.l, 0.0, 0.0, theta, np.zeros(params.n_trailers))
     return RenderFrame(
-        xs=xs, ys=ys, thetas=thetas, mass_xy_body=(params.b, eta), singular_margin=margin,
-        path=np.array([[-2.0, 0.1], [-1.0, 0.05], [0.0, 0.0]]), **extra,  # type: ignore[arg-type]
+        xs=xs,
+        ys=ys,
+        thetas=thetas,
+        mass_xy_body=(params.b, eta),
+        singular_margin=margin,
+        path=np.array([[-2.0, 0.1], [-1.0, 0.05], [0.0, 0.0]]),
+        **extra,  # type: ignore[arg-type]
     )
 
 
 def draw(params: ConvoyParams, frame: RenderFrame, **kwargs: object) -> np.ndarray:
-    renderer = ConvoyRenderer(params, render_mode="rgb_array", width=WIDTH, height=HEIGHT,
-                              **kwargs)  # type: ignore[arg-type]
+    renderer = ConvoyRenderer(params, render_mode="rgb_array", width=WIDTH, height=HEIGHT, **kwargs)  # type: ignore[arg-type]
     pixels = renderer.draw(frame)
     renderer.close()
     assert pixels is not None

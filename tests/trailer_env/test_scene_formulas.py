@@ -116,7 +116,7 @@ def test_shaped_rewards_is_the_documented_formula_bit_for_bit() -> None:
     rng = np.random.default_rng(3)
     count = 64
     potential, previous, cost = rng.normal(size=count), rng.normal(size=count), rng.random(count)
-    success, jackknifed, failed = (rng.random((3, count)) < 0.3)
+    success, jackknifed, failed = rng.random((3, count)) < 0.3
     core = HeadingCore(settings_from_kwargs(n_trailers=1), 1)
     penalties = core.shaping_penalties
     out = np.empty(count)

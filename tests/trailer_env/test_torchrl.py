@@ -34,7 +34,9 @@ def test_gym_wrapper_over_the_single_env() -> None:
 @pytest.mark.parametrize("mode", ["disabled", "same_step"])
 def test_gym_wrapper_over_the_native_vector_env(mode: str) -> None:
     venv = gym.make_vec(
-        "trailer_env/Reverse-v0", num_envs=4, vectorization_mode="vector_entry_point",
+        "trailer_env/Reverse-v0",
+        num_envs=4,
+        vectorization_mode="vector_entry_point",
         autoreset_mode=mode,
     )
     env = torchrl_envs.GymWrapper(venv)

@@ -56,9 +56,7 @@ def test_vector_env_replays_single_envs_with_dopri5(rng: np.random.Generator) ->
 def _assert_vector_replays_singles(env_id: str, rng: np.random.Generator, **kwargs: object) -> None:
     count, steps, seed = 3, 160, 40
     envs = make_vec(env_id, count, n_trailers=2, max_episode_steps=60, **kwargs)
-    singles = [
-        gym.make(env_id, n_trailers=2, max_episode_steps=60, **kwargs) for _ in range(count)
-    ]
+    singles = [gym.make(env_id, n_trailers=2, max_episode_steps=60, **kwargs) for _ in range(count)]
     vector_obs, _ = envs.reset(seed=seed)
     single_obs = np.stack([env.reset(seed=seed + i)[0] for i, env in enumerate(singles)])
     np.testing.assert_array_equal(vector_obs, single_obs)

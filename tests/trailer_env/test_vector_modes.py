@@ -12,7 +12,9 @@ from tests.trailer_env.helpers import make
 
 def make_vec(num_envs: int, **kwargs: object) -> gym.vector.VectorEnv:
     return gym.make_vec(
-        "trailer_env/Reverse-v0", num_envs=num_envs, vectorization_mode="vector_entry_point",
+        "trailer_env/Reverse-v0",
+        num_envs=num_envs,
+        vectorization_mode="vector_entry_point",
         **kwargs,
     )
 
