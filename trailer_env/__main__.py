@@ -2,6 +2,7 @@
 
     python -m trailer_env                              # one line per registered id
     python -m trailer_env --play trailer_env/Reverse-v1 --n-trailers 1
+    python -m trailer_env --compile                    # compile the kernels (install does)
 
 Playing needs a display and pygame (``pip install 'trailer-env[rendering]'``; without
 either it exits 2 saying which is missing, before opening anything); the keys
@@ -51,8 +52,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--play", metavar="ID", help="drive this environment from the keyboard")
     parser.add_argument("--n-trailers", type=int, default=2, help="trailers when playing")
     parser.add_argument("--seed", type=int, default=None, help="seed of the first episode")
+    parser.add_argument(
+        "--compile",
+        action="store_true",
+        help="compile every kernel now (numba's disk cache), so that no first run waits",
+    )
     args = parser.parse_args(argv)
     print(f"trailer-env {trailer_env.__version__}")
+    if args.compile:
+        from trailer_env.warmup import compile_kernels
+
+        print(f"compiled every kernel in {compile_kernels():.0f} s")
+        return 0
     if args.play is None:
         for env_id in registered_ids():
             print(summary(env_id))

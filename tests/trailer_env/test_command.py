@@ -42,3 +42,9 @@ def test_play_refuses_what_cannot_work(
         main(argv)
     assert raised.value.code == 2
     assert message in capsys.readouterr().err
+
+
+def test_compile_steps_every_scene(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["--compile"]) == 0
+    printed = capsys.readouterr().out
+    assert printed.count("compiled trailer_env/") == 5 and "compiled every kernel in" in printed
