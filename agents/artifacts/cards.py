@@ -81,11 +81,6 @@ def read_card(model_path: Path) -> dict[str, Any]:
     return check_card(files.read_json(path, "model card", allow_nan=True), str(path))
 
 
-def write_json(path: Path, document: dict[str, Any]) -> Path:
-    """Write a card or a run's ``config.json`` atomically (sorted keys: files diff cleanly)."""
-    return files.write_json(path, document)
-
-
 def write_card(model_path: Path, card: dict[str, Any]) -> Path:
     """Write the model card (JSON beside the model) that :func:`read_card` reads."""
-    return write_json(card_path(model_path), card)
+    return files.write_json(card_path(model_path), card)

@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.artifacts import files
-from agents.artifacts.cards import write_json
+from agents.artifacts.files import write_json
 from agents.artifacts.paths import card_path, curve_path, export_files, stats_path
 from agents.envs import scene_of
 

@@ -27,13 +27,24 @@ class RecordedPolicy:
         self.first_seed = first_seed
         self.action_dim = action_dim
         self.step = 0
+        self._table: np.ndarray | None = None
+
+    def _episode_table(self, count: int) -> np.ndarray:
+        """(count, longest record, action_dim): each episode's record, zeros after its end."""
+        length = max((len(record) for record in self.records.values()), default=0)
+        table = np.zeros((count, length, self.action_dim))
+        for row in range(count):  # once per batch: records are per start
+            record = self.records.get(self.first_seed + row)
+            if record is not None:
+                table[row, : len(record)] = record
+        return table
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         count = np.atleast_2d(obs).shape[0]
-        actions = np.zeros((count, self.action_dim))
-        for row in range(count):  # one look-up per episode: records are per start
-            record = self.records.get(self.first_seed + row)
-            if record is not None and self.step < len(record):
-                actions[row] = record[self.step]
+        if self._table is None or self._table.shape[0] != count:
+            self._table = self._episode_table(count)
+        step = self.step
         self.step += 1
-        return actions
+        if step >= self._table.shape[1]:
+            return np.zeros((count, self.action_dim))
+        return self._table[:, step].copy()

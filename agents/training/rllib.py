@@ -63,9 +63,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.artifacts.cards import write_json
 from agents.artifacts.curves import write_curve
-from agents.artifacts.files import atomic_write_bytes
+from agents.artifacts.files import atomic_write_bytes, write_json
 from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS
 from agents.artifacts.run_folder import PROGRESS_FILE, RLLIB_CHECKPOINT, write_config
 from agents.training.config import Hyperparams, TrainConfig
