@@ -48,8 +48,9 @@ Scenes override the hooks (``_reset_row``, ``_update_task``, ``_advance``,
 ``_is_success``, ``_is_terminated``, ``_reward``, ``_after_reset``,
 ``_task_feature_bounds``); they never step the physics themselves. Per-row work
 is done in numba kernels or numpy over the batch, never in a Python loop over
-environments (resets excepted: each environment draws its start from its own
-generator, which is what makes the vector env replay single environments).
+environments. Resets too: each environment draws its start from its own generator
+(which is what makes the vector env replay single environments), and the scene's
+:attr:`~ConvoyCore.start_kernel` draws every resetting row's in one compiled call.
 
 Observation layout (rail actuator; ``n`` trailers), float32:
 
@@ -79,6 +80,7 @@ import numpy as np
 
 from dynamics.jit import pack_params
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
+from trailer_env.generators import GeneratorBank, typed_generators
 from trailer_env.kernels import (
     DIVERGENCE_BOUND,
     OBS_BOUND,
@@ -183,6 +185,14 @@ class ConvoyCore:
     #: fields (:mod:`trailer_env.kernels`).
     scene_kernel: ClassVar[Any] = None
     scene_outcome: ClassVar[Any] = None
+    #: A jitted ``start(generators, picks, rows, z, task)`` that draws the starting state
+    #: of every row ``rows[j]`` from ``generators[picks[j]]`` (a ``numba.typed.List``,
+    #: :mod:`trailer_env.generators`) into ``z`` (zeroed) and the scene's task arrays
+    #: (:meth:`_start_arguments`, passed as a plain tuple): the resets of a whole batch in
+    #: one call. None: :meth:`_reset_row` draws each row in Python. Either way a row draws
+    #: the same numbers in the same order from its generator, so single and vector
+    #: environments replay each other.
+    start_kernel: ClassVar[Any] = None
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         if (
@@ -312,6 +322,17 @@ class ConvoyCore:
         # After an integrator outside the kernel ("dopri5"): the divergence bound applies.
         self._step_observe_args = (n, self.planar, step_observe_settings, *self._observe_args[3:])
         self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
+        self._start: tuple | None = None  # built on the first reset
+
+    def _start_arguments(self) -> tuple:
+        """The start kernel's last argument (the task arrays and constants it writes and
+        reads), built once; passed as a plain tuple."""
+        return ()
+
+    def _start_tuple(self) -> tuple:
+        if self._start is None:
+            self._start = tuple(self._start_arguments())
+        return self._start
 
     def _scene_arguments(self) -> tuple:
         """The scene kernel's last argument (a named tuple of the arrays and constants its
@@ -320,7 +341,8 @@ class ConvoyCore:
 
     # ----------------------------------------------------------------- hooks
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:
-        """Sample row ``i``'s starting state into ``z[i]`` and the scene's task arrays.
+        """Sample row ``i``'s starting state into ``z[i]`` and the scene's task arrays
+        (scenes without a :attr:`start_kernel`).
 
         ``z[i]`` and ``act[i]`` arrive zeroed (the mass at rest at the rail's centre).
         """
@@ -480,11 +502,32 @@ class ConvoyCore:
 
     def reset_rows(self, rows: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
         """Start new episodes in ``rows`` (int array), row ``rows[j]`` drawing from ``rngs[j]``."""
+        if self.start_kernel is None:
+            self._start_episodes(rows, rngs, None)
+        else:
+            picks = np.arange(len(rows), dtype=np.int64)
+            self._start_episodes(rows, typed_generators(rngs), picks)
+
+    def reset_rows_from(self, rows: np.ndarray, bank: GeneratorBank) -> None:
+        """Start new episodes in ``rows``, row ``i`` drawing from ``bank[i]`` (one generator
+        per row of the batch): the vector env's and the SB3 adapter's resets, drawn in one
+        compiled call where the scene has a :attr:`start_kernel`."""
+        if self.start_kernel is None:
+            self._start_episodes(rows, [bank[i] for i in rows.tolist()], None)
+        else:
+            self._start_episodes(rows, bank.typed, rows)
+
+    def _start_episodes(self, rows: np.ndarray, rngs: Any, picks: np.ndarray | None) -> None:
+        """Draw the starts of ``rows`` (``rngs[picks[j]]`` for ``rows[j]``; without picks,
+        ``rngs`` is aligned with ``rows`` and the Python hook draws), then derive the rest."""
         self.z[rows] = 0.0
         self.act[rows] = 0.0
         self.act[rows, 0] = self.params.b
-        for i, rng in zip(rows.tolist(), rngs, strict=True):
-            self._reset_row(i, rng)
+        if picks is None:
+            for i, rng in zip(rows.tolist(), rngs, strict=True):
+                self._reset_row(i, rng)
+        else:
+            self.start_kernel(rngs, picks, rows, self.z, self._start_tuple())
         self.refresh(rows)
         self.energy0[rows] = self.energy[rows]
         self.reward[rows] = 0.0
@@ -679,10 +722,10 @@ class ConvoyCore:
 
     def info_batch(self) -> dict[str, np.ndarray]:
         """The same quantities as arrays (B,) (copies)."""
-        return {
-            key: self.energy - self.energy0 if array is None else array.copy()
-            for key, array in self._info_sources()
-        }
+        infos = {}
+        for key, array in self._info_sources():
+            infos[key] = np.subtract(self.energy, self.energy0) if array is None else array.copy()
+        return infos
 
     def info_rows(self) -> list[dict[str, Any]]:
         """One ``info`` dict per environment (Python scalars), as SB3's ``VecEnv`` wants."""

@@ -36,9 +36,12 @@ from stable_baselines3.common.monitor import Monitor
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
 from dynamics.params import bounded_integer
+from trailer_env.batch_infos import BatchInfos
+from trailer_env.episodes import count_episodes
+from trailer_env.generators import GeneratorBank
 from trailer_env.registry import core_class_of
 from trailer_env.settings import settings_from_kwargs
-from trailer_env.vector import MAX_NUM_ENVS, as_action_batch, seed_generators
+from trailer_env.vector import MAX_NUM_ENVS, as_action_batch, as_bank, seed_generators
 
 
 class ConvoySB3VecEnv(VecEnv):
@@ -79,9 +82,10 @@ class ConvoySB3VecEnv(VecEnv):
         self.render_mode = None
         super().__init__(self.core.batch_size, observation_space, action_space)
         self.elapsed_steps = np.zeros(self.num_envs, dtype=np.int64)
-        self._generators: list[np.random.Generator] | None = None
+        self._generators: GeneratorBank | None = None
         self._all_rows = np.arange(self.num_envs)
-        self._actions = np.zeros((self.num_envs, self.settings.action_dim))
+        self._action_buffer = np.zeros((self.num_envs, self.settings.action_dim))
+        self._actions = self._action_buffer
         self._episode_returns = np.zeros(self.num_envs)
         self._episode_lengths = np.zeros(self.num_envs, dtype=np.int64)
         self._start_time = time.time()
@@ -89,8 +93,8 @@ class ConvoySB3VecEnv(VecEnv):
     def reset(self) -> np.ndarray:
         """Reset every environment (with the seeds set by :meth:`seed`, if any)."""
         seeds = self._seeds if any(seed is not None for seed in self._seeds) else None
-        self._generators = seed_generators(seeds, self.num_envs, self._generators)
-        self.core.reset_rows(self._all_rows, self._generators)
+        self._generators = as_bank(seed_generators(seeds, self.num_envs, self._generators))
+        self.core.reset_rows_from(self._all_rows, self._generators)
         self.elapsed_steps[:] = 0
         self._episode_returns[:] = 0.0
         self._episode_lengths[:] = 0
@@ -100,37 +104,42 @@ class ConvoySB3VecEnv(VecEnv):
         return self.core.obs.copy()
 
     def step_async(self, actions: np.ndarray) -> None:
-        self._actions = as_action_batch(actions, self.num_envs, self.settings.action_dim)
+        self._actions = as_action_batch(
+            actions, self.num_envs, self.settings.action_dim, self._action_buffer
+        )
 
     def step_wait(self) -> VecEnvStepReturn:
         if self._generators is None:
             raise RuntimeError("call reset() before step()")
         core = self.core
         core.step(self._actions)
-        self.elapsed_steps += 1
-        terminated = core.terminated.copy()
-        truncated = (self.elapsed_steps >= self.max_episode_steps) & ~terminated
-        dones = terminated | truncated
         rewards = core.reward.astype(np.float32)
-        self._episode_returns += rewards
-        self._episode_lengths += 1
-        infos = self.core.info_rows()
-        rows = np.flatnonzero(dones)
-        if rows.size:
+        dones = np.empty(self.num_envs, dtype=bool)
+        truncated = np.empty(self.num_envs, dtype=bool)
+        ended = count_episodes(self.elapsed_steps, self.max_episode_steps, core.terminated,
+                               rewards, self._episode_returns, self._episode_lengths,
+                               dones, truncated)  # fmt: skip
+        extras: dict[int, dict[str, Any]] = {}
+        if ended:
+            rows = np.flatnonzero(dones)
             elapsed = round(time.time() - self._start_time, 6)
-            for i in rows.tolist():
-                infos[i]["terminal_observation"] = core.obs[i].copy()
-                infos[i]["TimeLimit.truncated"] = bool(truncated[i])
-                infos[i]["episode"] = {
-                    "r": float(self._episode_returns[i]),
-                    "l": int(self._episode_lengths[i]),
-                    "t": elapsed,
+            returns = self._episode_returns[rows].tolist()
+            lengths = self._episode_lengths[rows].tolist()
+            cut = truncated[rows].tolist()
+            for j, i in enumerate(rows.tolist()):
+                extras[i] = {
+                    "terminal_observation": core.obs[i].copy(),
+                    "TimeLimit.truncated": cut[j],
+                    "episode": {"r": returns[j], "l": lengths[j], "t": elapsed},
                 }
-            core.reset_rows(rows, [self._generators[i] for i in rows.tolist()])
+            infos = BatchInfos(core.info_batch(), extras, self.num_envs)
+            core.reset_rows_from(rows, self._generators)
             self.elapsed_steps[rows] = 0
             self._episode_returns[rows] = 0.0
             self._episode_lengths[rows] = 0
-        return core.obs.copy(), rewards, dones, infos
+        else:
+            infos = BatchInfos(core.info_batch(), extras, self.num_envs)
+        return core.obs.copy(), rewards, dones, infos  # type: ignore[return-value]
 
     def close(self) -> None:
         """Nothing to release."""

@@ -61,6 +61,8 @@ from trailer_env.env import (
     checked_state,
     refuse_masked,
 )
+from trailer_env.episodes import count_step
+from trailer_env.generators import GeneratorBank
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
 from trailer_env.settings import settings_from_kwargs
 
@@ -70,8 +72,8 @@ VECTOR_RENDER_MODES = ("rgb_array",)
 def seed_generators(
     seed: int | Sequence[int | None] | None,
     count: int,
-    current: list[np.random.Generator] | None,
-) -> list[np.random.Generator]:
+    current: Sequence[np.random.Generator] | None,
+) -> Sequence[np.random.Generator]:
     """Per-environment generators: ``seed + i``, a list of seeds, or (None) keep/draw fresh ones.
 
     Raises:
@@ -95,6 +97,11 @@ def seed_generators(
         else:
             generators.append(seeding.np_random(None)[0])
     return generators
+
+
+def as_bank(generators: Sequence[np.random.Generator]) -> GeneratorBank:
+    """``generators`` as a :class:`~trailer_env.generators.GeneratorBank` (itself if it is one)."""
+    return generators if isinstance(generators, GeneratorBank) else GeneratorBank(generators)
 
 
 def checked_seeds(
@@ -133,25 +140,36 @@ def parse_autoreset_mode(mode: Any) -> AutoresetMode:
     raise ValueError(f"autoreset_mode must be one of {valid}, got {mode!r}")
 
 
-def as_action_batch(actions: Any, count: int, action_dim: int) -> np.ndarray:
+def as_action_batch(
+    actions: Any, count: int, action_dim: int, out: np.ndarray | None = None
+) -> np.ndarray:
     """Actions as a float64 (count, action_dim) array; (count,) is accepted when action_dim == 1.
 
-    Nothing else is broadcast.
+    Float arrays of up to 64 bits (float32 from ``action_space.sample()``, SB3, TorchRL or
+    CleanRL, float64, float16) of the right shape take the fast path: copied into ``out``
+    (when given, a float64 (count, action_dim) buffer, which is returned), exactly, since
+    every such value is a float64 too. Nothing else is broadcast.
 
     Raises:
         TypeError: For None, bools, strings, complex numbers or other non-numbers.
         ValueError: On a wrong shape (non-finite values are rejected by the core).
     """
-    if (
-        type(actions) is np.ndarray
-        and actions.dtype == np.float64
-        and actions.shape == (count, action_dim)
-    ):
-        return actions  # the common case, checked at no cost
+    if type(actions) is np.ndarray and actions.dtype.kind == "f" and actions.dtype.itemsize <= 8:
+        shape = actions.shape
+        if shape == (count, action_dim) or (action_dim == 1 and shape == (count,)):
+            if out is None:
+                if actions.dtype == np.float64 and actions.ndim == 2:
+                    return actions  # the common case, checked at no cost
+                out = np.empty((count, action_dim))
+            np.copyto(out, actions.reshape(count, action_dim))
+            return out
     batch = as_action_array(
         actions, (count, action_dim), "actions", alternative=(count,) if action_dim == 1 else ()
     )
-    return batch.astype(np.float64, copy=False).reshape(count, action_dim)
+    if out is None:
+        return batch.astype(np.float64, copy=False).reshape(count, action_dim)
+    np.copyto(out, batch.reshape(count, action_dim), casting="unsafe")
+    return out
 
 
 #: Most environments ``render()`` draws (the first ones): ~1 MB per frame.
@@ -255,10 +273,13 @@ class ConvoyVectorEnv(VectorEnv):
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.elapsed_steps = np.zeros(self.num_envs, dtype=np.int64)
         self._needs_reset = np.zeros(self.num_envs, dtype=bool)
-        self._generators: list[np.random.Generator] | None = None
+        self._pending = 0  # np.count_nonzero(self._needs_reset), kept with it
+        self._actions = np.zeros((self.num_envs, self.settings.action_dim))
+        self._generators: GeneratorBank | None = None
         self._all_rows = np.arange(self.num_envs)
         self._mask = np.ones(self.num_envs, dtype=bool)
         self._mask.flags.writeable = False
+        self._info_masks: dict[str, np.ndarray] | None = None
 
     def reset(
         self,
@@ -287,10 +308,11 @@ class ConvoyVectorEnv(VectorEnv):
             super().reset(seed=int(seed))
         generators = seed_generators(seed, self.num_envs, self._generators)
         if self._generators is None or rows.size == self.num_envs:
-            self._generators = generators
+            self._generators = as_bank(generators)
         else:
             for i in rows.tolist():
-                self._generators[i] = generators[i]
+                if generators[i] is not self._generators[i]:
+                    self._generators[i] = generators[i]
         self._start(rows, states)
         return self.core.obs.copy(), self._infos()
 
@@ -346,12 +368,13 @@ class ConvoyVectorEnv(VectorEnv):
     def _start(self, rows: np.ndarray, states: np.ndarray | None = None) -> None:
         """New episodes in ``rows``, drawn from their generators or set to ``states[rows]``."""
         assert self._generators is not None
-        self.core.reset_rows(rows, [self._generators[i] for i in rows.tolist()])
+        self.core.reset_rows_from(rows, self._generators)
         if states is not None:
             for i in rows.tolist():
                 self.core.set_row_state(i, states[i])
         self.elapsed_steps[rows] = 0
         self._needs_reset[rows] = False
+        self._pending = int(np.count_nonzero(self._needs_reset))
         if self._paths is not None:
             self._paths.clear(rows)
             self._record_paths(rows)
@@ -373,53 +396,64 @@ class ConvoyVectorEnv(VectorEnv):
         if self._generators is None:
             raise RuntimeError("call reset() before step()")
         mode = self.autoreset_mode
-        if mode == AutoresetMode.DISABLED and self._needs_reset.any():
-            ended = np.flatnonzero(self._needs_reset)[:8].tolist()
+        pending = self._pending  # environments that ended on the previous step
+        if pending and mode is AutoresetMode.DISABLED:
+            shown = np.flatnonzero(self._needs_reset)[:8].tolist()
             raise RuntimeError(
-                f"environments {ended} ended; reset them with "
+                f"environments {shown} ended; reset them with "
                 "reset(options={'reset_mask': mask}) before stepping (autoreset_mode disabled)"
             )
         core = self.core
-        batch = as_action_batch(actions, self.num_envs, self.settings.action_dim)
-        if mode == AutoresetMode.NEXT_STEP and self._needs_reset.any():
+        batch = self._actions
+        if (
+            type(actions) is np.ndarray
+            and actions.shape == batch.shape
+            and actions.dtype.kind == "f"
+            and actions.dtype.itemsize <= 8
+        ):
+            np.copyto(batch, actions)  # the common case (float32 or float64), exact
+        else:
+            batch = as_action_batch(actions, self.num_envs, batch.shape[1], batch)
+        ended = None
+        if pending and mode is AutoresetMode.NEXT_STEP:
             # Ended environments are reset below, not integrated: their actions are ignored.
+            ended = np.flatnonzero(self._needs_reset)
             live = np.flatnonzero(~self._needs_reset)
             if live.size:
                 core.step(batch, live)
         else:
             core.step(batch)
-        self.elapsed_steps += 1
-        if self._paths is not None:
-            self._record_paths(self._all_rows)
         reward = core.reward.copy()
         terminated = core.terminated.copy()
-        truncated = self.elapsed_steps >= self.max_episode_steps
-        final: dict[str, Any] = {}
-        if mode == AutoresetMode.NEXT_STEP:
-            rows = np.flatnonzero(self._needs_reset)
-            if rows.size:
-                self._start(rows)
-                reward[rows] = 0.0
-                terminated[rows] = False
-                truncated[rows] = False
-            self._needs_reset = terminated | truncated
-        elif mode == AutoresetMode.SAME_STEP:
-            done = terminated | truncated
+        truncated = np.empty(self.num_envs, dtype=bool)
+        self._pending = count_step(
+            self.elapsed_steps, self.max_episode_steps, terminated, truncated, self._needs_reset
+        )
+        if self._paths is not None:
+            self._record_paths(self._all_rows)
+        final: dict[str, Any] | None = None
+        if ended is not None:
+            self._start(ended)
+            reward[ended] = 0.0
+            terminated[ended] = False
+            truncated[ended] = False
+        elif mode is AutoresetMode.SAME_STEP and self._pending:
+            done = self._needs_reset.copy()
             rows = np.flatnonzero(done)
-            if rows.size:
-                final_obs = np.full(self.num_envs, None, dtype=object)
-                for i in rows.tolist():
-                    final_obs[i] = core.obs[i].copy()
-                final = {
-                    "final_obs": final_obs,
-                    "_final_obs": done,
-                    "final_info": self._infos(done),
-                    "_final_info": done,
-                }
-                self._start(rows)
-        else:
-            self._needs_reset = terminated | truncated
-        return core.obs.copy(), reward, terminated, truncated, {**self._infos(), **final}
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            for i in rows.tolist():
+                final_obs[i] = core.obs[i].copy()
+            final = {
+                "final_obs": final_obs,
+                "_final_obs": done,
+                "final_info": self._infos(done),
+                "_final_info": done,
+            }
+            self._start(rows)
+        infos = self._infos()
+        if final is not None:
+            infos.update(final)
+        return core.obs.copy(), reward, terminated, truncated, infos
 
     def _record_paths(self, rows: np.ndarray) -> None:
         assert self._paths is not None
@@ -462,8 +496,12 @@ class ConvoyVectorEnv(VectorEnv):
             self._renderer = None
 
     def _infos(self, mask: np.ndarray | None = None) -> dict[str, Any]:
+        """The step's infos as arrays (copies), each key ``k`` with its mask ``_k``."""
         infos: dict[str, Any] = self.core.info_batch()
-        present = self._mask if mask is None else mask
-        for key in list(infos):
-            infos[f"_{key}"] = present
+        if mask is None:
+            if self._info_masks is None:
+                self._info_masks = {f"_{key}": self._mask for key in infos}
+            infos.update(self._info_masks)
+        else:
+            infos.update({f"_{key}": mask for key in list(infos)})
         return infos

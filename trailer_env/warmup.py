@@ -15,10 +15,19 @@ from collections.abc import Callable
 
 import numpy as np
 
+from trailer_env.episodes import count_episodes, count_step
 from trailer_env.kernels import PARALLEL_MIN_ROWS
 from trailer_env.registry import ENVIRONMENTS, core_class_of
 from trailer_env.settings import settings_from_kwargs
 from trailer_env.vector import seed_generators
+
+
+def _compile_bookkeeping() -> None:
+    """The vector env's and the SB3 adapter's per-step counters (:mod:`trailer_env.episodes`)."""
+    elapsed, flags = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=bool)
+    count_step(elapsed, 1, flags, flags.copy(), flags.copy())
+    count_episodes(elapsed, 1, flags, np.zeros(1, dtype=np.float32), np.zeros(1),
+                   np.zeros(1, dtype=np.int64), flags.copy(), flags.copy())  # fmt: skip
 
 
 def compile_kernels(report: Callable[[str], None] = print) -> float:
@@ -36,4 +45,5 @@ def compile_kernels(report: Callable[[str], None] = print) -> float:
             core.reset_rows(np.arange(rows), seed_generators(0, rows, None))
             core.step(np.zeros((rows, settings.action_dim)))
         report(f"compiled {env_id} in {time.perf_counter() - began:.1f} s")
+    _compile_bookkeeping()
     return time.perf_counter() - started

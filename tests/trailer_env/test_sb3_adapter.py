@@ -116,3 +116,37 @@ def test_adapter_records_episodes_like_vecmonitor() -> None:
     model = PPO("MlpPolicy", native, n_steps=64, batch_size=64, n_epochs=1, seed=0)
     model.learn(256)
     assert len(model.ep_info_buffer) >= 3  # SB3's logger sees the episodes without a wrapper
+
+
+def test_infos_are_built_when_read_and_equal_the_eager_dicts() -> None:
+    venv = ConvoySB3VecEnv("trailer_env/Reverse-v1", num_envs=4, max_episode_steps=5, n_trailers=2)
+    venv.seed(3)
+    venv.reset()
+    for _ in range(4):
+        *_, infos = venv.step(np.zeros((4, 1), dtype=np.float32))
+    core = venv.core
+    assert len(infos) == 4 and infos[-1] is infos[3]  # built once, then kept
+    for i in range(4):
+        expected = core.info_row(i)
+        assert infos[i] == expected and type(infos[i]["jackknifed"]) is bool
+    assert infos[1:3] == [infos[1], infos[2]] and list(infos) == [infos[i] for i in range(4)]
+    with pytest.raises(IndexError, match="out of range for 4"):
+        infos[4]
+    obs, _, dones, infos = venv.step(np.zeros((4, 1), dtype=np.float32))  # the time limit
+    assert dones.all()
+    infos[0]["terminal_observation"] = "rewritten"  # VecNormalize writes into them
+    assert infos[0]["terminal_observation"] == "rewritten"
+    assert infos[2]["episode"]["l"] == 5 and infos[2]["TimeLimit.truncated"] is True
+    assert infos[2]["terminal_observation"].shape == obs[2].shape
+
+
+def test_float32_and_float64_actions_step_the_same_bits(rng: np.random.Generator) -> None:
+    actions = rng.uniform(-1.2, 1.2, (40, 3, 1)).astype(np.float32)
+    runs = []
+    for dtype in (np.float32, np.float64):
+        venv = ConvoySB3VecEnv("trailer_env/Coast-v0", num_envs=3, n_trailers=2)
+        venv.seed(5)
+        venv.reset()
+        runs.append([venv.step(action.astype(dtype))[0] for action in actions])
+    np.testing.assert_array_equal(np.array(runs[0]), np.array(runs[1]))
+    assert np.abs(np.array(runs[0])[:, :, 0]).min() > 0.0

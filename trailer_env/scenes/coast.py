@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -127,6 +127,30 @@ def coast_step(
     return result
 
 
+@cached_njit(depends_on=(actuator, substeps, kernels))
+def coast_starts(
+    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+) -> None:
+    """Row ``rows[j]``'s start from ``generators[picks[j]]`` (``start`` = ``(n,)``): a
+    direction (forwards with probability 1/2), a speed in SPEED_RANGE, then omega and the
+    hitch angles uniform within that direction's ranges, drawn again while the convoy
+    is already straight (a start must leave something to do)."""
+    (n,) = start
+    for j in range(rows.size):
+        rng = generators[picks[j]]
+        i = rows[j]
+        while True:
+            forward = rng.random() < 0.5
+            angle_range = FORWARD_ANGLE_RANGE if forward else REVERSE_ANGLE_RANGE
+            omega_range = FORWARD_OMEGA_RANGE if forward else REVERSE_OMEGA_RANGE
+            z[i, 0] = (1.0 if forward else -1.0) * rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
+            z[i, 1] = rng.uniform(-omega_range, omega_range)
+            for k in range(n):
+                z[i, 2 + k] = rng.uniform(-angle_range, angle_range)
+            if not coast_is_straight(z, i, n):
+                break
+
+
 class CoastCore(ShapedCore):
     """Batched task logic of Coast-v0 (no task features, no pose).
 
@@ -138,6 +162,7 @@ class CoastCore(ShapedCore):
     max_episode_steps = 300
     scene_kernel = staticmethod(coast_step)
     scene_outcome = staticmethod(coast_outcome)
+    start_kernel = staticmethod(coast_starts)
 
     def _scene_arguments(self) -> CoastScene:
         return CoastScene(
@@ -151,17 +176,8 @@ class CoastCore(ShapedCore):
             penalties=self.shaping_penalties,
         )
 
-    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
-        z = self.z[i]
-        while True:
-            forward = rng.random() < 0.5
-            angle_range = FORWARD_ANGLE_RANGE if forward else REVERSE_ANGLE_RANGE
-            omega_range = FORWARD_OMEGA_RANGE if forward else REVERSE_OMEGA_RANGE
-            z[0] = (1.0 if forward else -1.0) * rng.uniform(*SPEED_RANGE)
-            z[1] = rng.uniform(-omega_range, omega_range)
-            z[2 : 2 + self.n] = rng.uniform(-angle_range, angle_range, self.n)
-            if not _is_straight(z[None, : 2 + self.n], self.n)[0]:
-                return
+    def _start_arguments(self) -> tuple[int]:
+        return (self.n,)
 
     def _potential(self) -> np.ndarray:
         out = np.empty(self.batch_size)

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from dynamics import body_poses
+from dynamics.jit import cached_njit
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.rendering import Marker
@@ -30,6 +31,34 @@ HEADING_WEIGHT = 1.0
 DISTANCE_SCALE = 5.0
 
 
+@cached_njit()
+def dock_starts(
+    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+) -> None:
+    """Row ``rows[j]``'s start from ``generators[picks[j]]`` (``start`` = ``(n, l,
+    target)``): speed, omega and hitch angles uniform in their ranges, then the dock's
+    distance behind the last axle (the cart at the origin heading along x), lateral
+    offset and heading. The last axle's x is :func:`dynamics.body_poses`' to the bit:
+    ``-l sum_k cos(-(alpha_1 + ... + alpha_k))``, summed in the same order."""
+    n, l, target = start
+    for j in range(rows.size):
+        rng = generators[picks[j]]
+        i = rows[j]
+        z[i, 0] = -rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
+        z[i, 1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
+        for k in range(n):
+            z[i, 2 + k] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE)
+        total_angle = 0.0
+        rods = 0.0
+        for k in range(n):
+            total_angle += z[i, 2 + k]
+            rods += np.cos(0.0 - total_angle)
+        last_x = 0.0 - l * rods
+        target[i, 0] = last_x - rng.uniform(DISTANCE_RANGE[0], DISTANCE_RANGE[1])
+        target[i, 1] = rng.uniform(-LATERAL_RANGE, LATERAL_RANGE)
+        target[i, 2] = rng.uniform(-HEADING_RANGE, HEADING_RANGE)
+
+
 class DockCore(ShapedCore):
     """Batched task logic of Dock-v0; the only scene that tracks plane poses.
 
@@ -43,6 +72,7 @@ class DockCore(ShapedCore):
     scene = "Dock"
     max_episode_steps = 400
     task_keys = ("target",)
+    start_kernel = staticmethod(dock_starts)
     uses_pose = True
     n_task_features = 4
     # 400 steps * (0.01 + 0.05) = 24 < 30: neither folding nor missing on purpose pays.
@@ -66,17 +96,8 @@ class DockCore(ShapedCore):
         )
         return xs[:, -1], ys[:, -1], thetas[:, -1]
 
-    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
-        z = self.z[i]
-        n = self.n
-        z[0] = -rng.uniform(*SPEED_RANGE)
-        z[1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
-        z[2 : 2 + n] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE, n)
-        # The cart starts at the origin heading along x; the dock lies behind the last axle.
-        xs, _, _ = body_poses(self.params.l, 0.0, 0.0, 0.0, z[2 : 2 + n])
-        self.target[i, 0] = xs[-1] - rng.uniform(*DISTANCE_RANGE)
-        self.target[i, 1] = rng.uniform(-LATERAL_RANGE, LATERAL_RANGE)
-        self.target[i, 2] = rng.uniform(-HEADING_RANGE, HEADING_RANGE)
+    def _start_arguments(self) -> tuple[int, float, np.ndarray]:
+        return (self.n, float(self.params.l), self.target)
 
     def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
         """Accepts ``target`` = (x, y, heading) of the dock: 3 real numbers (not bools or

@@ -6,6 +6,7 @@ from typing import Any
 
 import numpy as np
 
+from dynamics.jit import cached_njit
 from dynamics.params import bounded_real
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
@@ -27,6 +28,25 @@ def wrap_angle(angle: np.ndarray) -> np.ndarray:
     return (angle + np.pi) % (2.0 * np.pi) - np.pi
 
 
+@cached_njit()
+def heading_starts(
+    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+) -> None:
+    """Row ``rows[j]``'s start from ``generators[picks[j]]`` (``start`` = ``(n,
+    target_heading)``): speed, omega and hitch angles uniform in their ranges, then the
+    target heading's sign (1/2 each) and size."""
+    n, target_heading = start
+    for j in range(rows.size):
+        rng = generators[picks[j]]
+        i = rows[j]
+        z[i, 0] = rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
+        z[i, 1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
+        for k in range(n):
+            z[i, 2 + k] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE)
+        sign = 1.0 if rng.random() < 0.5 else -1.0
+        target_heading[i] = sign * rng.uniform(TARGET_RANGE[0], TARGET_RANGE[1])
+
+
 class HeadingCore(ShapedCore):
     """Batched task logic of Heading-v0.
 
@@ -39,6 +59,7 @@ class HeadingCore(ShapedCore):
     max_episode_steps = 300
     baselines = ("zero", "random", "lqr", "heading-p")
     task_keys = ("target_heading",)
+    start_kernel = staticmethod(heading_starts)
     uses_pose = True
     n_task_features = 3
 
@@ -48,13 +69,8 @@ class HeadingCore(ShapedCore):
         self.hold_count = np.zeros(self.batch_size, dtype=np.int64)
         self.heading_error = np.zeros(self.batch_size)
 
-    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
-        z = self.z[i]
-        z[0] = rng.uniform(*SPEED_RANGE)
-        z[1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
-        z[2 : 2 + self.n] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE, self.n)
-        sign = 1.0 if rng.random() < 0.5 else -1.0
-        self.target_heading[i] = sign * rng.uniform(*TARGET_RANGE)
+    def _start_arguments(self) -> tuple[int, np.ndarray]:
+        return (self.n, self.target_heading)
 
     def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
         """Accepts ``target_heading`` (rad), a real number (not a bool or a string) in

@@ -116,6 +116,30 @@ def reverse_step(
     return result
 
 
+class ReverseStart(NamedTuple):
+    """Reverse-v0's start: (|u|, omega, alpha_1..alpha_n) = low + span * U[0, 1)^(n+2)."""
+
+    low: np.ndarray
+    span: np.ndarray
+
+
+@cached_njit(depends_on=(actuator, substeps, kernels))
+def reverse_starts(
+    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+) -> None:
+    """Row ``rows[j]``'s start from ``generators[picks[j]]`` (:class:`ReverseStart`): the
+    numbers ``Generator.random(n + 2)`` draws, scaled, then the speed negated."""
+    low, span = start
+    for j in range(rows.size):
+        rng = generators[picks[j]]
+        i = rows[j]
+        for k in range(low.size):
+            z[i, k] = rng.random()
+        for k in range(low.size):
+            z[i, k] = z[i, k] * span[k] + low[k]
+        z[i, 0] = -z[i, 0]  # reversing
+
+
 class ReverseCore(ConvoyCore):
     """Batched task logic of Reverse-v0 (no task features, no pose)."""
 
@@ -127,6 +151,7 @@ class ReverseCore(ConvoyCore):
     min_reverse_speed: ClassVar[float] = 0.0
     scene_kernel = staticmethod(reverse_step)
     scene_outcome = staticmethod(reverse_outcome)
+    start_kernel = staticmethod(reverse_starts)
 
     def _scene_arguments(self) -> ReverseScene:
         return ReverseScene(
@@ -151,12 +176,8 @@ class ReverseCore(ConvoyCore):
             + [ANGLE_NOISE - (-ANGLE_NOISE)] * n
         )
 
-    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
-        start = self.z[i, : self.n + 2]
-        rng.random(out=start)
-        start *= self._start_span
-        start += self._start_low
-        start[0] = -start[0]  # reversing
+    def _start_arguments(self) -> tuple:
+        return ReverseStart(low=self._start_low, span=self._start_span)
 
     def _is_success(self) -> np.ndarray:
         # The reset's flag; after a step :func:`reverse_outcome` writes it.

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
+from dynamics.jit import cached_njit
+from trailer_env import actuator, kernels, substeps
 from trailer_env.scenes.reverse import ReverseCore, ReverseEnv
 
 #: Starting reversing speed range, m/s (the stroke needed is smallest near 1-1.2 m/s).
@@ -19,6 +21,34 @@ PERTURBATION_RADII = {1: 0.064, 2: 0.0365, 3: 0.0229}
 PERTURBATION_EXPONENT = 1.1
 #: Minimum reversing speed, m/s: the episode fails once -u is at most this.
 MIN_REVERSE_SPEED = 0.3
+
+
+class ReverseV1Start(NamedTuple):
+    """Reverse-v1's start: the speed range and the perturbation's radius."""
+
+    speed_low: float
+    speed_high: float
+    radius: float
+    n: int
+
+
+@cached_njit(depends_on=(actuator, substeps, kernels))
+def reverse_v1_starts(
+    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+) -> None:
+    """Row ``rows[j]``'s start from ``generators[picks[j]]`` (:class:`ReverseV1Start`):
+    ``u = -uniform(speed range)``, then (omega, alpha_1..alpha_n) uniform on the sphere
+    of the radius (a normalised ``standard_normal(n + 1)``; its norm is ``sqrt(d . d)``,
+    NumPy's ``linalg.norm`` to the bit)."""
+    speed_low, speed_high, radius, n = start
+    for j in range(rows.size):
+        rng = generators[picks[j]]
+        i = rows[j]
+        z[i, 0] = -rng.uniform(speed_low, speed_high)
+        direction = rng.standard_normal(n + 1)
+        norm = np.sqrt(np.dot(direction, direction))
+        for k in range(direction.size):
+            z[i, 1 + k] = radius * direction[k] / norm
 
 
 class ReverseV1Core(ReverseCore):
@@ -45,11 +75,12 @@ class ReverseV1Core(ReverseCore):
         last = max(radii)
         return float(radii[last] * (last / n) ** PERTURBATION_EXPONENT)
 
-    def _reset_row(self, i: int, rng: np.random.Generator) -> None:
-        z = self.z[i]
-        z[0] = -rng.uniform(*self.speed_range)
-        direction = rng.standard_normal(self.n + 1)
-        z[1 : 2 + self.n] = self.perturbation_radius(self.n) * direction / np.linalg.norm(direction)
+    start_kernel = staticmethod(reverse_v1_starts)
+
+    def _start_arguments(self) -> tuple:
+        low, high = self.speed_range
+        radius = self.perturbation_radius(self.n)
+        return ReverseV1Start(speed_low=float(low), speed_high=float(high), radius=radius, n=self.n)
 
 
 class ReverseV1Env(ReverseEnv):
