@@ -116,7 +116,7 @@ def servo_target_for_accel(
 # action on the lateral axis), and an entry in ACTUATORS.
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def servo_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
               accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
     """ "servo": the action is the target position ``a s_max`` on the rail."""
@@ -125,7 +125,7 @@ def servo_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: floa
                             frequency)  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def accel_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
               accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
     """ "accel": the action is the rail acceleration ``a A``, through the guard."""
@@ -133,7 +133,7 @@ def accel_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: floa
     act[i, 5] = guard_accel(command * accel_max, act[i, 1], act[i, 3], s_max, accel_max, dt)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def planar_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
                accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
     """ "planar": axis 0 is a target ``xi - b = a_0 s_max``, axis 1 ``eta = a_1 s_max``."""
@@ -200,7 +200,7 @@ _ACCEL = ACTUATORS["accel"].code
 _PLANAR = ACTUATORS["planar"].code
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def apply_action_row(
     action: np.ndarray,
     i: int,

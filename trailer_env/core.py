@@ -355,6 +355,12 @@ class ConvoyCore:
         """Boolean (B,): the task is achieved. Default: never."""
         return np.zeros(self.batch_size, dtype=bool)
 
+    def _starting_success(self, rows: np.ndarray) -> np.ndarray:
+        """Boolean (len(rows),): the success flag of rows just reset. Default:
+        :meth:`_is_success` of the batch at ``rows``; scenes whose test is per row
+        override it so a reset costs its rows, not the batch."""
+        return self._is_success()[rows]
+
     def _is_failed(self) -> np.ndarray:
         """Boolean (B,): the episode ends in a failure other than a jackknife. Default: never.
 
@@ -463,7 +469,7 @@ class ConvoyCore:
         self.terminated[i] = False
         self.failed[i] = False
         self._after_reset(rows)
-        self.success[i] = self._is_success()[i]
+        self.success[i] = self._starting_success(rows)[0]
 
     def render_markers(self, i: int) -> tuple[Any, ...]:
         """Row ``i``'s targets to draw (:class:`~trailer_env.rendering.Marker`); default none."""
@@ -534,7 +540,7 @@ class ConvoyCore:
         self.terminated[rows] = False
         self.failed[rows] = False
         self._after_reset(rows)
-        self.success[rows] = self._is_success()[rows]
+        self.success[rows] = self._starting_success(rows)
 
     def refresh(self, rows: np.ndarray | None = None) -> None:
         """Recompute everything derived from the state of ``rows`` (int array; default all).

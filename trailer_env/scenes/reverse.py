@@ -27,11 +27,12 @@ def reverse_failed(z: np.ndarray, jackknifed: np.ndarray, i: int, min_reverse_sp
 
 @cached_njit(depends_on=(actuator, substeps, kernels))
 def reverse_failed_rows(
-    z: np.ndarray, jackknifed: np.ndarray, min_reverse_speed: float, out: np.ndarray
-) -> None:
-    """:func:`reverse_failed` of every row into ``out`` (the reset's success flag)."""
-    for i in range(z.shape[0]):
-        out[i] = reverse_failed(z, jackknifed, i, min_reverse_speed)
+    z: np.ndarray, jackknifed: np.ndarray, rows: np.ndarray, min_reverse_speed: float,
+    out: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`reverse_failed` of ``rows[j]`` into ``out[j]`` (the reset's success flag)."""
+    for j in range(rows.shape[0]):
+        out[j] = reverse_failed(z, jackknifed, rows[j], min_reverse_speed)
 
 
 @cached_njit(depends_on=(actuator, substeps, kernels))
@@ -181,8 +182,13 @@ class ReverseCore(ConvoyCore):
 
     def _is_success(self) -> np.ndarray:
         # The reset's flag; after a step :func:`reverse_outcome` writes it.
-        failed = np.empty(self.batch_size, dtype=bool)
-        reverse_failed_rows(self.z, self.jackknifed, float(self.min_reverse_speed), failed)
+        return self._starting_success(self._all_rows)
+
+    def _starting_success(self, rows: np.ndarray) -> np.ndarray:
+        failed = np.empty(rows.shape[0], dtype=bool)
+        speed = float(self.min_reverse_speed)
+        reverse_failed_rows(self.z, self.jackknifed, rows.astype(np.int64, copy=False), speed,
+                            failed)  # fmt: skip
         return ~failed
 
 
