@@ -38,7 +38,7 @@ alone (what imitation labels need); with it, of the state and the previous call.
 It reads the exact state (or an observation, in float32, through
 :class:`agents.oracles.ilqr_policy.ILQRPolicy`). Cost per decision and environment:
 ``(iterations + 1) * L * horizon`` rollout steps plus ``iterations * (horizon + 1) *
-2 (d + 1)`` perturbed steps (:attr:`ILQRConfig.steps_per_decision`).
+2 (d + 1)`` perturbed steps (:attr:`ILQRPlanner.steps_per_decision`).
 """
 
 from __future__ import annotations
@@ -49,7 +49,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.oracles.ilqr_costs import CostWeights, SceneCost
+from agents.oracles.ilqr_costs import CostWeights, SceneCost, scene_horizon
 from agents.oracles.ilqr_kernels import backward_pass, feedback
 from trailer_env.controllers import LQRController
 from trailer_env.core import ConvoyCore
@@ -70,7 +70,7 @@ class ILQRConfig:
     """Settings of :class:`ILQRPlanner`.
 
     Attributes:
-        horizon: Steps planned (>= 1).
+        horizon: Steps planned (>= 1); None: the scene's (:func:`ilqr_costs.scene_horizon`).
         iterations: iLQR iterations per control step (>= 0; 0 plays the better warm start).
         alphas: Line-search step sizes, each in (0, 1], tried in one batch (>= 1 of them).
         reuse: Warm-start from the previous call's shifted solution as well as the LQR.
@@ -80,7 +80,7 @@ class ILQRConfig:
         weights: Cost weights; None: the scene's defaults (:func:`ilqr_costs.scene_weights`).
     """
 
-    horizon: int = 60
+    horizon: int | None = None
     iterations: int = 3
     alphas: tuple[float, ...] = (1.0, 0.5, 0.2, 0.05)
     reuse: bool = True
@@ -90,7 +90,8 @@ class ILQRConfig:
     weights: CostWeights | None = None
 
     def __post_init__(self) -> None:
-        _positive_int("horizon", self.horizon, 1)
+        if self.horizon is not None:
+            _positive_int("horizon", self.horizon, 1)
         _positive_int("iterations", self.iterations, 0)
         alphas = tuple(self.alphas)
         if not alphas or not all(
@@ -105,7 +106,9 @@ class ILQRConfig:
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise TypeError(f"{name} must be a real number, got {value!r}")
             if not np.isfinite(value) or value < 0.0 or (value == 0.0 and name != "regularization"):
-                raise ValueError(f"{name} must be finite and > 0 (regularization >= 0), got {value}")
+                raise ValueError(
+                    f"{name} must be finite and > 0 (regularization >= 0), got {value}"
+                )
         if self.weights is not None and not isinstance(self.weights, CostWeights):
             raise TypeError(f"weights must be CostWeights, got {type(self.weights).__name__}")
 
@@ -113,11 +116,6 @@ class ILQRConfig:
     def candidates(self) -> int:
         """Rollouts per environment and batch: the step sizes (at least the 2 warm starts)."""
         return max(2, len(self.alphas))
-
-    def steps_per_decision(self, state_size: int) -> int:
-        """Simulated steps per environment and control step for a state of ``state_size``."""
-        rollouts = (self.iterations + 1) * self.candidates * self.horizon
-        return rollouts + self.iterations * (self.horizon + 1) * 2 * (state_size + 1)
 
 
 @dataclass
@@ -191,13 +189,16 @@ class ILQRPlanner:
         self.core_class = core_class
         self.n = settings.n_trailers
         self.cost = SceneCost(core_class, settings, self.config.weights)
-        horizon = self.config.horizon
+        chosen = self.config.horizon
+        self.horizon = horizon = scene_horizon(core_class) if chosen is None else int(chosen)
         count = self.batch_size
         self.model = core_class(settings, count * self.config.candidates)
         self.width = self.model.z.shape[1]
         self.d = self.width + 2
         self.perturbed = 2 * (self.d + 1)
-        self.jac = core_class(_derivative_settings(settings), count * (horizon + 1) * self.perturbed)
+        self.jac = core_class(
+            _derivative_settings(settings), count * (horizon + 1) * self.perturbed
+        )
         self.lqr = LQRController(settings)
         step = self.config.state_step
         self._delta = np.zeros((self.perturbed, self.d))
@@ -207,6 +208,13 @@ class ILQRPlanner:
         self.previous: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         self.valid = np.zeros(count, dtype=bool)
         self.simulated_steps = 0
+
+    @property
+    def steps_per_decision(self) -> int:
+        """Simulated steps per environment and control step (rollouts and perturbed copies)."""
+        config = self.config
+        rollouts = (config.iterations + 1) * config.candidates * self.horizon
+        return rollouts + config.iterations * (self.horizon + 1) * self.perturbed
 
     def reset(self, rows: np.ndarray | None = None) -> None:
         """Forget the warm start of ``rows`` (default all), e.g. after their episodes ended."""
@@ -251,7 +259,7 @@ class ILQRPlanner:
         core = self.model
         cost_model = self.cost
         w = cost_model.weights
-        horizon = self.config.horizon
+        horizon = self.horizon
         rows = core.batch_size
         repeat = rows // z0.shape[0]
         core.z[:] = np.repeat(z0, repeat, axis=0)
@@ -316,7 +324,7 @@ class ILQRPlanner:
         from one step of the perturbed copies."""
         jac = self.jac
         count = nominal.x.shape[0]
-        horizon = self.config.horizon
+        horizon = self.horizon
         d, width, p = self.d, self.width, self.perturbed
         delta = self._delta
         z = nominal.z[:, :, None, :] + delta[None, None, :, :width]
@@ -365,7 +373,9 @@ class ILQRPlanner:
         if z.ndim != 2 or z.shape[0] != count or act.shape != (count, 6):
             raise ValueError(f"expected {count} states, got z {z.shape} and act {act.shape}")
         if z.shape[1] < width and (self.model.with_pose or z.shape[1] < self.n + 2):
-            raise ValueError(f"z needs {width} columns for {self.core_class.__name__}, got {z.shape}")
+            raise ValueError(
+                f"z needs {width} columns for {self.core_class.__name__}, got {z.shape}"
+            )
         if not (np.all(np.isfinite(z[:, :width])) and np.all(np.isfinite(act))):
             raise ValueError("z and act must be finite")
         state = np.zeros((count, width))
@@ -401,7 +411,7 @@ class ILQRPlanner:
         """
         config = self.config
         state, act, task_values = self._check(z, act, task)
-        count, horizon, d = self.batch_size, config.horizon, self.d
+        count, horizon, d = self.batch_size, self.horizon, self.d
         candidates = config.candidates
         self._set_task(self.model, task_values, candidates)
         self._set_task(self.jac, task_values, (horizon + 1) * self.perturbed)
@@ -422,9 +432,12 @@ class ILQRPlanner:
             reference.reshape(*flat, horizon + 1, d), lqr_rows.reshape(flat),
         )  # fmt: skip
         offsets = np.arange(count) * candidates
+        self.warm_costs = trial.cost.reshape(shape)[:, :2].copy()
         nominal = trial.take(offsets + trial.cost.reshape(shape).argmin(axis=1))
         regularization = np.full(count, config.regularization)
-        alphas = np.array(list(config.alphas) + [config.alphas[-1]] * (candidates - len(config.alphas)))
+        alphas = np.array(
+            list(config.alphas) + [config.alphas[-1]] * (candidates - len(config.alphas))
+        )
         step = np.zeros((count, horizon))
         gain = np.zeros((count, horizon, d))
         decrease = np.zeros(count)

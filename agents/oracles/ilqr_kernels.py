@@ -38,7 +38,8 @@ def backward_pass(
     to ``Q_vv``. Writes the feedforward steps ``k_out`` (E, H), clipped so that
     ``control + k`` stays in [-1, 1], the gains ``gain_out`` (E, H, d) (zero where the
     step is clipped: the box's active set) and the model's predicted decrease
-    ``decrease_out`` (E,) for a full step.
+    ``decrease_out`` (E,) for a full step. A row whose ``Q_vv`` or ``Q_v`` is not finite
+    and positive (a derivative blew up) gets no step at all (zeros).
     """
     count, horizon, d = b_vector.shape
     m = residual.shape[2]
@@ -114,6 +115,12 @@ def backward_pass(
                             state_term += jacobian[e, t, j, i] * jacobian[e, t, j, k]
                         total += 2.0 * state_term
                     qxx[i, k] = total
+            if not (np.isfinite(qv) and np.isfinite(qvv) and qvv > 0.0):
+                # A derivative blew up (a kink of the guard, say): no step for this row.
+                k_out[e, :] = 0.0
+                gain_out[e, :, :] = 0.0
+                decrease = 0.0
+                break
             step = -qv / qvv
             low = -1.0 - control[e, t]
             high = 1.0 - control[e, t]

@@ -43,6 +43,8 @@ class DockCore(ShapedCore):
     scene = "Dock"
     max_episode_steps = 400
     task_keys = ("target",)
+    #: The deterministic planner (agents.oracles.ilqr), run only when named.
+    oracle_baselines = ("ilqr",)
     uses_pose = True
     n_task_features = 4
     # 400 steps * (0.01 + 0.05) = 24 < 30: neither folding nor missing on purpose pays.
