@@ -5,7 +5,7 @@ Every cost is a sum of squared residuals read from a batched core
 scene's own task arrays (Dock's ``dock_xy`` and ``dock_heading_error``, the singular
 margin, ...) define it and a copy of the core evaluates it on any state: the stage cost
 of a state is ``sum(stage_residuals(core) ** 2)``, the terminal cost adds
-``sum(terminal_residuals(core, index) ** 2)``. Squared residuals give the planner a
+``sum(terminal_residuals(z, act, index) ** 2)``. Squared residuals give the planner a
 Gauss-Newton Hessian (``2 J^T J``, never indefinite) from first derivatives alone.
 
 Residuals (``sqrt(weight) * feature``):
@@ -187,11 +187,11 @@ class SceneCost:
             columns.append(root["heading"] * dock.dock_heading_error[:, None])  # type: ignore[attr-defined]
         return np.concatenate(columns, axis=1)
 
-    def terminal_residuals(self, core: ConvoyCore, index: np.ndarray) -> np.ndarray:
-        """Residuals (B, n+3) ``L^T x`` of the terminal cost, with the matrices ``index``."""
+    def terminal_residuals(self, z: np.ndarray, act: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Residuals (B, n+3) ``L^T x`` of the terminal cost of core rows ``z``, ``act``
+        (as :attr:`ConvoyCore.z`, :attr:`ConvoyCore.act`), with the matrices ``index``."""
         n = self.n
-        z = core.z
-        state = np.column_stack([z[:, 1], z[:, 2 : 2 + n], core.act[:, 1], core.act[:, 3]])
+        state = np.column_stack([z[:, 1], z[:, 2 : 2 + n], act[:, 1], act[:, 3]])
         return np.einsum("bji,bj->bi", self.factors[index], state)
 
 

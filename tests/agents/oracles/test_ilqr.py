@@ -70,6 +70,23 @@ def test_without_iterations_it_plays_the_lqr() -> None:
         np.testing.assert_allclose(core.z, twin.z, atol=1e-6)
 
 
+def test_forward_and_central_differences_agree() -> None:
+    core = reset_core(ReverseV1Core, 2, [50005, 50006])
+    central = ILQRPlanner(ReverseV1Core, core.settings, 2, ILQRConfig(central=True))
+    forward = ILQRPlanner(ReverseV1Core, core.settings, 2, ILQRConfig(horizon=central.horizon))
+    central.plan(core.z, core.act)
+    nominal = central.last
+    exact = central._derivatives(nominal)
+    approximate = forward._derivatives(nominal)
+    for name, one, other in zip(("A", "B", "J", "JT"), exact, approximate, strict=True):
+        scale = np.max(np.abs(one))
+        assert scale > 0.0, name
+        np.testing.assert_allclose(other, one, atol=1e-3 * scale, err_msg=name)
+    # A step's Jacobian is near the identity (dt = 0.05 s), B moves the mass's speed.
+    np.testing.assert_allclose(np.diagonal(exact[0], axis1=2, axis2=3), 1.0, atol=0.2)
+    assert np.all(np.abs(exact[1][:, :, -1]) > 0.0)
+
+
 def test_actions_stay_in_the_box_near_the_rail_ends() -> None:
     settings = settings_from_kwargs(n_trailers=2)
     s_max = settings.params.s_max
@@ -171,6 +188,8 @@ def test_bad_input_raises() -> None:
         ILQRConfig(alphas=())
     with pytest.raises(TypeError, match="reuse"):
         ILQRConfig(reuse="yes")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="central"):
+        ILQRConfig(central=1)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="state_step"):
         ILQRConfig(state_step=0.0)
     with pytest.raises(ValueError, match="barrier"):
