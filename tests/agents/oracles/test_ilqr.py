@@ -121,11 +121,11 @@ def test_the_planner_docks_a_start_the_lqr_misses() -> None:
     assert not info["is_success"]
     core = reset_core(DockCore, 1, [DOCKED_SEED])
     planner = ILQRPlanner(DockCore, core.settings, 1)
-    for step in range(400):
+    steps = 0
+    while steps < 400 and not core.terminated[0]:
         core.step(planner.plan(core.z, core.act, task_of(core)))
-        if core.terminated[0]:
-            break
-    assert core.success[0], f"ended after {step + 1} steps at {core.dock_xy[0]}"
+        steps += 1
+    assert core.success[0], f"ended after {steps} steps at {core.dock_xy[0]}"
     assert core.dock_distance()[0] < 0.3
 
 
