@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -25,7 +27,10 @@ DOCKED_SEED = 50003
 RESCUED_SEED = 50012
 
 
-def reset_core(core_class: type[ConvoyCore], n: int, seeds: list[int]) -> ConvoyCore:
+CoreT = TypeVar("CoreT", bound=ConvoyCore)
+
+
+def reset_core(core_class: type[CoreT], n: int, seeds: list[int]) -> CoreT:
     core = core_class(settings_from_kwargs(n_trailers=n), len(seeds))
     core.reset_rows(np.arange(len(seeds)), seed_generators(seeds, len(seeds), None))
     return core
