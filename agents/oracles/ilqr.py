@@ -173,6 +173,10 @@ class ILQRPlanner:
         batch_size: Environments planned for at once (E).
         config: Planner settings.
 
+    After :meth:`plan`: ``last`` is the final nominal :class:`Trajectory` (E rows),
+    ``warm_costs`` (E, 2) the costs of the LQR's and the shifted warm start, and
+    ``simulated_steps`` counts every simulated row-step so far.
+
     Raises:
         ValueError: In planar mode, for a batch size below 1.
         TypeError: For a batch size or config of the wrong type.
