@@ -73,6 +73,8 @@ class DockCore(ShapedCore):
     max_episode_steps = 400
     task_keys = ("target",)
     start_kernel = staticmethod(dock_starts)
+    #: The hitch positions of the reward and the task features use one rod length.
+    fixed_parameters = ("l",)
     uses_pose = True
     n_task_features = 4
     # 400 steps * (0.01 + 0.05) = 24 < 30: neither folding nor missing on purpose pays.
