@@ -240,8 +240,8 @@ def _hitch_totals(pv: np.ndarray, lane: int, acc: tuple) -> tuple:
 
 @njit(cache=True, nogil=True)
 def _accelerations(
-    pv: np.ndarray, lane: int, r_trailers: float, dr_dalpha1: float, sum_a_dr: float, u: float, w: float,
-    xi: float, eta: float, xi_dot: float, eta_dot: float, xi_ddot: float, eta_ddot: float,
+    pv: np.ndarray, lane: int, r_trailers: float, dr_dalpha1: float, sum_a_dr: float, u: float,
+    w: float, xi: float, eta: float, xi_dot: float, eta_dot: float, xi_ddot: float, eta_ddot: float,
 ) -> tuple:  # fmt: skip
     """(u_dot, omega_dot) for the planar moving mass (physics.md sections 3, 5 and 9)."""
     M = lane_value(pv, P_M, lane)

@@ -81,14 +81,6 @@ import numpy as np
 from dynamics.jit import pack_params
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.generators import GeneratorBank, typed_generators
-from trailer_env.randomize import (
-    MAX_FACTOR,
-    NAMES,
-    PARAMETERS,
-    SPEED,
-    apply_factors,
-    draw_factors,
-)
 from trailer_env.kernels import (
     DIVERGENCE_BOUND,
     OBS_BOUND,
@@ -102,6 +94,14 @@ from trailer_env.kernels import (
     prepare_step,
     step_parallel,
     step_serial,
+)
+from trailer_env.randomize import (
+    MAX_FACTOR,
+    NAMES,
+    PARAMETERS,
+    SPEED,
+    apply_factors,
+    draw_factors,
 )
 from trailer_env.settings import EnvSettings
 from trailer_env.shaping import shaped_rewards

@@ -99,7 +99,9 @@ class Randomization:
                 f"{{'M': (0.8, 1.2)}}, got {type(value).__name__} {value!r}"
             )
         if not value:
-            raise ValueError("randomize: the dict of ranges is empty; use None for no randomisation")
+            raise ValueError(
+                "randomize: the dict of ranges is empty; use None for no randomisation"
+            )
         for name in value:
             if not isinstance(name, str):
                 raise TypeError(f"randomize: names must be str, got {type(name).__name__} {name!r}")
