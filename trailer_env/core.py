@@ -68,6 +68,13 @@ n+2 .. 2n+1           cos(alpha_k), k = 1..n
 
 With the planar actuator, indices 2n+2 .. 2n+5 hold (xi - b) / s_max,
 eta / s_max, xi_dot / v_max, eta_dot / v_max, and task features start at 2n+6.
+With ``observe_params=True``, 7 values follow the task features
+(:attr:`ConvoyCore.param_offset` + k): ``log(value / nominal)`` of M, J0, a, m, J, l, mu,
+the episode's parameters (:mod:`trailer_env.randomize`; 0 where not randomised).
+
+Randomised physics (``randomize=``): each row's parameters are ``param_values`` (B, 7);
+the kernels then take them per row, and the auto substep rule's settings are computed
+per row from them at each reset (exact per row, not conservative).
 """
 
 from __future__ import annotations
