@@ -26,7 +26,7 @@ def make_vec(env_id: str, num_envs: int, **kwargs: object) -> gym.vector.VectorE
 def test_draws_are_numpys_after_the_start_and_within_the_ranges() -> None:
     env = gym.make(REVERSE, n_trailers=2, randomize=EVERYTHING)
     for seed in (0, 7, 123):
-        obs, info = env.reset(seed=seed)
+        _, info = env.reset(seed=seed)
         # Reverse-v1's start (u, then the sphere), then one uniform per name in NAMES order.
         rng = np.random.default_rng(seed)
         u = -rng.uniform(*SPEED_RANGE)
