@@ -10,7 +10,7 @@ each (one rollout and one update), after one warm-up iteration. Timers wrapped a
 the methods split the wall time into:
 
 * **env: physics step**: the batched core's compiled step (``ConvoyCore.step``);
-* **env: resets**: drawing the starts of the episodes that ended (``reset_rows``);
+* **env: resets**: drawing the starts of the episodes that ended (``reset_rows_from``);
 * **adapter**: the rest of ``ConvoySB3VecEnv.step_wait`` (infos, episode statistics,
   copies);
 * **policy forward**: the policy's forward passes while collecting the rollout;
@@ -92,7 +92,7 @@ def profile(iterations: int) -> dict[str, float]:
     policy = model.policy
     with (
         timed(core_class, "step", totals, "env: physics step"),
-        timed(core_class, "reset_rows", totals, "env: resets"),
+        timed(core_class, "reset_rows_from", totals, "env: resets"),
         timed(ConvoySB3VecEnv, "step_wait", totals, "adapter (with env)"),
         timed(policy, "forward", totals, "policy forward"),
         timed(PPO, "train", totals, "update"),

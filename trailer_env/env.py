@@ -16,8 +16,9 @@ from gymnasium import spaces
 
 from dynamics.params import real_number
 from trailer_env.core import ConvoyCore
+from trailer_env.mixed import build_core
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
-from trailer_env.settings import EnvSettings, settings_from_kwargs
+from trailer_env.settings import EnvSettings
 
 RENDER_MODES = ("human", "rgb_array")
 #: Past cart positions kept for the rendered path.
@@ -198,7 +199,8 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         **kwargs: Settings: ``n_trailers``, ``params``, ``dt``, ``fidelity``,
             ``action_mode``, ``rail_accel_max``, ``servo_bandwidth``, ``singular_band``,
             ``fold_angle`` and any :class:`dynamics.ConvoyParams` field
-            (see :func:`trailer_env.settings.settings_from_kwargs`).
+            (see :func:`trailer_env.settings.settings_from_kwargs`). ``n_trailers`` may
+            be a range ``(low, high)``: each episode draws its n (:mod:`trailer_env.mixed`).
 
     Raises:
         TypeError: On an unknown keyword or a value of the wrong type (bools, strings
@@ -215,11 +217,11 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         check_render_mode(render_mode)
-        self.settings: EnvSettings = settings_from_kwargs(**kwargs)
+        self.settings: EnvSettings
+        self.settings, self.core = build_core(self.core_class, kwargs, 1, render_mode is not None)
         self.render_mode = render_mode
         # Frames at the control rate: RecordVideo and the human window play in real time.
         self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.settings.dt))}
-        self.core = self.core_class(self.settings, 1, track_pose=render_mode is not None)
         low, high = self.core.observation_bounds()
         self.observation_space = spaces.Box(low, high, dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (self.settings.action_dim,), dtype=np.float32)

@@ -39,8 +39,8 @@ from dynamics.params import bounded_integer
 from trailer_env.batch_infos import BatchInfos
 from trailer_env.episodes import count_episodes
 from trailer_env.generators import GeneratorBank
+from trailer_env.mixed import build_core
 from trailer_env.registry import core_class_of
-from trailer_env.settings import settings_from_kwargs
 from trailer_env.vector import MAX_NUM_ENVS, as_action_batch, as_bank, seed_generators
 
 
@@ -65,8 +65,7 @@ class ConvoySB3VecEnv(VecEnv):
         num_envs = bounded_integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
         core_class = core_class_of(env_id)
         self.env_id = env_id
-        self.settings = settings_from_kwargs(**kwargs)
-        self.core = core_class(self.settings, num_envs)
+        self.settings, self.core = build_core(core_class, kwargs, num_envs, False)
         registered = gym.spec(env_id).max_episode_steps
         steps = (
             max_episode_steps

@@ -63,8 +63,8 @@ from trailer_env.env import (
 )
 from trailer_env.episodes import count_step
 from trailer_env.generators import GeneratorBank
+from trailer_env.mixed import build_core
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
-from trailer_env.settings import settings_from_kwargs
 
 VECTOR_RENDER_MODES = ("rgb_array",)
 
@@ -251,8 +251,7 @@ class ConvoyVectorEnv(VectorEnv):
         max_episode_steps = bounded_integer(
             "max_episode_steps", max_episode_steps, 1, MAX_EPISODE_STEPS
         )
-        self.settings = settings_from_kwargs(**kwargs)
-        self.core = core_class(self.settings, num_envs, track_pose=render_mode is not None)
+        self.settings, self.core = build_core(core_class, kwargs, num_envs, render_mode is not None)
         self.num_envs = self.core.batch_size
         self.max_episode_steps = int(max_episode_steps)
         self.render_mode = render_mode

@@ -12,6 +12,8 @@ def oracle_note(label: str, episode_steps: int = 400) -> str:
     """What the table says in the training column of a baseline ("-" unless an oracle)."""
     if label == "mpc-replay":
         return "oracle: the certified planner's committed records, replayed open-loop"
+    if label == "ilqr":
+        return "oracle: exact model and state, deterministic iLQR (agents.oracles.ilqr)"
     if label != "mpc":
         return "-"
     from agents.oracles.planner import PlannerConfig

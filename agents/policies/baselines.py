@@ -19,6 +19,9 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
 * ``mpc``: :class:`agents.oracles.planner.MPCPolicy`, a sampling MPC on the nonlinear model
   that simulates its candidates with the scene's batched core (an oracle: it knows
   the model and reads the state; rail modes only).
+* ``ilqr``: :class:`agents.oracles.ilqr_policy.ILQRPolicy`, a deterministic
+  control-limited iLQR on the same core, goal-reaching on Dock and Coast (an oracle;
+  rail modes only).
 * ``mpc-replay``: :class:`agents.policies.replay.RecordedPolicy`, the committed
   certificate's records of that planner replayed open-loop (no planning: the seed
   given is the first episode's; the default settings only).
@@ -51,6 +54,7 @@ BASELINES: dict[str, str] = {
     "lqr-adaptive": "the LQR re-designed for each episode's drawn parameters (privileged)",
     "heading-p": "proportional heading baseline of Heading-v0 (trailer_env.controllers)",
     "mpc": "sampling MPC on the nonlinear model from the LQR (an oracle; agents.oracles.planner)",
+    "ilqr": "deterministic iLQR on the nonlinear model, box-bounded (oracle; agents.oracles.ilqr)",
     "mpc-replay": "the certified planner's committed action records, replayed (agents.certify)",
 }
 
@@ -207,6 +211,11 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
         from trailer_env.registry import core_class_of
 
         return MPCPolicy(core_class_of(env_id), settings)
+    if name == "ilqr":
+        from agents.oracles.ilqr_policy import ILQRPolicy
+        from trailer_env.registry import core_class_of
+
+        return ILQRPolicy(core_class_of(env_id), settings)
     if name == "mpc-replay":
         return recorded_policy(settings, env_id, seed)
     raise ValueError(f"unknown baseline {name!r}; choose from {sorted(BASELINES)}")

@@ -75,6 +75,8 @@ class DockCore(ShapedCore):
     start_kernel = staticmethod(dock_starts)
     #: The hitch positions of the reward and the task features use one rod length.
     fixed_parameters = ("l",)
+    #: The deterministic planner (agents.oracles.ilqr), run only when named.
+    oracle_baselines = ("ilqr",)
     uses_pose = True
     n_task_features = 4
     # 400 steps * (0.01 + 0.05) = 24 < 30: neither folding nor missing on purpose pays.

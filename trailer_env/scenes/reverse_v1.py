@@ -148,7 +148,7 @@ class ReverseV1Env(ReverseEnv):
 
     As Reverse-v0 (`ReverseEnv`); `info["is_success"]` is "not folded and still
     reversing faster than 0.3 m/s". Baselines: `zero`, `random`, `lqr`, and the `mpc`
-    planner (an oracle, named explicitly).
+    and `ilqr` planners (oracles, named explicitly).
     """
 
     core_class = ReverseV1Core

@@ -40,6 +40,7 @@ def test_baselines_are_batched_and_bounded() -> None:
         "heading-p",
         "mpc",
         "mpc-replay",
+        "ilqr",
     }
 
 

@@ -1,0 +1,116 @@
+"""Convoys of different lengths in one environment (``n_trailers=(low, high)``)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from trailer_env.sb3 import ConvoySB3VecEnv
+
+REVERSE = "trailer_env/Reverse-v1"
+
+
+def padded_columns(n: int, top: int, tail: int) -> np.ndarray:
+    """Where an n-trailer observation's entries sit in the padded layout."""
+    return np.concatenate(
+        [[0, 1], 2 + np.arange(n), 2 + top + np.arange(n), 2 + 2 * top + np.arange(tail)]
+    )
+
+
+@pytest.mark.parametrize("env_id", [REVERSE, "trailer_env/Dock-v0", "trailer_env/Coast-v0"])
+def test_an_episode_of_n_is_the_scene_with_n_trailers_after_one_draw(env_id: str) -> None:
+    mixed = gym.make(env_id, n_trailers=(1, 3))
+    seen = set()
+    for seed in range(12):
+        obs, info = mixed.reset(seed=seed)
+        n = info["n_trailers"]
+        rng = np.random.default_rng(seed)
+        assert n == 1 + int(np.floor(rng.random() * 3))  # the documented draw
+        seen.add(n)
+        single = gym.make(env_id, n_trailers=n)
+        single.unwrapped.np_random = rng  # the same stream, after the count's draw
+        expected, _ = single.reset()
+        tail = expected.size - (2 + 2 * n)
+        columns = padded_columns(n, 3, tail)
+        np.testing.assert_array_equal(obs[columns], expected)
+        padding = np.setdiff1d(np.arange(obs.size - 3), columns)
+        assert np.all(obs[padding] == 0.0)
+        np.testing.assert_array_equal(obs[-3:], [1.0] * n + [0.0] * (3 - n))  # the mask
+        for t in range(30):
+            action = np.array([np.sin(0.3 * t + seed)], dtype=np.float32)
+            obs, reward, terminated, _, info = mixed.step(action)
+            expected, expected_reward, done, _, _ = single.step(action)
+            np.testing.assert_array_equal(obs[columns], expected)
+            assert reward == expected_reward and terminated == done and info["n_trailers"] == n
+            if done:
+                break
+    assert seen == {1, 2, 3}
+    assert mixed.observation_space.shape == (2 + 2 * 3 + tail + 3,)
+
+
+def test_the_vector_env_replays_single_mixed_envs(rng: np.random.Generator) -> None:
+    count, seed = 5, 40
+    envs = gym.make_vec(
+        REVERSE, num_envs=count, vectorization_mode="vector_entry_point", n_trailers=(1, 3)
+    )
+    singles = [gym.make(REVERSE, n_trailers=(1, 3)) for _ in range(count)]
+    obs, infos = envs.reset(seed=seed)
+    for i, env in enumerate(singles):
+        single_obs, info = env.reset(seed=seed + i)
+        np.testing.assert_array_equal(obs[i], single_obs)
+        assert infos["n_trailers"][i] == info["n_trailers"]
+    needs_reset = np.zeros(count, dtype=bool)
+    ended = 0
+    for _ in range(160):
+        actions = rng.uniform(-1, 1, (count, 1)).astype(np.float32)
+        obs, rewards, terminated, truncated, infos = envs.step(actions)
+        for i, env in enumerate(singles):
+            if needs_reset[i]:  # next_step autoreset: this step reset the env
+                single_obs, _ = env.reset()
+                ended += 1
+            else:
+                single_obs, reward, done, _, _ = env.step(actions[i])
+                assert rewards[i] == reward and terminated[i] == done
+            np.testing.assert_array_equal(obs[i], single_obs)
+        needs_reset = terminated | truncated
+    assert ended >= 3 and len(set(infos["n_trailers"].tolist())) >= 2
+
+
+def test_the_sb3_adapter_takes_a_range() -> None:
+    venv = ConvoySB3VecEnv(REVERSE, num_envs=8, max_episode_steps=20, n_trailers=(1, 2))
+    venv.seed(1)
+    obs = venv.reset()
+    assert obs.shape == (8, 2 + 4 + 2 + 2)
+    for _ in range(20):
+        obs, _, dones, infos = venv.step(np.zeros((8, 1), dtype=np.float32))
+    assert dones.all() and {info["n_trailers"] for info in infos} <= {1, 2}
+    assert all(info["episode"]["l"] <= 20 for info in infos)
+
+
+@pytest.mark.parametrize(
+    ("value", "error", "match"),
+    [
+        ((3, 1), ValueError, "low < high"),
+        ((1,), TypeError, "pair"),
+        ((0, 20), ValueError, "more than 8"),
+        ((1.5, 3), ValueError, r"n_trailers\[0\]"),
+        (("1", 3), TypeError, r"n_trailers\[0\]"),
+        ((-1, 2), ValueError, r"n_trailers\[0\]"),
+    ],
+)
+def test_bad_ranges_are_refused(value: tuple, error: type, match: str) -> None:
+    with pytest.raises(error, match=match):
+        gym.make(REVERSE, n_trailers=value)
+
+
+def test_what_needs_one_count_is_refused_with_a_range() -> None:
+    with pytest.raises(ValueError, match="rendering"):
+        gym.make(REVERSE, n_trailers=(1, 2), render_mode="rgb_array")
+    env = gym.make(REVERSE, n_trailers=(1, 2))
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="hand-built state"):
+        env.reset(options={"state": [-1.0, 0.0, 0.0]})
+    with pytest.raises(ValueError, match="non-finite"):
+        env.step(np.array([np.nan], dtype=np.float32))
+    assert env.step(np.zeros(1, dtype=np.float32))[0].shape == (2 + 4 + 2 + 2,)

@@ -1,0 +1,267 @@
+"""Convoys of different lengths in one environment: ``n_trailers=(low, high)``.
+
+Any scene accepts a range of trailer counts instead of one::
+
+    env = gym.make("trailer_env/Reverse-v1", n_trailers=(1, 3))
+    envs = gym.make_vec("trailer_env/Reverse-v1", num_envs=256,
+                        vectorization_mode="vector_entry_point", n_trailers=(1, 3))
+
+Every episode draws its n uniformly from ``low .. high`` (both included) from the
+environment's own generator, before its start: ``n = low + floor(U * count)`` with
+``U = Generator.random()`` and ``count = high - low + 1``; the start is then drawn by
+the scene for that n from the same generator. So the vector env still replays single
+environments seeded ``s + i`` bit for bit, and each episode of n trailers is exactly an
+episode of the scene made with ``n_trailers=n`` whose generator drew one number first.
+
+Observation (float32), padded to ``N = high`` trailers, ``m`` mass features (2 on the
+rail, 4 planar) and the scene's ``T`` task features:
+
+====================  =========================================================
+index                 value
+====================  =========================================================
+0, 1                  u, omega (as for one n)
+2 .. N+1              sin(alpha_k) for k <= n, 0 beyond
+N+2 .. 2N+1           cos(alpha_k) for k <= n, 0 beyond
+2N+2 .. 2N+1+m        the mass's features (as for one n)
+2N+2+m .. 2N+1+m+T    the scene's task features (as for one n)
+2N+2+m+T .. 3N+1+m+T  the trailer mask: 1 for k <= n, 0 beyond
+====================  =========================================================
+
+``info["n_trailers"]`` holds each environment's n. The batch is one scene core per n
+(each as large as the batch; a row is live in the core of its episode's n), so a step
+is one compiled call per n present, not one call: the kernels' loops over the trailers
+are bounded by one n. Measured cost: benchmarks/README.md. Not supported with a range
+(each refused with a ValueError): rendering, hand-built states and task values in
+``reset(options=...)``, and ``set_state``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from dynamics.jit import cached_njit
+from dynamics.params import MAX_TRAILERS, bounded_integer
+from trailer_env.actuator import first_non_finite_row
+from trailer_env.core import INFO_FIELDS, ConvoyCore
+from trailer_env.generators import GeneratorBank
+from trailer_env.settings import EnvSettings, settings_from_kwargs
+
+#: Most trailer counts one environment may mix (one scene core each).
+MAX_COUNTS = 8
+
+
+def is_trailer_range(value: Any) -> bool:
+    """Whether ``n_trailers`` was given as a range (a tuple or list) rather than one count."""
+    return isinstance(value, (tuple, list))
+
+
+def trailer_range(value: Any) -> tuple[int, int]:
+    """``(low, high)`` from a 2-sequence of integers with 0 <= low < high <= 256 and at
+    most :data:`MAX_COUNTS` counts.
+
+    Raises:
+        TypeError: If it is not a tuple or list of two integers.
+        ValueError: If the bounds are out of range or not increasing.
+    """
+    if not is_trailer_range(value) or len(value) != 2:
+        raise TypeError(f"n_trailers must be an integer or a pair (low, high), got {value!r}")
+    low = bounded_integer("n_trailers[0]", value[0], 0, MAX_TRAILERS)
+    high = bounded_integer("n_trailers[1]", value[1], 0, MAX_TRAILERS)
+    if not low < high:
+        raise ValueError(f"n_trailers = ({low}, {high}) needs low < high (one count: an int)")
+    if high - low + 1 > MAX_COUNTS:
+        raise ValueError(
+            f"n_trailers = ({low}, {high}) mixes {high - low + 1} counts, more than "
+            f"{MAX_COUNTS} (one scene core each)"
+        )
+    return low, high
+
+
+@cached_njit()
+def draw_counts(generators: Any, picks: np.ndarray, low: int, count: int, out: np.ndarray) -> None:
+    """``out[j] = low + floor(U * count)``, U drawn from ``generators[picks[j]]``."""
+    for j in range(picks.size):
+        out[j] = low + math.floor(generators[picks[j]].random() * count)
+
+
+class MixedCore:
+    """A scene's batch of B environments whose episodes draw their number of trailers.
+
+    It offers what the single env, the vector env and the SB3 adapter use of a
+    :class:`~trailer_env.core.ConvoyCore` (``step``, ``reset_rows``, ``reset_rows_from``,
+    ``obs``, ``reward``, ``terminated``, the infos); each per-n core does the work.
+
+    Args:
+        core_class: The scene's core.
+        settings: Settings of each count (``{n: settings}``, consecutive counts).
+        batch_size: B >= 1.
+    """
+
+    task_keys: tuple[str, ...] = ()
+
+    def __init__(
+        self, core_class: type[ConvoyCore], settings: dict[int, EnvSettings], batch_size: int
+    ) -> None:
+        self.counts = sorted(settings)
+        self.low, self.n = self.counts[0], self.counts[-1]
+        self.settings = settings[self.n]
+        self.cores = {n: core_class(settings[n], batch_size) for n in self.counts}
+        self.batch_size = batch_size
+        self.with_pose = False
+        top = self.cores[self.n]
+        self.n_common = top.n_common
+        self.n_task_features = top.n_task_features
+        self.obs_dim = top.obs_dim + self.n
+        self.obs = np.zeros((batch_size, self.obs_dim), dtype=np.float32)
+        self.trailers = np.full(batch_size, self.low, dtype=np.int64)
+        self.reward = np.zeros(batch_size)
+        self.terminated = np.zeros(batch_size, dtype=bool)
+        self.success = np.zeros(batch_size, dtype=bool)
+        flags = ("success", "jackknifed")
+        self._fields = {
+            name: np.zeros(batch_size, dtype=bool if name in flags else np.float64)
+            for _, name in INFO_FIELDS
+            if name
+        }
+        self._fields["success"] = self.success
+        self.energy0 = np.zeros(batch_size)
+        self._targets = {n: self._target_columns(n) for n in self.counts}
+        self._all_rows = np.arange(batch_size, dtype=np.int64)
+
+    def _target_columns(self, n: int) -> np.ndarray:
+        """Where each observation entry of an n-trailer core goes in the padded layout."""
+        top, core = self.n, self.cores[n]
+        tail = core.obs_dim - (2 + 2 * n)  # mass and task features
+        return np.concatenate(
+            [
+                [0, 1],
+                2 + np.arange(n),
+                2 + top + np.arange(n),
+                2 + 2 * top + np.arange(tail),
+                2 + 2 * top + tail + np.arange(n),  # the mask's ones
+            ]
+        ).astype(np.int64)
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Bounds of one padded observation (the largest count's, and [0, 1] for the mask)."""
+        low, high = self.cores[self.n].observation_bounds()
+        ones = np.ones(self.n, dtype=np.float32)
+        return np.concatenate([low, 0 * ones]), np.concatenate([high, ones])
+
+    # ------------------------------------------------------------- resets
+    def reset_rows(self, rows: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
+        """New episodes in ``rows``, row ``rows[j]`` drawing its n, then its start, from
+        ``rngs[j]``."""
+        bank = GeneratorBank(list(rngs))
+        self._start(rows, bank, np.arange(len(rows), dtype=np.int64))
+
+    def reset_rows_from(self, rows: np.ndarray, bank: GeneratorBank) -> None:
+        """New episodes in ``rows``, row ``i`` drawing from ``bank[i]``."""
+        self._start(rows, bank, rows.astype(np.int64, copy=False))
+
+    def _start(self, rows: np.ndarray, bank: GeneratorBank, picks: np.ndarray) -> None:
+        counts = np.empty(rows.size, dtype=np.int64)
+        draw_counts(bank.typed, picks, self.low, len(self.counts), counts)
+        self.trailers[rows] = counts
+        self.obs[rows] = 0.0
+        for n, core in self.cores.items():
+            chosen = counts == n
+            if chosen.any():
+                group = rows[chosen]
+                core.reset_rows(group, [bank[k] for k in picks[chosen].tolist()])
+                self._gather(n, group)
+                self.energy0[group] = core.energy0[group]
+
+    # -------------------------------------------------------------- steps
+    def step(self, action: np.ndarray, rows: np.ndarray | None = None) -> None:
+        """Step ``rows`` (default all), each in the core of its n (see ConvoyCore.step)."""
+        stepped = self._all_rows if rows is None else rows
+        # Refused before any count's core moves (each core checks only its own rows).
+        bad = first_non_finite_row(action, stepped)
+        if bad >= 0:
+            raise ValueError(
+                f"action contains non-finite values (NaN or inf), environment {bad}: {action[bad]}"
+            )
+        trailers = self.trailers[stepped]
+        for n, core in self.cores.items():
+            group = stepped[trailers == n]
+            if group.size:
+                core.step(action, group)
+                self._gather(n, group)
+
+    def _gather(self, n: int, rows: np.ndarray) -> None:
+        core = self.cores[n]
+        self.obs[np.ix_(rows, self._targets[n][: core.obs_dim])] = core.obs[rows]
+        self.obs[np.ix_(rows, self._targets[n][core.obs_dim :])] = 1.0
+        self.reward[rows] = core.reward[rows]
+        self.terminated[rows] = core.terminated[rows]
+        for name, values in self._fields.items():
+            values[rows] = getattr(core, name)[rows]
+
+    # -------------------------------------------------------------- infos
+    def info_batch(self) -> dict[str, np.ndarray]:
+        """:meth:`ConvoyCore.info_batch` of every row, and ``n_trailers``."""
+        infos: dict[str, np.ndarray] = {}
+        for key, name in INFO_FIELDS:
+            if name is None:
+                infos[key] = self._fields["energy"] - self.energy0
+            else:
+                infos[key] = self._fields[name].copy()
+        infos["n_trailers"] = self.trailers.copy()
+        return infos
+
+    def info_row(self, i: int) -> dict[str, Any]:
+        """The info dict of environment ``i`` (Python scalars)."""
+        return {key: values.item(i) for key, values in self.info_batch().items()}
+
+    def info_rows(self) -> list[dict[str, Any]]:
+        """One info dict per environment."""
+        batch = self.info_batch()
+        columns = [values.tolist() for values in batch.values()]
+        return [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
+
+    # ------------------------------------------------------------- refused
+    def check_row_state(self, *args: Any, **kwargs: Any) -> np.ndarray:
+        raise ValueError("a hand-built state needs one number of trailers, not a range")
+
+    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+        if task:
+            raise ValueError("task values in reset options need one number of trailers")
+        return {}
+
+
+def mixed_settings(kwargs: dict[str, Any]) -> dict[int, EnvSettings]:
+    """Validated settings of every count of ``kwargs["n_trailers"]`` (a range).
+
+    Raises:
+        TypeError, ValueError: As :func:`trailer_range` and
+            :func:`trailer_env.settings.settings_from_kwargs`.
+    """
+    low, high = trailer_range(kwargs["n_trailers"])
+    rest = {key: value for key, value in kwargs.items() if key != "n_trailers"}
+    if "params" in rest:
+        raise ValueError("n_trailers as a range cannot be combined with params (one n each)")
+    return {n: settings_from_kwargs(n_trailers=n, **rest) for n in range(low, high + 1)}
+
+
+def build_core(
+    core_class: type[ConvoyCore], kwargs: dict[str, Any], batch_size: int, track_pose: bool
+) -> tuple[EnvSettings, Any]:
+    """The settings and the batch core the keywords ask for: a :class:`MixedCore` when
+    ``n_trailers`` is a range, the scene's own core otherwise.
+
+    Raises:
+        TypeError, ValueError: On bad keywords, naming them; rendering with a range.
+    """
+    if not is_trailer_range(kwargs.get("n_trailers")):
+        settings = settings_from_kwargs(**kwargs)
+        return settings, core_class(settings, batch_size, track_pose=track_pose)
+    by_count = mixed_settings(kwargs)
+    if track_pose:
+        raise ValueError("rendering needs one number of trailers, not a range")
+    core = MixedCore(core_class, by_count, batch_size)
+    return core.settings, core
