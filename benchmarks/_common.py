@@ -120,12 +120,15 @@ def warm_up(seconds: float = 0.3) -> None:
 
 
 def write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
-    """Write dict rows (same keys) to CSV; floats in repr precision."""
+    """Write dict rows (same keys) to CSV atomically; floats in repr precision."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as handle:
+    # A temporary name in the same folder, then a rename: a reader never sees half a file.
+    partial = path.with_name(f".{path.name}.partial")
+    with partial.open("w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(rows[0].keys()))
         writer.writeheader()
         writer.writerows(rows)
+    partial.replace(path)
     return path
 
 
@@ -203,13 +206,15 @@ def parse_command(
 
 
 def save_figure(fig: Any, path: Path, dpi: int = 90) -> Path:
-    """Lay out, write (creating the folder) and close a matplotlib figure."""
+    """Lay out, write atomically (creating the folder) and close a matplotlib figure."""
     import matplotlib.pyplot as plt
 
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
+    partial = path.with_name(f".{path.name}.partial")
+    fig.savefig(partial, dpi=dpi, format=path.suffix.lstrip(".") or "png")
     plt.close(fig)
+    partial.replace(path)
     return path
 
 

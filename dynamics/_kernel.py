@@ -20,7 +20,8 @@ import math
 import os
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.extending import overload
 
 from dynamics.params import ConvoyParams
 
@@ -37,6 +38,88 @@ def pack_params(params: ConvoyParams) -> np.ndarray:
         [params.M, params.J0, params.a, params.m, params.J, params.l, params.mu],
         dtype=np.float64,
     )
+
+
+# ---------------------------------------------------------------------------
+# Shared or per-row parameters. ``pv`` is either ONE packed vector (P,) for every row,
+# or per-row vectors: (B, P) for a batch, gathered per block into (P, LANES). The
+# helpers below are resolved when numba compiles (on the array's ndim), so the shared
+# case compiles to exactly the code it had before per-row parameters existed (the
+# same loads, the same operations, bit for bit and at the same speed), and the per-row
+# case runs the same arithmetic on each lane's own values.
+
+
+def lane_value(pv: np.ndarray, index: int, lane: int) -> float:
+    """Parameter ``index`` of lane ``lane``: ``pv[index]`` (shared) or ``pv[index, lane]``."""
+    return float(pv[index] if pv.ndim == 1 else pv[index, lane])
+
+
+@overload(lane_value, jit_options={"nogil": True})
+def _lane_value(pv, index, lane):  # type: ignore[no-untyped-def]
+    if pv.ndim == 1:
+        return lambda pv, index, lane: pv[index]
+    return lambda pv, index, lane: pv[index, lane]
+
+
+def lane_at(value: float | np.ndarray, lane: int) -> float:
+    """A hoisted parameter of lane ``lane``: ``value`` (a shared scalar) or ``value[lane]``."""
+    return float(value[lane] if isinstance(value, np.ndarray) else value)
+
+
+@overload(lane_at, jit_options={"nogil": True})
+def _lane_at(value, lane):  # type: ignore[no-untyped-def]
+    if isinstance(value, types.Array):
+        return lambda value, lane: value[lane]
+    return lambda value, lane: value
+
+
+def row_params(pv: np.ndarray, i: int) -> np.ndarray:
+    """The packed vector of row ``i``: ``pv`` itself (shared, (P,)) or ``pv[i]`` ((B, P))."""
+    return pv if pv.ndim == 1 else pv[i]
+
+
+@overload(row_params, jit_options={"nogil": True})
+def _row_params(pv, i):  # type: ignore[no-untyped-def]
+    if pv.ndim == 1:
+        return lambda pv, i: pv
+    return lambda pv, i: pv[i]
+
+
+def params_scratch(pv: np.ndarray) -> np.ndarray:
+    """Room for one block's per-lane parameters (P, LANES); shared ``pv`` needs none (itself)."""
+    return pv if pv.ndim == 1 else np.empty((pv.shape[1], LANES))
+
+
+@overload(params_scratch, jit_options={"nogil": True})
+def _params_scratch(pv):  # type: ignore[no-untyped-def]
+    if pv.ndim == 1:
+        return lambda pv: pv
+    return lambda pv: np.empty((pv.shape[1], LANES))
+
+
+def gather_params(pv: np.ndarray, rows: np.ndarray, nb: int, scratch: np.ndarray) -> np.ndarray:
+    """The block kernels' ``pv`` for the block ``rows[:nb]``: ``pv`` itself when shared,
+    else the rows' vectors gathered into ``scratch`` (P, LANES) (:func:`params_scratch`)."""
+    if pv.ndim == 1:
+        return pv
+    for j in range(pv.shape[1]):
+        for lane in range(nb):
+            scratch[j, lane] = pv[rows[lane], j]
+    return scratch
+
+
+@overload(gather_params, jit_options={"nogil": True})
+def _gather_params(pv, rows, nb, scratch):  # type: ignore[no-untyped-def]
+    if pv.ndim == 1:
+        return lambda pv, rows, nb, scratch: pv
+
+    def gather(pv, rows, nb, scratch):  # type: ignore[no-untyped-def]
+        for j in range(pv.shape[1]):
+            for lane in range(nb):
+                scratch[j, lane] = pv[rows[lane], j]
+        return scratch
+
+    return gather
 
 
 # ---------------------------------------------------------------------------
@@ -143,11 +226,12 @@ def _hitch_start() -> tuple:
 
 
 @njit(cache=True, nogil=True)
-def _hitch_totals(pv: np.ndarray, acc: tuple) -> tuple:
-    """(R(alpha) - M, dR/dalpha_1, sum_k A_k dR/dalpha_k) from the final accumulators."""
-    m = pv[P_SMALL_M]
-    l = pv[P_L]
-    J_l2 = pv[P_J] / (l * l)
+def _hitch_totals(pv: np.ndarray, lane: int, acc: tuple) -> tuple:
+    """(R(alpha) - M, dR/dalpha_1, sum_k A_k dR/dalpha_k) from the final accumulators
+    (the parameters of ``lane``: :func:`lane_value`)."""
+    m = lane_value(pv, P_SMALL_M, lane)
+    l = lane_value(pv, P_L, lane)
+    J_l2 = lane_value(pv, P_J, lane) / (l * l)
     r_trailers = m * acc[H_SUM_PREFIX_C2] + J_l2 * (1.0 - acc[H_PREFIX_C2])
     dr_dalpha1 = -2.0 * acc[H_C1S1] * (m * acc[H_SUM_TAIL_C2] - J_l2 * acc[H_TAIL_C2])
     sum_a_dr = m * acc[H_SUM_G_S] - J_l2 * acc[H_G_T]
@@ -156,14 +240,14 @@ def _hitch_totals(pv: np.ndarray, acc: tuple) -> tuple:
 
 @njit(cache=True, nogil=True)
 def _accelerations(
-    pv: np.ndarray, r_trailers: float, dr_dalpha1: float, sum_a_dr: float, u: float, w: float,
-    xi: float, eta: float, xi_dot: float, eta_dot: float, xi_ddot: float, eta_ddot: float,
+    pv: np.ndarray, lane: int, r_trailers: float, dr_dalpha1: float, sum_a_dr: float, u: float,
+    w: float, xi: float, eta: float, xi_dot: float, eta_dot: float, xi_ddot: float, eta_ddot: float,
 ) -> tuple:  # fmt: skip
     """(u_dot, omega_dot) for the planar moving mass (physics.md sections 3, 5 and 9)."""
-    M = pv[P_M]
-    a = pv[P_A]
-    mu = pv[P_MU]
-    I0 = pv[P_J0] + M * a * a
+    M = lane_value(pv, P_M, lane)
+    a = lane_value(pv, P_A, lane)
+    mu = lane_value(pv, P_MU, lane)
+    I0 = lane_value(pv, P_J0, lane) + M * a * a
     R = M + r_trailers
     # Phi_u with Q / l^2 = -dR/dalpha_1 / 2.
     phi_u = -0.5 * sum_a_dr * u * u - 0.5 * dr_dalpha1 * u * w + M * a * w * w
@@ -183,14 +267,14 @@ def _accelerations(
 
 @njit(cache=True, nogil=True)
 def _energy(
-    pv: np.ndarray, r_trailers: float, u: float, w: float, eta: float, xi_dot: float,
+    pv: np.ndarray, lane: int, r_trailers: float, u: float, w: float, eta: float, xi_dot: float,
     eta_dot: float, xi: float,
 ) -> float:  # fmt: skip
     """Kinetic energy, the mass included (physics.md section 9)."""
-    M = pv[P_M]
-    a = pv[P_A]
-    mu = pv[P_MU]
-    I0 = pv[P_J0] + M * a * a
+    M = lane_value(pv, P_M, lane)
+    a = lane_value(pv, P_A, lane)
+    mu = lane_value(pv, P_MU, lane)
+    I0 = lane_value(pv, P_J0, lane) + M * a * a
     vx = u - w * eta + xi_dot
     vy = w * xi + eta_dot
     return 0.5 * ((M + r_trailers) * u * u + I0 * w * w + mu * (vx * vx + vy * vy))
@@ -211,7 +295,7 @@ def _hitch_terms(pv: np.ndarray, row: np.ndarray, n: int, A: np.ndarray) -> tupl
         s, c = sincos(row[2 + k])
         a_k, acc = _hitch_step(k, s, c, pv[P_L], acc)
         A[k] = a_k
-    return _hitch_totals(pv, acc)
+    return _hitch_totals(pv, 0, acc)
 
 
 @njit(cache=True, nogil=True)
@@ -237,7 +321,7 @@ def field_row(
     if n > 0:
         out[2] += w
     out[0], out[1] = _accelerations(
-        pv, r_trailers, dr_dalpha1, sum_a_dr, u, w, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot
+        pv, 0, r_trailers, dr_dalpha1, sum_a_dr, u, w, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot
     )
     if with_pose:
         s_theta, c_theta = sincos(row[n + 4])
@@ -252,7 +336,7 @@ def energy_row(
 ) -> float:
     """Energy of one row with the mass state ``act``; ``scratch`` (>= n) receives the A_k."""
     r_trailers, _, _ = _hitch_terms(pv, row, n, scratch)
-    return _energy(pv, r_trailers, row[0], row[1], act[1], act[2], act[3], act[0])
+    return _energy(pv, 0, r_trailers, row[0], row[1], act[1], act[2], act[3], act[0])
 
 
 @njit(cache=True)
@@ -326,9 +410,10 @@ def _hitch_start_block(work: np.ndarray, nb: int) -> None:
 def _hitch_accumulate(pv: np.ndarray, k: int, sin_k: np.ndarray, cos_k: np.ndarray,
                       deriv: np.ndarray, work: np.ndarray, nb: int) -> None:  # fmt: skip
     """Hitch k of every lane (:func:`_hitch_step` on ``work``); A_k into ``deriv[2 + k]``."""
-    l = pv[P_L]
+    l = pv[P_L]  # a shared scalar, or the lanes' lengths (:func:`lane_at`)
     for lane in range(nb):
-        a_k, acc = _hitch_step(k, sin_k[lane], cos_k[lane], l, _accumulators(work, lane))
+        a_k, acc = _hitch_step(k, sin_k[lane], cos_k[lane], lane_at(l, lane),
+                               _accumulators(work, lane))  # fmt: skip
         deriv[2 + k, lane] = a_k
         for j in range(N_HITCH):
             work[j, lane] = acc[j]
@@ -371,9 +456,9 @@ def field_block(
         w = y[1, lane]
         xi_ddot = mass0[4, lane]
         eta_ddot = mass0[5, lane]
-        r_trailers, dr_dalpha1, sum_a_dr = _hitch_totals(pv, _accumulators(work, lane))
+        r_trailers, dr_dalpha1, sum_a_dr = _hitch_totals(pv, lane, _accumulators(work, lane))
         deriv[0, lane], deriv[1, lane] = _accelerations(
-            pv, r_trailers, dr_dalpha1, sum_a_dr, u, w,
+            pv, lane, r_trailers, dr_dalpha1, sum_a_dr, u, w,
             mass0[0, lane] + mass0[2, lane] * tau + 0.5 * xi_ddot * tau * tau,
             mass0[1, lane] + mass0[3, lane] * tau + 0.5 * eta_ddot * tau * tau,
             mass0[2, lane] + xi_ddot * tau,
@@ -405,8 +490,8 @@ def energy_block(
     """Energy of the first ``nb`` lanes, the mass as in ``mass0`` (``deriv`` is overwritten)."""
     _hitch_block(pv, y, n, deriv, work, nb)
     for lane in range(nb):
-        r_trailers, _, _ = _hitch_totals(pv, _accumulators(work, lane))
-        out[lane] = _energy(pv, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
+        r_trailers, _, _ = _hitch_totals(pv, lane, _accumulators(work, lane))
+        out[lane] = _energy(pv, lane, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
                             mass0[2, lane], mass0[3, lane], mass0[0, lane])  # fmt: skip
 
 
@@ -420,8 +505,8 @@ def energy_block_from_trig(
     for k in range(n):
         _hitch_accumulate(pv, k, trig[k], trig[n + k], deriv, work, nb)
     for lane in range(nb):
-        r_trailers, _, _ = _hitch_totals(pv, _accumulators(work, lane))
-        out[lane] = _energy(pv, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
+        r_trailers, _, _ = _hitch_totals(pv, lane, _accumulators(work, lane))
+        out[lane] = _energy(pv, lane, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
                             mass0[2, lane], mass0[3, lane], mass0[0, lane])  # fmt: skip
 
 

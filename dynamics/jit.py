@@ -5,7 +5,9 @@ the field, the energy and the singular tests, row by row (``*_row``) and on bloc
 up to :data:`LANES` rows held as structure of arrays (``*_block``: gather a block with
 :func:`gather_block` into a :func:`new_workspace`, advance it with :func:`advance_block`,
 read what you need from the block, write it back with :func:`scatter_block`). Row and parameter
-conventions are those of :mod:`dynamics._kernel` (``pv`` from :func:`pack_params`;
+conventions are those of :mod:`dynamics._kernel` (``pv`` from :func:`pack_params`, one
+vector for every row, or per-row vectors (B, P): take a row's with :func:`row_params`,
+a block's (P, LANES) with :func:`gather_params` into :func:`params_scratch`;
 a row is ``(u, omega, alpha_1..alpha_n[, x, y, theta])``; ``act`` is the mass's
 ``(xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot)``).
 
@@ -38,9 +40,13 @@ from dynamics._kernel import (
     field_block,
     field_row,
     gather_block,
+    gather_params,
     is_folded_row,
+    lane_value,
     new_workspace,
     pack_params,
+    params_scratch,
+    row_params,
     scatter_block,
     sincos,
     sincos_block,
@@ -61,9 +67,13 @@ __all__ = [
     "field_block",
     "field_row",
     "gather_block",
+    "gather_params",
     "is_folded_row",
+    "lane_value",
     "new_workspace",
     "pack_params",
+    "params_scratch",
+    "row_params",
     "scatter_block",
     "sincos",
     "sincos_block",

@@ -39,7 +39,7 @@ class BatchInfos(Sequence[dict[str, Any]]):
 
     def _build(self, i: int) -> dict[str, Any]:
         if self._lists is None:  # Python scalars, as the dicts held before
-            self._lists = [column.tolist() for column in self._columns.values()]
+            self._lists = [_per_row(column) for column in self._columns.values()]
         info = {key: values[i] for key, values in zip(self._columns, self._lists, strict=True)}
         extra = self._extras.get(i)
         if extra:
@@ -78,3 +78,13 @@ class BatchInfos(Sequence[dict[str, Any]]):
 
     def __repr__(self) -> str:
         return f"BatchInfos({list(self)!r})"
+
+
+def _per_row(column: Any) -> list[Any]:
+    """A column's values per row: an array's Python scalars, or, for a dict of arrays
+    (``params``), one dict of Python scalars per row."""
+    if isinstance(column, dict):
+        names = list(column)
+        values = [column[name].tolist() for name in names]
+        return [dict(zip(names, row, strict=True)) for row in zip(*values, strict=True)]
+    return column.tolist()

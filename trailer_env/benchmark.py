@@ -110,6 +110,17 @@ class EpisodeResults:
         return self.band_steps / np.maximum(self.lengths, 1)
 
 
+def privileged_view(policy: Any) -> Callable[[Any, np.ndarray], Any] | None:
+    """The policy's ``observe(core, obs)`` method, or None.
+
+    A privileged policy (``lqr-adaptive``, which re-designs its regulator for each
+    episode's drawn parameters) reads more than the observations: the rollouts hand it
+    ``policy.observe(core, obs)`` of the environment's batch core instead of ``obs``.
+    """
+    observe = getattr(policy, "observe", None)
+    return observe if callable(observe) else None
+
+
 def per_observation(act: Callable[[np.ndarray], Any]) -> Policy:
     """A batched policy from a function of one observation (called once per row)."""
 
@@ -147,6 +158,7 @@ def rollout(
         env_kwargs: Keyword arguments of ``gym.make`` (``n_trailers`` ...).
         observe: What the policy sees instead of the observations: ``observe(core,
             obs)`` of the batch's core (e.g. :func:`trailer_env.wrappers.goal_observation`).
+            Default: the policy's own :func:`privileged_view`, if it has one.
 
     Returns:
         The per-episode results; deterministic for a deterministic policy and seed.
@@ -176,6 +188,8 @@ def rollout(
     min_margin = np.asarray(info["singular_margin"], dtype=np.float64).copy()
     work = np.zeros(episodes)
     margins: list[np.ndarray] = []
+    if observe is None:
+        observe = privileged_view(policy)
     for _ in range(envs.max_episode_steps):
         seen = obs if observe is None else observe(envs.core, obs)
         obs, reward, terminated, truncated, info = envs.step(policy(seen))

@@ -68,6 +68,13 @@ n+2 .. 2n+1           cos(alpha_k), k = 1..n
 
 With the planar actuator, indices 2n+2 .. 2n+5 hold (xi - b) / s_max,
 eta / s_max, xi_dot / v_max, eta_dot / v_max, and task features start at 2n+6.
+With ``observe_params=True``, 7 values follow the task features
+(:attr:`ConvoyCore.param_offset` + k): ``log(value / nominal)`` of M, J0, a, m, J, l, mu,
+the episode's parameters (:mod:`trailer_env.randomize`; 0 where not randomised).
+
+Randomised physics (``randomize=``): each row's parameters are ``param_values`` (B, 7);
+the kernels then take them per row, and the auto substep rule's settings are computed
+per row from them at each reset (exact per row, not conservative).
 """
 
 from __future__ import annotations
@@ -94,6 +101,14 @@ from trailer_env.kernels import (
     prepare_step,
     step_parallel,
     step_serial,
+)
+from trailer_env.randomize import (
+    MAX_FACTOR,
+    NAMES,
+    PARAMETERS,
+    SPEED,
+    apply_factors,
+    draw_factors,
 )
 from trailer_env.settings import EnvSettings
 from trailer_env.shaping import shaped_rewards
@@ -193,6 +208,9 @@ class ConvoyCore:
     #: the same numbers in the same order from its generator, so single and vector
     #: environments replay each other.
     start_kernel: ClassVar[Any] = None
+    #: Parameters the scene's own formulas read as one value for the batch (Dock's hitch
+    #: positions use ``l``): ``randomize`` refuses them.
+    fixed_parameters: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         if (
@@ -224,7 +242,18 @@ class ConvoyCore:
         self.planar = actuator.planar
         n, size = self.n, self.batch_size
         self.n_common = 2 + 2 * n + actuator.mass_features
-        self.obs_dim = self.n_common + self.n_task_features
+        #: Where the parameter features start (``observe_params``): after the task's.
+        self.param_offset = self.n_common + self.n_task_features
+        self.n_param_features = len(PARAMETERS) if settings.observe_params else 0
+        self.obs_dim = self.param_offset + self.n_param_features
+        self.randomization = settings.randomize
+        if self.randomization is not None:
+            fixed = sorted(set(self.randomization.names) & set(self.fixed_parameters))
+            if fixed:
+                raise ValueError(
+                    f"randomize: {type(self).__name__}'s formulas use {fixed} as one value for "
+                    f"the batch; it cannot be randomised in this scene"
+                )
         self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
         self.act = np.zeros((size, 6))
         self.act[:, 0] = self.params.b
@@ -249,6 +278,16 @@ class ConvoyCore:
         self._fused = type(integrator) is RK4Integrator
         preserve_energy = isinstance(integrator, RK4Integrator) and integrator.preserve_energy
         self._packed = pack_params(self.params)
+        #: The episode's factors per row, columns :data:`trailer_env.randomize.NAMES` (1 where
+        #: not randomised), and the parameters they give, columns ``PARAMETERS`` (B, 7).
+        self.factors = np.ones((size, len(NAMES)))
+        self.param_values = np.tile(self._packed, (size, 1))
+        # Per-row parameters reach the kernels only when a physical parameter is drawn: the
+        # shared vector keeps the kernels' shared (faster) specialisation otherwise.
+        per_row = self.randomization is not None and any(
+            name in PARAMETERS for name in self.randomization.names
+        )
+        pv = self.param_values if per_row else self._packed
         self._all_rows = np.arange(size, dtype=np.int64)
         self._z_backup = np.empty_like(self.z)
         self._act_backup = np.empty_like(self.act)
@@ -272,6 +311,17 @@ class ConvoyCore:
         step_observe_settings[-1] = DIVERGENCE_BOUND
         # Kernel arguments fixed for the core's life, packed once (a single env's step is a
         # few microseconds).
+        nominal_auto = fidelity.auto_settings(
+            self.params,
+            settings.dt,
+            self.planar,
+            settings.rail_speed_max + settings.rail_accel_max * settings.dt,
+        )
+        self._nominal_auto = nominal_auto
+        self._row_auto = np.tile(nominal_auto, (size, 1))
+        self._draws: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        if self.randomization is not None:
+            self._draws = (self.randomization.drawn_columns(), *self.randomization.bounds())
         self.step_config = StepConfig(
             mode=actuator.code,
             b=float(self._b),
@@ -280,13 +330,8 @@ class ConvoyCore:
             dt=float(settings.dt),
             frequency=float(settings.servo_frequency),
             auto=bool(fidelity.auto),
-            auto_settings=fidelity.auto_settings(
-                self.params,
-                settings.dt,
-                self.planar,
-                settings.rail_speed_max + settings.rail_accel_max * settings.dt,
-            ),
-            pv=self._packed,
+            auto_settings=self._row_auto if per_row else nominal_auto,
+            pv=pv,
             n=n,
             with_pose=self.with_pose,
             preserve_energy=preserve_energy,
@@ -318,7 +363,7 @@ class ConvoyCore:
         self._config = tuple(self.step_config)
         self._state = tuple(self.step_state)
         self._outputs = tuple(self.step_outputs)
-        self._observe_args = (n, self.planar, observe_settings, self._packed, self._outputs)
+        self._observe_args = (n, self.planar, observe_settings, pv, self._outputs)
         # After an integrator outside the kernel ("dopri5"): the divergence bound applies.
         self._step_observe_args = (n, self.planar, step_observe_settings, *self._observe_args[3:])
         self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
@@ -501,9 +546,13 @@ class ConvoyCore:
         low[2 + 2 * n :] = -1.0
         high[2 + 2 * n :] = 1.0
         task_low, task_high = self._task_feature_bounds()
+        # The same bounds whatever the ranges, so that a policy trained under one
+        # randomisation sees the same observation space under another.
+        param_high = np.full(self.n_param_features, np.log(MAX_FACTOR))
+        param_low = -param_high
         return (
-            np.concatenate([low, task_low]).astype(np.float32),
-            np.concatenate([high, task_high]).astype(np.float32),
+            np.concatenate([low, task_low, param_low]).astype(np.float32),
+            np.concatenate([high, task_high, param_high]).astype(np.float32),
         )
 
     def reset_rows(self, rows: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
@@ -534,6 +583,8 @@ class ConvoyCore:
                 self._reset_row(i, rng)
         else:
             self.start_kernel(rngs, picks, rows, self.z, self._start_tuple())
+        if self._draws is not None:
+            self._draw_physics(rows, rngs, picks)
         self.refresh(rows)
         self.energy0[rows] = self.energy[rows]
         self.reward[rows] = 0.0
@@ -541,6 +592,42 @@ class ConvoyCore:
         self.failed[rows] = False
         self._after_reset(rows)
         self.success[rows] = self._starting_success(rows)
+
+    def _draw_physics(self, rows: np.ndarray, rngs: Any, picks: np.ndarray | None) -> None:
+        """The episode's factors of ``rows`` from their generators, after the start's draws
+        (:mod:`trailer_env.randomize`), and what they set: parameters, auto settings, speed
+        and the parameter features."""
+        assert self._draws is not None
+        if picks is None:  # the Python hook drew from rngs, aligned with rows
+            rngs, picks = typed_generators(rngs), np.arange(len(rows), dtype=np.int64)
+        indices = np.asarray(rows, dtype=np.int64)
+        columns, low, high = self._draws
+        draw_factors(rngs, picks, indices, columns, low, high, self.factors)
+        apply_factors(indices, self.factors, self._packed, self.param_values, self._nominal_auto,
+                      self._row_auto, float(self._b), float(self._s_max), self.planar,
+                      self.z)  # fmt: skip
+        if self.n_param_features:
+            offset = self.param_offset
+            self.obs[indices, offset:] = np.log(self.factors[indices, : len(PARAMETERS)])
+
+    def params_info(self, i: int) -> dict[str, float]:
+        """Row ``i``'s episode parameters (``info["params"]``): the seven randomisable
+        :class:`dynamics.ConvoyParams` fields' values and ``speed_factor``, the factor on
+        the start's speed (1 where not randomised)."""
+        values = self.param_values[i].tolist()
+        return {**dict(zip(PARAMETERS, values, strict=True)), "speed_factor": float(
+            self.factors[i, SPEED])}  # fmt: skip
+
+    def params_batch(self) -> dict[str, np.ndarray]:
+        """:meth:`params_info` of every row as arrays (B,) (copies)."""
+        infos = {name: self.param_values[:, k].copy() for k, name in enumerate(PARAMETERS)}
+        infos["speed_factor"] = self.factors[:, SPEED].copy()
+        return infos
+
+    def params_of(self, i: int) -> Any:
+        """Row ``i``'s episode parameters as a :class:`dynamics.ConvoyParams`."""
+        values = dict(zip(PARAMETERS, self.param_values[i].tolist(), strict=True))
+        return self.params.replace(**values)
 
     def refresh(self, rows: np.ndarray | None = None) -> None:
         """Recompute everything derived from the state of ``rows`` (int array; default all).
@@ -720,24 +807,36 @@ class ConvoyCore:
         return self._info_arrays
 
     def info_row(self, i: int) -> dict[str, Any]:
-        """The ``info`` dict of environment ``i`` (Python scalars), keys :data:`INFO_FIELDS`."""
-        return {
+        """The ``info`` dict of environment ``i`` (Python scalars), keys :data:`INFO_FIELDS`,
+        and ``params`` (:meth:`params_info`, a dict) when the physics are randomised."""
+        info: dict[str, Any] = {
             key: self.energy.item(i) - self.energy0.item(i) if array is None else array.item(i)
             for key, array in self._info_sources()
         }
+        if self.randomization is not None:
+            info["params"] = self.params_info(i)
+        return info
 
-    def info_batch(self) -> dict[str, np.ndarray]:
-        """The same quantities as arrays (B,) (copies)."""
-        infos = {}
+    def info_batch(self) -> dict[str, Any]:
+        """The same quantities as arrays (B,) (copies); ``params`` is a dict of arrays
+        (:meth:`params_batch`)."""
+        infos: dict[str, Any] = {}
         for key, array in self._info_sources():
             infos[key] = np.subtract(self.energy, self.energy0) if array is None else array.copy()
+        if self.randomization is not None:
+            infos["params"] = self.params_batch()
         return infos
 
     def info_rows(self) -> list[dict[str, Any]]:
         """One ``info`` dict per environment (Python scalars), as SB3's ``VecEnv`` wants."""
         batch = self.info_batch()
+        batch.pop("params", None)
         columns = [values.tolist() for values in batch.values()]
-        return [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
+        rows = [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
+        if self.randomization is not None:
+            for i, row in enumerate(rows):
+                row["params"] = self.params_info(i)
+        return rows
 
 
 class ShapedCore(ConvoyCore):

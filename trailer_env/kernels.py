@@ -44,8 +44,11 @@ from dynamics.jit import (
     cached_njit,
     energy_block_from_trig,
     gather_block,
+    gather_params,
     is_folded_row,
     new_workspace,
+    params_scratch,
+    row_params,
     scatter_block,
     sincos_block,
 )
@@ -88,8 +91,11 @@ class StepConfig(NamedTuple):
     frequency: float
     #: Whether the auto substep rule runs (:mod:`trailer_env.substeps`).
     auto: bool
+    #: The auto rule's packed settings (:func:`trailer_env.substeps.auto_settings`): one
+    #: vector for every row, or one per row (B, 12) when the parameters are per row.
     auto_settings: np.ndarray
-    #: The packed parameters (:func:`dynamics.jit.pack_params`).
+    #: The packed parameters (:func:`dynamics.jit.pack_params`): one vector (P,) for every
+    #: row, or one per row (B, P) (randomised physics, :mod:`trailer_env.randomize`).
     pv: np.ndarray
     n: int
     with_pose: bool
@@ -135,12 +141,15 @@ def observe_block(
     n: int,
     planar: bool,
     settings: np.ndarray,
-    pv: np.ndarray,
+    lane_pv: np.ndarray,
     outputs: StepOutputs,
     workspace: tuple,
     fold_checked: bool,
 ) -> int:
     """Observation, margin, cost, jackknife flag and energy of the gathered block ``rows[:nb]``.
+
+    ``lane_pv`` is the block's parameters: the shared vector, or the rows' gathered
+    (:func:`dynamics.jit.gather_params`).
 
     The workspace must hold ``z`` and ``act`` of those rows
     (:func:`dynamics.jit.gather_block`). ``jackknifed`` is OR-ed with the fold test at
@@ -173,7 +182,7 @@ def observe_block(
     for k in range(n):
         sincos_block(y[2 + k], trig[k], trig[n + k], nb)
     energies = lane_scalars[0]
-    energy_block_from_trig(pv, y, n, mass0, trig, deriv, work, energies, nb)
+    energy_block_from_trig(lane_pv, y, n, mass0, trig, deriv, work, energies, nb)
     b = settings[OBS_B]
     s_max = settings[OBS_S_MAX]
     speed_max = settings[OBS_SPEED_MAX]
@@ -222,6 +231,7 @@ def _observe_rows(
     planar: bool, settings: np.ndarray, pv: np.ndarray, outputs: StepOutputs,
 ) -> int:  # fmt: skip
     workspace = new_workspace(z.shape[1])
+    scratch = params_scratch(pv)
     jackknifed = outputs.jackknifed
     bad = 0
     for first in range(start, stop, LANES):
@@ -230,7 +240,9 @@ def _observe_rows(
         for lane in range(nb):
             jackknifed[block[lane]] = False
         gather_block(z, act, block, nb, workspace)
-        bad += observe_block(z, block, nb, n, planar, settings, pv, outputs, workspace, False)
+        lane_pv = gather_params(pv, block, nb, scratch)
+        bad += observe_block(z, block, nb, n, planar, settings, lane_pv, outputs, workspace,
+                             False)  # fmt: skip
     return bad
 
 
@@ -276,7 +288,7 @@ def _prepare_rows(
         i = rows[j]
         apply_action_row(action, i, act, mode, b, s_max, accel_max, dt, frequency)
         if auto:
-            count, within = auto_substeps_row(z, act, auto_settings, i)
+            count, within = auto_substeps_row(z, act, row_params(auto_settings, i), i)
             substeps[i] = count
             exceeded[i] = not within
             over += not within
@@ -326,6 +338,7 @@ def _step_chunk(
         counts[j] = substeps[local[j]]
     order = local[block_order(counts)]
     workspace = new_workspace(z.shape[1])
+    scratch = params_scratch(pv)
     bad = 0
     first = 0
     while first < order.shape[0]:
@@ -335,16 +348,17 @@ def _step_chunk(
             last += 1
         block = order[first:last]
         nb = last - first
+        lane_pv = gather_params(pv, block, nb, scratch)
         if nb <= ROW_PATH_MAX_ROWS:
             for i in block:
-                advance_row(pv, z, act, i, n, with_pose, dt, count, preserve_energy,
+                advance_row(row_params(pv, i), z, act, i, n, with_pose, dt, count, preserve_energy,
                             target_energy, fold_angle, jackknifed, workspace[8])  # fmt: skip
                 advance_mass_row(act, i, dt)
                 clamp_row_to_rail(act, i, b, s_max)
             gather_block(z, act, block, nb, workspace)
         else:
             gather_block(z, act, block, nb, workspace)
-            advance_block(pv, block, nb, n, with_pose, dt, count, preserve_energy,
+            advance_block(lane_pv, block, nb, n, with_pose, dt, count, preserve_energy,
                           target_energy, fold_angle, jackknifed, workspace)  # fmt: skip
             scatter_block(z, act, block, nb, dt, workspace)
             # The block holds the new state; only the mass's new position and velocity
@@ -361,12 +375,12 @@ def _step_chunk(
             y = workspace[0]
             for lane in range(nb):
                 i = block[lane]
-                if state.exceeded[i] and grew_absurdly_row(z, state.z_backup,
-                                                           config.auto_settings, i):  # fmt: skip
+                settings = row_params(config.auto_settings, i)
+                if state.exceeded[i] and grew_absurdly_row(z, state.z_backup, settings, i):
                     z[i, 0] = np.nan
                     y[0, lane] = np.nan
-        bad += observe_block(z, block, nb, n, config.planar, config.obs_settings, pv, outputs,
-                             workspace, fold_angle < np.inf)  # fmt: skip
+        bad += observe_block(z, block, nb, n, config.planar, config.obs_settings, lane_pv,
+                             outputs, workspace, fold_angle < np.inf)  # fmt: skip
         first = last
     return bad, over_tolerance
 
@@ -399,7 +413,8 @@ def step_serial(
         if bad_action >= 0:
             return bad_action, 0, 0
         over, total = _prepare_rows(action, rows, 0, rows.shape[0], named_config, named_state)
-        if named_config.auto and total > named_config.auto_settings[AUTO_WORK_SUBSTEPS]:
+        budget = row_params(named_config.auto_settings, 0)[AUTO_WORK_SUBSTEPS]  # same per row
+        if named_config.auto and total > budget:
             return OVER_BUDGET, 0, over
     bad, _ = _step_chunk(action, rows, 0, rows.shape[0], False, named_config, named_state,
                          StepOutputs(*outputs))  # fmt: skip
@@ -429,7 +444,8 @@ def step_parallel(
             over[chunk], total[chunk] = _prepare_rows(
                 action, rows, chunk * _CHUNK, stop, named_config, named_state
             )
-        if named_config.auto and total.sum() > named_config.auto_settings[AUTO_WORK_SUBSTEPS]:
+        budget = row_params(named_config.auto_settings, 0)[AUTO_WORK_SUBSTEPS]  # same per row
+        if named_config.auto and total.sum() > budget:
             return OVER_BUDGET, 0, over.sum()
     for chunk in prange(n_chunks):
         stop = min(count, (chunk + 1) * _CHUNK)

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 
 from dynamics import ConvoyParams, body_poses
+from trailer_env.randomize import PARAMETERS
 
 RGB = tuple[int, int, int]
 BACKGROUND: RGB = (245, 245, 240)
@@ -129,7 +130,8 @@ def core_frame(core: Any, i: int, path: np.ndarray) -> RenderFrame:
     """The picture of row ``i`` of a :class:`~trailer_env.core.ConvoyCore` tracking its pose."""
     n = core.n
     z = core.z[i]
-    xs, ys, thetas = body_poses(core.params.l, z[n + 2], z[n + 3], z[n + 4], z[2 : 2 + n])
+    length = float(core.param_values[i, PARAMETERS.index("l")])  # the episode's (randomize)
+    xs, ys, thetas = body_poses(length, z[n + 2], z[n + 3], z[n + 4], z[2 : 2 + n])
     return RenderFrame(
         xs=xs,
         ys=ys,

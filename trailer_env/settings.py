@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, cast
 
@@ -20,6 +21,7 @@ from dynamics import ConvoyParams
 from dynamics.params import MAX_TRAILERS, bounded_integer, bounded_real
 from trailer_env.actuator import ACTUATORS, ActionMode, Actuator
 from trailer_env.fidelity import MAX_FIXED_SUBSTEPS, Fidelity
+from trailer_env.randomize import PARAMETERS, Randomization, checked_observe_params
 from trailer_env.substeps import STABILITY_FRACTION, cart_rate_coefficient, stability_limit
 
 #: The action modes, in the order of :data:`trailer_env.actuator.ACTUATORS`.
@@ -73,6 +75,16 @@ class EnvSettings:
         singular_band: The convoy is in the singular band when
             ``singular_margin < singular_band``, in [0, 1).
         fold_angle: Jackknife when any ``|alpha_k| >= fold_angle`` (radians, in (0, pi]).
+        randomize: None (default), or per-episode factors on ``params`` and the starting
+            speed (:class:`trailer_env.randomize.Randomization`: a dict of ranges such as
+            ``{"M": (0.8, 1.2)}`` or a preset name such as ``"mismatch20"``). Every corner
+            of the box of parameter factors must give valid parameters and integrable
+            settings (the checks above); the ratio bounds of ConvoyParams and the rate
+            ``r`` are monotone in each factor but ``a``, so the corners bound them. It
+            needs an RK4 integrator ("rk4", "rk4-energy"): "dopri5" shares one parameter
+            vector.
+        observe_params: Append the episode's parameter factors to the observation
+            (``log(value / nominal)`` of M, J0, a, m, J, l, mu: 0 where not randomised).
     """
 
     params: ConvoyParams = field(default_factory=ConvoyParams)
@@ -83,6 +95,8 @@ class EnvSettings:
     servo_bandwidth: float = 5.0
     singular_band: float = 0.3
     fold_angle: float = math.pi / 2
+    randomize: Randomization | None = None
+    observe_params: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, ConvoyParams):
@@ -110,6 +124,33 @@ class EnvSettings:
         self._check_resolution()
         # Fail now rather than at the first step (e.g. "rk4-energy" with mu > 0).
         self.fidelity.make_integrator(self.params, False)
+        object.__setattr__(self, "observe_params", checked_observe_params(self.observe_params))
+        object.__setattr__(self, "randomize", Randomization.coerce(self.randomize))
+        if self.randomize is not None:
+            self._check_randomize(self.randomize)
+
+    def _check_randomize(self, randomize: Randomization) -> None:
+        """Refuse ranges whose corners give invalid parameters or settings (class docstring)."""
+        if any(name in PARAMETERS for name in randomize.names) and not self.fidelity.uses_substeps:
+            raise ValueError(
+                f"randomize {list(randomize.names)} needs an RK4 fidelity: "
+                f"fidelity.integrator {self.fidelity.integrator!r} integrates one parameter "
+                "vector for the whole batch"
+            )
+        for corner in randomize.corners():
+            if not corner:
+                continue
+            values = {name: getattr(self.params, name) * factor for name, factor in corner.items()}
+            shown = ", ".join(f"{name} x {factor:g}" for name, factor in corner.items())
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", UserWarning)  # J >= m l^2: allowed
+                    params = self.params.replace(**values)
+                    dataclasses.replace(self, params=params, randomize=None)
+            except ValueError as error:
+                raise ValueError(
+                    f"randomize: at the corner ({shown}) of the ranges, {error}"
+                ) from None
 
     def _check_resolution(self) -> None:
         """Refuse settings whose integrator cannot resolve the reference speed (class docstring)."""
@@ -177,6 +218,8 @@ def settings_from_kwargs(
     servo_bandwidth: float = 5.0,
     singular_band: float = 0.3,
     fold_angle: float = math.pi / 2,
+    randomize: Randomization | dict[str, Any] | str | None = None,
+    observe_params: bool = False,
     **param_overrides: float,
 ) -> EnvSettings:
     """Build settings from ``gym.make``-style keyword arguments.
@@ -185,8 +228,8 @@ def settings_from_kwargs(
         n_trailers: Number of trailers, an integer in [0, 256], default 2 (must agree
             with ``params`` when both are given).
         params: Full parameters; by default ConvoyParams' own.
-        dt, fidelity, action_mode, rail_accel_max, servo_bandwidth, singular_band, fold_angle:
-            See :class:`EnvSettings`.
+        dt, fidelity, action_mode, rail_accel_max, servo_bandwidth, singular_band, fold_angle,
+        randomize, observe_params: See :class:`EnvSettings`.
         **param_overrides: Any ConvoyParams field, e.g. ``mu=0.4``.
 
     Raises:
@@ -202,7 +245,8 @@ def settings_from_kwargs(
         raise TypeError(
             "; ".join(f"unexpected keyword argument {name!r}" for name in unknown)
             + "; valid: n_trailers, params, dt, fidelity, action_mode, rail_accel_max, "
-            "servo_bandwidth, singular_band, fold_angle and the ConvoyParams fields "
+            "servo_bandwidth, singular_band, fold_angle, randomize, observe_params and the "
+            "ConvoyParams fields "
             f"{sorted(_PARAM_FIELDS - {'n_trailers'})}"
         )
     count = (
@@ -229,4 +273,6 @@ def settings_from_kwargs(
         servo_bandwidth=servo_bandwidth,
         singular_band=singular_band,
         fold_angle=fold_angle,
+        randomize=Randomization.coerce(randomize),
+        observe_params=observe_params,
     )

@@ -15,6 +15,7 @@ from agents.artifacts import files
 from agents.artifacts.curves import read_curve
 from agents.evaluation.metrics import EpisodeResults
 from agents.policies.baselines import Policy
+from trailer_env.benchmark import privileged_view
 
 #: Axis labels of the curve metrics.
 METRIC_LABELS = {
@@ -156,11 +157,20 @@ def render_frames(
             captions.append(f"t = {step * dt:.1f} s{tag}")
         if ended or step >= max(wanted):
             break
-        obs, _, terminated, truncated, info = env.step(policy(obs[None])[0])
+        obs, _, terminated, truncated, info = env.step(policy(_seen(policy, env, obs))[0])
         step += 1
         ended = bool(terminated or truncated)
     env.close()
     return frames, captions
+
+
+def _seen(policy: Policy, env: Any, obs: np.ndarray) -> Any:
+    """What ``policy`` reads for the single env's observation ``obs`` (a batch of one):
+    the observation, or a privileged policy's view of the env's core
+    (:func:`trailer_env.benchmark.privileged_view`)."""
+    observe = privileged_view(policy)
+    batch = obs[None]
+    return batch if observe is None else observe(env.unwrapped.core, batch)
 
 
 def plot_frames(rows: Mapping[str, tuple[list[np.ndarray], list[str]]], out: Path) -> Path:
@@ -215,7 +225,7 @@ def episode_frames(
     frames = [np.asarray(env.render())]
     steps = 0
     while max_steps is None or steps < max_steps:
-        obs, _, terminated, truncated, _ = env.step(policy(obs[None])[0])
+        obs, _, terminated, truncated, _ = env.step(policy(_seen(policy, env, obs))[0])
         frames.append(np.asarray(env.render()))
         steps += 1
         if terminated or truncated:

@@ -9,6 +9,11 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
   regulator on the linearisation of the straight convoy (the mass's position and
   velocity included), gain-scheduled in the speed. It is the classical bar that
   learning has to beat.
+* ``lqr-adaptive``: the same regulator re-designed for each episode's parameters (and
+  n), read from the environment's core (:class:`AdaptiveLQRPolicy`, privileged: with
+  ``randomize`` the drawn parameters are not in the observation unless
+  ``observe_params=True``, and even then only to float32). Without randomisation it is
+  ``lqr``.
 * ``heading-p``: :func:`trailer_env.controllers.heading_policy`, the proportional
   baseline of Heading-v0 (servo mode only).
 * ``mpc``: :class:`agents.oracles.planner.MPCPolicy`, a sampling MPC on the nonlinear model
@@ -27,12 +32,15 @@ adapts it to the batched policy interface.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Callable
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from agents.envs import ENV_IDS, scene_baselines
 from trailer_env.controllers import LQRController, heading_policy
+from trailer_env.randomize import PARAMETERS
 from trailer_env.settings import EnvSettings
 
 #: A policy: observations (B, obs_dim) -> actions (B, action_dim), float32 in [-1, 1].
@@ -43,6 +51,7 @@ BASELINES: dict[str, str] = {
     "zero": "zero action: the mass stays centred and the convoy coasts",
     "random": "uniform random actions in [-1, 1] (seeded)",
     "lqr": "LQR on the linearised straight convoy, mass states included (trailer_env.controllers)",
+    "lqr-adaptive": "the LQR re-designed for each episode's drawn parameters (privileged)",
     "heading-p": "proportional heading baseline of Heading-v0 (trailer_env.controllers)",
     "mpc": "sampling MPC on the nonlinear model from the LQR (an oracle; agents.oracles.planner)",
     "ilqr": "deterministic iLQR on the nonlinear model, box-bounded (oracle; agents.oracles.ilqr)",
@@ -87,6 +96,71 @@ class LQRPolicy:
         return np.atleast_2d(self.controller(np.atleast_2d(obs)))
 
 
+class PrivilegedObservation(NamedTuple):
+    """What :meth:`AdaptiveLQRPolicy.observe` hands the policy: the observations and each
+    row's episode parameters (B, 7), columns :data:`trailer_env.randomize.PARAMETERS`."""
+
+    obs: np.ndarray
+    params: np.ndarray
+
+
+class AdaptiveLQRPolicy:
+    """The LQR of :class:`LQRPolicy` designed for each row's episode parameters.
+
+    The parameters come from the environment's core, ``core.param_values`` (B, 7): the
+    rollouts (:func:`trailer_env.benchmark.rollout` and the project's commands) call
+    :meth:`observe` with the core and pass what it returns instead of the observations.
+    A design is cached per distinct parameter vector: a new episode with new draws costs
+    one design (18 Riccati equations of size n + 3, ~20 ms), a step one controller call
+    per distinct vector in the batch.
+
+    Called on plain observations it uses the settings' nominal parameters, which is
+    only right without randomised physics: then it refuses (ValueError).
+    """
+
+    def __init__(self, settings: EnvSettings) -> None:
+        self.settings = settings
+        self._nominal = np.array([getattr(settings.params, name) for name in PARAMETERS])
+        self._designs: dict[tuple[float, ...], LQRController] = {}
+        randomize = settings.randomize
+        self._randomised = randomize is not None and any(
+            name in PARAMETERS for name in randomize.names
+        )
+
+    def observe(self, core: Any, obs: np.ndarray) -> PrivilegedObservation:
+        """The observations and the core's per-row episode parameters (copies)."""
+        return PrivilegedObservation(np.asarray(obs), np.array(core.param_values, dtype=np.float64))
+
+    def controller(self, values: np.ndarray) -> LQRController:
+        """The regulator designed for the parameter vector ``values`` (columns PARAMETERS)."""
+        key = tuple(float(value) for value in values)
+        design = self._designs.get(key)
+        if design is None:
+            params = self.settings.params.replace(**dict(zip(PARAMETERS, key, strict=True)))
+            settings = dataclasses.replace(self.settings, params=params, randomize=None)
+            design = self._designs[key] = LQRController(settings)
+        return design
+
+    def __call__(self, obs: np.ndarray | PrivilegedObservation) -> np.ndarray:
+        if isinstance(obs, PrivilegedObservation):
+            batch, params = np.atleast_2d(obs.obs), np.atleast_2d(obs.params)
+        else:
+            if self._randomised:
+                raise ValueError(
+                    "lqr-adaptive needs each episode's drawn parameters: call it on "
+                    "observe(core, obs) (trailer_env.benchmark.rollout does)"
+                )
+            batch = np.atleast_2d(obs)
+            params = np.broadcast_to(self._nominal, (batch.shape[0], len(PARAMETERS)))
+        actions = np.empty((batch.shape[0], self.settings.action_dim), dtype=np.float32)
+        distinct, inverse = np.unique(params, axis=0, return_inverse=True)
+        inverse = inverse.reshape(-1)
+        for k, values in enumerate(distinct):
+            rows = np.flatnonzero(inverse == k)
+            actions[rows] = np.atleast_2d(self.controller(values)(batch[rows]))
+        return actions
+
+
 class HeadingProportionalPolicy:
     """Heading-v0's proportional baseline (servo mode), batched."""
 
@@ -97,6 +171,13 @@ class HeadingProportionalPolicy:
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         return np.atleast_2d(heading_policy(np.atleast_2d(obs), n_trailers=self.n_trailers))
+
+
+def _applies(name: str, env_id: str) -> bool:
+    """Whether the baseline fits the scene; ``lqr-adaptive`` wherever ``lqr`` does (it is
+    named explicitly, so the scenes' lists and the default tables stay as they were)."""
+    applying = scene_baselines(env_id, oracles=True)
+    return name in applying or (name == "lqr-adaptive" and "lqr" in applying)
 
 
 def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | None = 0) -> Policy:
@@ -112,8 +193,8 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
     Raises:
         ValueError: On an unknown name or a baseline that does not fit the environment.
     """
-    if name in BASELINES and name not in scene_baselines(env_id, oracles=True):
-        fitting = [other for other in ENV_IDS if name in scene_baselines(other, oracles=True)]
+    if name in BASELINES and not _applies(name, env_id):
+        fitting = [other for other in ENV_IDS if _applies(name, other)]
         raise ValueError(f"the {name} baseline is for {', '.join(fitting)}, not {env_id}")
     if name == "zero":
         return ZeroPolicy(settings.action_dim)
@@ -121,6 +202,8 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
         return RandomPolicy(settings.action_dim, seed)
     if name == "lqr":
         return LQRPolicy(settings)
+    if name == "lqr-adaptive":
+        return AdaptiveLQRPolicy(settings)
     if name == "heading-p":
         return HeadingProportionalPolicy(settings)
     if name == "mpc":

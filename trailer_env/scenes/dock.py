@@ -73,6 +73,8 @@ class DockCore(ShapedCore):
     max_episode_steps = 400
     task_keys = ("target",)
     start_kernel = staticmethod(dock_starts)
+    #: The hitch positions of the reward and the task features use one rod length.
+    fixed_parameters = ("l",)
     #: The deterministic planner (agents.oracles.ilqr), run only when named.
     oracle_baselines = ("ilqr",)
     uses_pose = True

@@ -242,6 +242,10 @@ class ReverseEnv(ConvoyEnv):
 
     In planar mode indices 2n+2 .. 2n+5 are (xi - b) / s_max, eta / s_max,
     xi_dot / v_max, eta_dot / v_max. Reverse-v0 adds no task features.
+    With `observe_params=True` seven more follow (length `2n + 11`): index `2n + 4 + k`
+    is `log(value / nominal)` of M, J0, a, m, J, l, mu (k = 0..6; 0 when not
+    randomised; bounds +-log(1000)). The other scenes append them after their task
+    features.
 
     ## Rewards
 
@@ -269,6 +273,9 @@ class ReverseEnv(ConvoyEnv):
     0.3, else 0.0, the safety-gymnasium convention), `singular_margin`
     (`min_(k<n) |cos alpha_k|`), `energy` (J, the mass included), `actuator_work`
     (J since the reset), `jackknifed`, `is_success` (still reversing, not jackknifed).
+    With `randomize`, `params`: the episode's M, J0, a, m, J, l, mu (SI) and
+    `speed_factor` (a dict; the native vector env gives a dict of (N,) arrays, the SB3
+    adapter one dict per environment).
 
     ## Arguments
 
@@ -284,6 +291,13 @@ class ReverseEnv(ConvoyEnv):
     `fidelity` (`trailer_env.fidelity.Fidelity`, a dict, an integrator name or a substep
     count), `action_mode`, `rail_accel_max` (4 m/s^2), `servo_bandwidth` (5 rad/s),
     `singular_band` (0.3), `fold_angle` (pi/2), `render_mode`.
+    `randomize` (None): per-episode factors of the nominal parameters, a dict such as
+    `{"M": (0.8, 1.2), "mu": (0.9, 1.1), "speed": (0.5, 1.0)}` (any of M, J0, a, m, J,
+    l, mu; `speed` scales the start's drawn u) or a preset (`"mismatch10"`,
+    `"mismatch20"`: +-10 / 20 % on M, J0, a, l, mu), drawn uniformly after the start
+    from the env's generator (`trailer_env.randomize`); bad ranges raise ValueError or
+    TypeError naming the entry. `observe_params` (False): append the factors'
+    logarithms to the observation.
 
     ## References
 

@@ -32,7 +32,16 @@ def test_baselines_are_batched_and_bounded() -> None:
         make_baseline("heading-p", settings, REVERSE)
     with pytest.raises(ValueError, match="unknown baseline"):
         make_baseline("bang-bang", settings, REVERSE)
-    assert set(BASELINES) == {"zero", "random", "lqr", "heading-p", "mpc", "mpc-replay", "ilqr"}
+    assert set(BASELINES) == {
+        "zero",
+        "random",
+        "lqr",
+        "lqr-adaptive",
+        "heading-p",
+        "mpc",
+        "mpc-replay",
+        "ilqr",
+    }
 
 
 def test_saved_models_load_by_path_with_their_algorithm(tmp_path: Path) -> None:
