@@ -228,8 +228,8 @@ def settings_from_kwargs(
         n_trailers: Number of trailers, an integer in [0, 256], default 2 (must agree
             with ``params`` when both are given).
         params: Full parameters; by default ConvoyParams' own.
-        dt, fidelity, action_mode, rail_accel_max, servo_bandwidth, singular_band, fold_angle,
-        randomize, observe_params: See :class:`EnvSettings`.
+        dt, fidelity, action_mode, rail_accel_max, servo_bandwidth: See :class:`EnvSettings`.
+        singular_band, fold_angle, randomize, observe_params: See :class:`EnvSettings`.
         **param_overrides: Any ConvoyParams field, e.g. ``mu=0.4``.
 
     Raises:
