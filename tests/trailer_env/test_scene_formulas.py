@@ -125,3 +125,19 @@ def test_shaped_rewards_is_the_documented_formula_bit_for_bit() -> None:
                 + core.success_bonus * success - core.fold_penalty * jackknifed
                 - core.failure_penalty * failed)  # fmt: skip
     np.testing.assert_array_equal(out, expected)
+
+
+@pytest.mark.parametrize("env_id", ["trailer_env/Reverse-v1", "trailer_env/Coast-v0"])
+def test_the_singular_margin_never_looks_at_the_last_hitch(env_id: str) -> None:
+    import gymnasium as gym
+
+    near_right_angle = 1.5  # rad: |cos| = 0.07, well inside the band, short of folding
+    with gym.make(env_id, n_trailers=1) as env:
+        _, info = env.reset(seed=0, options={"state": [-1.0, 0.0, near_right_angle]})
+        assert info["singular_margin"] == 1.0 and info["cost"] == 0.0
+    with gym.make(env_id, n_trailers=2) as env:
+        _, info = env.reset(seed=0, options={"state": [-1.0, 0.0, 0.0, near_right_angle]})
+        assert info["singular_margin"] == 1.0
+        _, info = env.reset(seed=0, options={"state": [-1.0, 0.0, near_right_angle, 0.0]})
+        assert info["singular_margin"] == pytest.approx(np.cos(near_right_angle), rel=1e-12)
+        assert info["cost"] == 1.0

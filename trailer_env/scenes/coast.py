@@ -263,6 +263,12 @@ class CoastEnv(ConvoyEnv):
     `cost` (1.0 inside the singular band `singular_margin < singular_band`, else 0.0),
     `singular_margin`, `energy`, `actuator_work`, `jackknifed`, `is_success` (straight).
 
+    `singular_margin` is `min_(k<n) |cos alpha_k|`: the hitches between consecutive
+    bodies k <= n - 1, where the convoy's degree of nonholonomy drops. The last hitch
+    `alpha_n` is not in it (a last trailer at a right angle counts only once it folds, at
+    `fold_angle`), so with one trailer the margin is 1 and "safe" (never in the band,
+    no failure) means "not folded and not stopped".
+
     ## Arguments
 
     As Reverse-v0: `n_trailers` (default 2), ConvoyParams fields, `dt`, `fidelity`,

@@ -277,6 +277,12 @@ class ReverseEnv(ConvoyEnv):
     `speed_factor` (a dict; the native vector env gives a dict of (N,) arrays, the SB3
     adapter one dict per environment).
 
+    `singular_margin` is `min_(k<n) |cos alpha_k|`: the hitches between consecutive
+    bodies k <= n - 1, where the convoy's degree of nonholonomy drops. The last hitch
+    `alpha_n` is not in it (a last trailer at a right angle counts only once it folds, at
+    `fold_angle`), so with one trailer the margin is 1 and "safe" (never in the band,
+    no failure) means "not folded and not stopped".
+
     ## Arguments
 
     ```python
