@@ -89,8 +89,8 @@ def drive(
     """Run the iLQR planner (built on ``settings``) on a reset ``core``, one row per start,
     for the scene's episode; returns the episodes and the simulated row-steps.
 
-    Ended rows are parked straight and their warm start forgotten (their result is
-    settled), so that a folded convoy is not integrated further.
+    Ended rows are put back at their start and their warm start forgotten (their result
+    is settled), so that a folded convoy is not integrated (nor differentiated) further.
     """
     core_class = type(core)
     count = core.batch_size
@@ -101,6 +101,7 @@ def drive(
     success = np.zeros(count, dtype=bool)
     running = np.ones(count, dtype=bool)
     step_action = np.zeros((count, 1))
+    start_z, start_act = core.z.copy(), core.act.copy()
     for t in range(steps):
         task = {key: getattr(core, key) for key in core_class.task_keys}
         planned = planner.plan(core.z, core.act, task)[:, 0]
@@ -117,10 +118,8 @@ def drive(
             break
         if ended.any():
             rows = np.flatnonzero(ended)
-            core.z[rows, 1 : 2 + settings.n_trailers] = 0.0
-            core.z[rows, 0] = -1.0
-            core.act[rows] = 0.0
-            core.act[rows, 0] = core.params.b
+            core.z[rows] = start_z[rows]
+            core.act[rows] = start_act[rows]
             core.refresh(rows)
             planner.reset(rows)
     return GoalEpisodes(actions, lengths, success), planner.simulated_steps
