@@ -72,8 +72,8 @@ def restart_config(config: ILQRConfig, core_class: type[ConvoyCore], restart: in
 class GuardedPlanner(ILQRPlanner):
     """:class:`ILQRPlanner` whose rollouts never send a non-finite command.
 
-    Near a fold the backward pass can return non-finite gains (Dock-v0, n = 2, seed
-    1044 on the first pass); a rollout then asked for a NaN acceleration and the core
+    Near a fold the backward pass can return non-finite gains (Dock-v0, n = 2: rollout
+    row 176, start 44 of the first pass); a rollout then asked for a NaN acceleration and the core
     refused the step, stopping the whole batch. Here such a fraction becomes 0 (no rail
     acceleration) in place, before the rollout records it: that candidate is costed like
     any other, and every other row plans exactly as :class:`ILQRPlanner` would.

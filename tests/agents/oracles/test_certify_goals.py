@@ -21,10 +21,11 @@ from trailer_env.scenes.dock import DockCore
 
 DOCK = "trailer_env/Dock-v0"
 COAST = "trailer_env/Coast-v0"
+#: The committed certificates' feasible counts (seeds 1000-1099; docs/agents.md).
+CERTIFIED = {(DOCK, 1): 97, (DOCK, 2): 82, (COAST, 1): 98, (COAST, 2): 91}
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("env_id", [DOCK, COAST])
+@pytest.mark.parametrize("env_id", [pytest.param(DOCK, marks=pytest.mark.slow), COAST])
 def test_certify_reaches_the_goal_and_the_record_replays(env_id: str) -> None:
     certificate = certify_goals(env_id, 1, [1000, 1001], restarts=0)
     assert certificate["feasible"] == 2 and certificate["open"] == 0
@@ -51,7 +52,9 @@ def test_committed_goal_records_replay_to_success(env_id: str, n: int) -> None:
     feasible = {start["seed"]: start for start in certificate["starts"]
                 if start["status"] == FEASIBLE}  # fmt: skip
     assert set(records) == set(feasible)
-    assert certificate["feasible"] == len(feasible) >= 95 - 15 * (env_id == DOCK and n == 2)
+    assert certificate["feasible"] == len(feasible) == CERTIFIED[env_id, n]
+    assert certificate["open"] == 100 - CERTIFIED[env_id, n]
+    assert certificate["not_recoverable"] == 0
     for seed in sorted(feasible)[:3]:
         reached, length = replay_goal(env_id, {"n_trailers": n}, seed, records[seed])
         assert reached and length == feasible[seed]["planner_length"] == len(records[seed])
