@@ -222,7 +222,8 @@ def ceiling_note(
         )
     feasible = sum(statuses[episode_seed] == FEASIBLE for episode_seed in wanted)
     unrecoverable = sum(statuses[episode_seed] == NOT_RECOVERABLE for episode_seed in wanted)
-    if certificate["planner"].get("name") == "ilqr":
+    planner = certificate.get("planner")
+    if isinstance(planner, dict) and planner.get("name") == "ilqr":
         return (
             f"ceiling: {feasible}/{episodes} starts certified feasible (the iLQR planner's "
             f"actions replayed open-loop to the goal, `python -m agents.certify`); "
