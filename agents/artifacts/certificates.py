@@ -211,7 +211,8 @@ def markdown(certificate: dict[str, Any]) -> str:
         f"({certificate['planner']['first_pass_wall_time_s']} s), "
         f"{certificate['planner']['wall_time_s']} s with up to "
         f"{certificate['planner']['restarts']} restarts; "
-        f"screen: {certificate['screen']['wall_time_s']} s",
+        f"screen: {_screen_text(certificate)}",
+        *_closed_loop_lines(certificate),
         "",
         "| seed | status | screen stroke / s_max | planner steps |",
         "|---|---|---|---|",
@@ -223,6 +224,24 @@ def markdown(certificate: dict[str, Any]) -> str:
             f"| {start['seed']} | {start['status']} | {stroke} | {start['planner_length']} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _screen_text(certificate: dict[str, Any]) -> str:
+    screen = certificate["screen"]
+    if screen.get("applied", True) is False:
+        return "not applied (no screen proves a goal unreachable; no start is not recoverable)"
+    return f"{screen['wall_time_s']} s"
+
+
+def _closed_loop_lines(certificate: dict[str, Any]) -> list[str]:
+    closed = certificate.get("closed_loop")
+    if not isinstance(closed, dict):
+        return []
+    return [
+        f"closed loop on {closed['integrator']} (rtol = atol = {closed['tolerance']:g}): "
+        f"{closed['success']}/{certificate['episodes']} reached the goal re-planning "
+        f"({closed['wall_time_s']} s)"
+    ]
 
 
 #: Largest action record accepted (steps x action dimensions): Reverse's 400 steps.

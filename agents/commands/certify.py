@@ -10,6 +10,9 @@ argument              bound
 ``--samples``         2 .. 1,024 candidates per start
 ``--iterations``      1 .. 100
 ``--restarts``        0 .. 100
+``--planner``         mpc (Reverse, the default there) or ilqr (Dock, Coast, the
+                      default there); the other planner is refused for a scene
+``--closed-loop``     dopri5 (goal scenes only)
 ====================  ===================================================
 
 ``--out`` must be a writable folder; an existing one is written into only with
@@ -27,7 +30,38 @@ from agents.artifacts.certificates import markdown, write_certificate, write_pro
 from agents.commands import options as cli
 from agents.envs import ENV_IDS, check_env_id, env_settings
 from agents.oracles.certify import DEFAULT_RESTARTS, certify
+from agents.oracles.certify_goals import (
+    CLOSED_LOOP_INTEGRATORS,
+    DEFAULT_GOAL_RESTARTS,
+    certify_goals,
+    is_goal_scene,
+)
+from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
+
+#: The planners ``--planner`` names: the sampling planner (survival) and iLQR (goals).
+PLANNERS = ("mpc", "ilqr")
+
+
+def planner_problem(env_id: str, planner: str | None) -> str | None:
+    """Why ``planner`` cannot certify ``env_id`` (None if it can, or if None: the scene's
+    default, mpc for Reverse, ilqr for Dock and Coast)."""
+    if planner is None:
+        return None
+    if planner not in PLANNERS:
+        return f"unknown planner {planner!r}; choose one of {list(PLANNERS)}"
+    goal = is_goal_scene(env_id)
+    if goal and planner == "mpc":
+        return (
+            f"the sampling planner (mpc) keeps a convoy safe but does not steer it to "
+            f"{env_id}'s goal; certify it with --planner ilqr"
+        )
+    if not goal and planner == "ilqr":
+        return (
+            f"{env_id} is certified by surviving the full episode with the sampling "
+            "planner; use --planner mpc (ilqr certifies the goal scenes Dock and Coast)"
+        )
+    return None
 
 
 def parse_seeds(text: str, maximum: int = limits.MAX_CERTIFY_SEEDS) -> list[int]:
@@ -78,19 +112,33 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, required=True, help="output folder")
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     parser.add_argument(
+        "--planner",
+        choices=PLANNERS,
+        default=None,
+        help="mpc (the sampling planner; the default for Reverse) or ilqr (the default "
+        "for Dock and Coast, which are certified by reaching their goal)",
+    )
+    parser.add_argument(
+        "--closed-loop", choices=CLOSED_LOOP_INTEGRATORS, default=None,
+        help="goal scenes: also re-plan every start on a plant with this integrator "
+        "(rtol = atol = 1e-8) and record whether it still reaches the goal",
+    )  # fmt: skip
+    parser.add_argument(
         "--samples", type=cli.at_least(2, 1024), default=PlannerConfig.samples,
         help=f"planner candidates per start (default {PlannerConfig.samples}, at most 1024)",
     )  # fmt: skip
     parser.add_argument(
-        "--iterations", type=cli.at_least(1, 100), default=PlannerConfig.iterations,
-        help=f"planner CEM iterations (default {PlannerConfig.iterations}, at most 100)",
+        "--iterations", type=cli.at_least(1, 100), default=None,
+        help=f"planner iterations: CEM (mpc, default {PlannerConfig.iterations}) or iLQR "
+        f"(ilqr, default {ILQRConfig.iterations}); at most 100",
     )  # fmt: skip
     parser.add_argument(
         "--restarts",
         type=cli.at_least(0, 100),
-        default=DEFAULT_RESTARTS,
-        help="plan the starts not kept safe again, up to this many times, with new planner "
-        f"seeds (default {DEFAULT_RESTARTS})",
+        default=None,
+        help="plan the starts not kept safe (mpc: with new planner seeds, default "
+        f"{DEFAULT_RESTARTS}) or not at the goal (ilqr: longer horizon, more iterations, "
+        f"default {DEFAULT_GOAL_RESTARTS}) again, up to this many times",
     )
     return parser
 
@@ -108,18 +156,35 @@ def main(argv: list[str] | None = None) -> int:
         seeds = parse_seeds(args.seeds)
     except ValueError as error:
         parser.error(f"argument --seeds: {error}")
+    problem = planner_problem(env_id, args.planner)
+    if problem is not None:
+        parser.error(f"argument --planner: {problem}")
+    goal = is_goal_scene(env_id)
+    if args.closed_loop is not None and not goal:
+        parser.error(f"argument --closed-loop: only for the goal scenes, not {env_id}")
     try:
-        config = PlannerConfig(
-            samples=args.samples,
-            iterations=args.iterations,
-            elites=min(PlannerConfig.elites, max(1, args.samples // 4)),
-        )
+        if goal:
+            iterations = ILQRConfig.iterations if args.iterations is None else args.iterations
+            ilqr_config = ILQRConfig(iterations=iterations)
+        else:
+            config = PlannerConfig(
+                samples=args.samples,
+                iterations=PlannerConfig.iterations if args.iterations is None else args.iterations,
+                elites=min(PlannerConfig.elites, max(1, args.samples // 4)),
+            )
     except ValueError as error:
         parser.error(str(error))
     problem = write_problem(args.out, args.overwrite)
     if problem is not None:
         parser.error(f"argument --out: {problem}")
-    certificate = certify(env_id, args.n_trailers, seeds, config, restarts=args.restarts)
+    if goal:
+        restarts = DEFAULT_GOAL_RESTARTS if args.restarts is None else args.restarts
+        certificate = certify_goals(
+            env_id, args.n_trailers, seeds, ilqr_config, restarts, args.closed_loop
+        )
+    else:
+        restarts = DEFAULT_RESTARTS if args.restarts is None else args.restarts
+        certificate = certify(env_id, args.n_trailers, seeds, config, restarts=restarts)
     write_certificate(certificate, args.out, args.overwrite)
     print(markdown(certificate).split("\n\n| seed")[0])
     print(f"wrote {args.out / 'certificate.json'}")

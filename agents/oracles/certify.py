@@ -211,6 +211,7 @@ def ceiling_note(
     certificate = committed_certificate(env_id, n_trailers, directory)
     if certificate is None:
         return "ceiling: not certified (no planner for this scene, or `agents.certify` not run)"
+    # Goal scenes (Dock, Coast): the certificate of agents.oracles.certify_goals.
     statuses = {start["seed"]: start["status"] for start in certificate["starts"]}
     wanted = range(seed, seed + episodes)
     first, last = certificate["seeds"]
@@ -221,6 +222,13 @@ def ceiling_note(
         )
     feasible = sum(statuses[episode_seed] == FEASIBLE for episode_seed in wanted)
     unrecoverable = sum(statuses[episode_seed] == NOT_RECOVERABLE for episode_seed in wanted)
+    planner = certificate.get("planner")
+    if isinstance(planner, dict) and planner.get("name") == "ilqr":
+        return (
+            f"ceiling: {feasible}/{episodes} starts certified feasible (the iLQR planner's "
+            f"actions replayed open-loop to the goal, `python -m agents.certify`); "
+            f"{episodes - feasible - unrecoverable} open (no screen for a goal)"
+        )
     return (
         f"ceiling: {feasible}/{episodes} starts certified feasible (the planner's actions "
         f"replayed open-loop, `python -m agents.certify`); {unrecoverable} not recoverable "
