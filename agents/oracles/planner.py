@@ -184,9 +184,7 @@ class SamplingPlanner:
         self.simulated_steps = 0
         randomize = settings.randomize
         #: Whether the planning core takes per-row parameters (``plan(..., params=...)``).
-        self.per_row = randomize is not None and any(
-            name in PARAMETERS for name in randomize.names
-        )
+        self.per_row = randomize is not None and any(name in PARAMETERS for name in randomize.names)
         self._designs: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
         # Per candidate row while a per-row plan is evaluated: gains tables (forward,
         # reverse: (m, S, n+3)) and Riccati matrices (m, S, n+3, n+3).
@@ -320,6 +318,13 @@ class SamplingPlanner:
         used = np.arange(count * samples, dtype=np.int64)
         self.core.set_row_params(used, np.repeat(params, samples, axis=0))
 
+    def label(self, core: Any) -> np.ndarray:
+        """:meth:`plan` for every row of a scene core of this planner's settings, from its
+        exact states (and its rows' parameters when :attr:`per_row`)."""
+        if self.per_row:
+            return self.plan(core.z, core.act, core.param_values)
+        return self.plan(core.z, core.act)
+
     def plan(
         self,
         z: np.ndarray,
@@ -443,6 +448,53 @@ def _row_gains(speed: np.ndarray, forward: np.ndarray, reverse: np.ndarray) -> n
     return np.where((speed >= 0.0)[:, None], ahead, back)
 
 
+def state_from_observation(obs: np.ndarray, settings: EnvSettings) -> tuple[np.ndarray, np.ndarray]:
+    """The state (z, act) an observation of a rail-mode scene holds (float32 rounding).
+
+    Raises:
+        ValueError: In planar mode (the observation's layout differs).
+    """
+    if settings.action_mode == "planar":
+        raise ValueError("the planner drives the rail actuator, not action_mode='planar'")
+    n = settings.n_trailers
+    batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
+    z = np.column_stack(
+        [batch[:, :2], np.arctan2(batch[:, 2 : 2 + n], batch[:, 2 + n : 2 + 2 * n])]
+    )
+    act = np.zeros((batch.shape[0], 6))
+    act[:, 0] = settings.params.b
+    act[:, 1] = batch[:, 2 + 2 * n] * settings.params.s_max
+    act[:, 3] = batch[:, 3 + 2 * n] * settings.rail_speed_max
+    return z, act
+
+
+class MPCPolicy:
+    """The planner behind the batched policy interface (observations -> actions).
+
+    The batch size is fixed by the first call. Between calls the planner keeps each
+    row's warm start; rows whose observation says a new episode began are not detected
+    (the LQR's sequence is a candidate at every step, so a stale warm start costs
+    little). It reads the state from the observation (float32: about 1e-7 relative).
+    """
+
+    def __init__(
+        self,
+        core_class: type[ConvoyCore],
+        settings: EnvSettings,
+        config: PlannerConfig | None = None,
+    ) -> None:
+        self.core_class = core_class
+        self.settings = settings
+        self.config = config
+        self.planner: SamplingPlanner | None = None
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        z, act = state_from_observation(obs, self.settings)
+        if self.planner is None or self.planner.batch_size != z.shape[0]:
+            self.planner = SamplingPlanner(self.core_class, self.settings, z.shape[0], self.config)
+        return self.planner.plan(z, act).astype(np.float32)
+
+
 class PrivilegedExpert:
     """The planner as a labeller of a batch core's rows: the DAgger expert.
 
@@ -497,13 +549,12 @@ class PrivilegedExpert:
         """The planner's actions (E, 1) for every row of ``core`` (a scene core of one n
         or a MixedCore of the same counts), from the exact states."""
         if core.batch_size != self.batch_size:
-            raise ValueError(f"core has {core.batch_size} rows, the expert labels {self.batch_size}")
+            raise ValueError(
+                f"core has {core.batch_size} rows, the expert labels {self.batch_size}"
+            )
         if not self.mixed:
             (planner,) = self.planners.values()
-            params = core.param_values if planner.per_row else None
-            if params is None:
-                return planner.plan(core.z, core.act)
-            return planner.plan(core.z, core.act, params)
+            return planner.label(core)
         cores = getattr(core, "cores", None)
         if cores is None or sorted(cores) != sorted(self.planners):
             raise ValueError("the expert's counts differ from the core's")

@@ -60,7 +60,7 @@ from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import save_stats
 from agents.envs import check_env_id, env_settings, make_sb3_env
 from agents.evaluation.metrics import rollout, summarize
-from agents.oracles.planner import PlannerConfig, PrivilegedExpert
+from agents.oracles.planner import PlannerConfig, PrivilegedExpert, SamplingPlanner
 from agents.policies.sb3 import ModelPolicy
 from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
@@ -192,7 +192,7 @@ class ImitationConfig:
 
 def collect(
     envs: ConvoyVectorEnv,
-    planner: PrivilegedExpert,
+    planner: PrivilegedExpert | SamplingPlanner,
     policy: Any,
     seed: int,
     progress: Progress | None = None,
