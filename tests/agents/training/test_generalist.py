@@ -110,7 +110,8 @@ def test_the_shipped_generalist_drives_a_mixed_episode() -> None:
 def test_the_shipped_generalist_on_one_n_and_beyond_its_layout() -> None:
     single = load_policy(str(GENERALIST), V1, {"n_trailers": 2})
     assert isinstance(single, PaddedPolicy) and (single.n, single.top) == (2, 3)
-    assert single(np.zeros((4, 10), dtype=np.float32)).shape == (4, 1)
+    width = make_vector_env(V1, 1, {"n_trailers": 2}).single_observation_space.shape[0]
+    assert single(np.zeros((4, width), dtype=np.float32)).shape == (4, 1)
     with pytest.raises(ValueError, match="holds at most 3 trailers"):
         load_policy(str(GENERALIST), V1, {"n_trailers": 4})
     with pytest.raises(ValueError, match="holds at most 3 trailers"):
