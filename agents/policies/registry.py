@@ -95,7 +95,7 @@ def check_card(card: dict[str, Any], spec: str, env_id: str, env_kwargs: dict[st
         return
     trained_id = card.get("env_id")
     trained_n = card.get("env_kwargs", {}).get("n_trailers")
-    wanted_n = _wanted_trailers(env_kwargs)
+    wanted_n: Any = _wanted_trailers(env_kwargs)
     if is_count_range(trained_n):
         low, high = trained_n
         if isinstance(wanted_n, int) and wanted_n > high:
