@@ -5,6 +5,11 @@ Usage::
     python -m agents.imitate --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \
         [--iterations 6] [--episodes 256] [--run-dir DIR] [--export PATH] [--overwrite]
 
+A generalist: ``--n-trailers 1-3 --randomize mismatch20`` (the env draws each
+episode's n and physics; the expert, :class:`agents.oracles.planner.PrivilegedExpert`,
+plans each row with its true parameters; the student sees the padded observation and
+the trailer mask, no parameters).
+
 Why: PPO from scratch stays below the LQR's basin (the figures are in the docs, Agents:
 what limits performance), because the states that matter (near the edge of the
 recoverable set, where the rail saturates) are rare under its exploration. The ``mpc``
