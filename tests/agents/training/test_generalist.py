@@ -73,7 +73,6 @@ def test_bad_options_exit_before_any_file_is_written(
     assert not run.exists() and not export.parent.exists()
 
 
-@pytest.mark.slow
 def test_a_small_generalist_run(tmp_path: Path) -> None:
     config = ImitationConfig(
         V1, (1, 2), randomize="mismatch20", iterations=2, episodes=4, epochs=1,
