@@ -108,6 +108,7 @@ from trailer_env.randomize import (
     PARAMETERS,
     SPEED,
     apply_factors,
+    apply_params,
     draw_factors,
 )
 from trailer_env.settings import EnvSettings
@@ -609,6 +610,35 @@ class ConvoyCore:
         if self.n_param_features:
             offset = self.param_offset
             self.obs[indices, offset:] = np.log(self.factors[indices, : len(PARAMETERS)])
+
+    def set_row_params(self, rows: np.ndarray, values: np.ndarray) -> None:
+        """Give ``rows`` (int array) the parameters ``values`` (len(rows), 7), columns
+        :data:`trailer_env.randomize.PARAMETERS`, and the auto rule's settings they imply
+        (as a reset's draws would); their factors become ``values / nominal``. For a core
+        whose settings randomise a physical parameter (the kernels take per-row
+        parameters only then); the speed and the state are left as they are.
+
+        Raises:
+            ValueError: If the core's parameters are shared, or on bad shapes or values.
+        """
+        if self.step_config.pv is not self.param_values:
+            raise ValueError(
+                "set_row_params needs per-row parameters: build the core with settings "
+                "that randomise a physical parameter (randomize=...)"
+            )
+        indices = np.asarray(rows, dtype=np.int64)
+        values = np.asarray(values, dtype=np.float64)
+        if values.shape != (indices.size, len(PARAMETERS)):
+            raise ValueError(
+                f"values must be ({indices.size}, {len(PARAMETERS)}), got {values.shape}"
+            )
+        if not (np.all(np.isfinite(values)) and np.all(values > 0.0)):
+            raise ValueError("parameter values must be finite and > 0")
+        if indices.size and (indices.min() < 0 or indices.max() >= self.batch_size):
+            raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
+        apply_params(indices, values, self.param_values, self._nominal_auto, self._row_auto,
+                     float(self._b), float(self._s_max), self.planar)  # fmt: skip
+        self.factors[indices, : len(PARAMETERS)] = values / self._packed
 
     def params_info(self, i: int) -> dict[str, float]:
         """Row ``i``'s episode parameters (``info["params"]``): the seven randomisable

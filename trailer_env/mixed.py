@@ -81,6 +81,42 @@ def trailer_range(value: Any) -> tuple[int, int]:
     return low, high
 
 
+def padded_columns(n: int, top: int, tail: int) -> np.ndarray:
+    """Where each entry of an n-trailer observation (``2 + 2n + tail`` entries: ``tail``
+    mass and task features) goes in the layout padded to ``top >= n`` trailers, followed
+    by the columns of the mask's n ones (int64, ``2 + 3n + tail`` columns)."""
+    if not 0 <= n <= top:
+        raise ValueError(f"an observation of {n} trailers does not fit a layout of {top}")
+    return np.concatenate(
+        [
+            [0, 1],
+            2 + np.arange(n),
+            2 + top + np.arange(n),
+            2 + 2 * top + np.arange(tail),
+            2 + 2 * top + tail + np.arange(n),  # the mask's ones
+        ]
+    ).astype(np.int64)
+
+
+def pad_observations(obs: np.ndarray, n: int, top: int) -> np.ndarray:
+    """Observations (B, 2 + 2n + tail) of a scene made with ``n_trailers=n`` in the
+    layout of ``n_trailers=(low, top)`` (float32): what MixedCore observes for the same
+    state of an n-trailer episode.
+
+    Raises:
+        ValueError: If ``n > top`` (the padded layout holds at most ``top`` trailers).
+    """
+    batch = np.atleast_2d(np.asarray(obs, dtype=np.float32))
+    tail = batch.shape[1] - (2 + 2 * n)
+    if tail < 0:
+        raise ValueError(f"observations of width {batch.shape[1]} hold fewer than {n} trailers")
+    columns = padded_columns(n, top, tail)
+    out = np.zeros((batch.shape[0], 2 + 3 * top + tail), dtype=np.float32)
+    out[:, columns[: batch.shape[1]]] = batch
+    out[:, columns[batch.shape[1] :]] = 1.0
+    return out
+
+
 @cached_njit()
 def draw_counts(generators: Any, picks: np.ndarray, low: int, count: int, out: np.ndarray) -> None:
     """``out[j] = low + floor(U * count)``, U drawn from ``generators[picks[j]]``."""
@@ -134,17 +170,8 @@ class MixedCore:
 
     def _target_columns(self, n: int) -> np.ndarray:
         """Where each observation entry of an n-trailer core goes in the padded layout."""
-        top, core = self.n, self.cores[n]
-        tail = core.obs_dim - (2 + 2 * n)  # mass and task features
-        return np.concatenate(
-            [
-                [0, 1],
-                2 + np.arange(n),
-                2 + top + np.arange(n),
-                2 + 2 * top + np.arange(tail),
-                2 + 2 * top + tail + np.arange(n),  # the mask's ones
-            ]
-        ).astype(np.int64)
+        core = self.cores[n]
+        return padded_columns(n, self.n, core.obs_dim - (2 + 2 * n))
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Bounds of one padded observation (the largest count's, and [0, 1] for the mask)."""

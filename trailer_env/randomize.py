@@ -209,10 +209,33 @@ def apply_factors(
     for i in rows:
         for k in range(count):
             pv[i, k] = nominal[k] * factors[i, k]
-        for k in range(nominal_auto.size):
-            auto[i, k] = nominal_auto[k]
-        length = pv[i, _L]
-        rate = cart_rate(pv[i, _M], pv[i, _J0], pv[i, _A], pv[i, _MU], b, s_max, planar)
-        auto[i, AUTO_SPEED_RATE] = max(1.0 / length, rate)
-        auto[i, AUTO_LENGTH] = length
+        _row_auto(i, pv, nominal_auto, auto, b, s_max, planar)
         z[i, 0] = z[i, 0] * factors[i, count]
+
+
+@cached_njit(depends_on=(substeps,))
+def _row_auto(
+    i: int, pv: np.ndarray, nominal_auto: np.ndarray, auto: np.ndarray, b: float,
+    s_max: float, planar: bool,
+) -> None:  # fmt: skip
+    """Row ``i``'s auto rule settings from its parameters ``pv[i]``."""
+    for k in range(nominal_auto.size):
+        auto[i, k] = nominal_auto[k]
+    length = pv[i, _L]
+    rate = cart_rate(pv[i, _M], pv[i, _J0], pv[i, _A], pv[i, _MU], b, s_max, planar)
+    auto[i, AUTO_SPEED_RATE] = max(1.0 / length, rate)
+    auto[i, AUTO_LENGTH] = length
+
+
+@cached_njit(depends_on=(substeps,))
+def apply_params(
+    rows: np.ndarray, values: np.ndarray, pv: np.ndarray, nominal_auto: np.ndarray,
+    auto: np.ndarray, b: float, s_max: float, planar: bool,
+) -> None:  # fmt: skip
+    """Given parameters of ``rows``: ``pv[rows[j]] = values[j]`` and the auto rule's
+    settings recomputed from them (as :func:`apply_factors` does)."""
+    for j in range(rows.size):
+        i = rows[j]
+        for k in range(pv.shape[1]):
+            pv[i, k] = values[j, k]
+        _row_auto(i, pv, nominal_auto, auto, b, s_max, planar)

@@ -41,6 +41,16 @@ CARD_TYPES: dict[str, tuple[type, ...]] = {
 }
 
 
+def is_count_range(value: Any) -> bool:
+    """Whether a card's ``n_trailers`` is a range ``[low, high]`` (a generalist's)."""
+    return (
+        isinstance(value, (list, tuple))
+        and len(value) == 2
+        and all(files.is_integer(bound, 0) for bound in value)
+        and value[0] < value[1]
+    )
+
+
 def check_card(card: Any, where: str) -> dict[str, Any]:
     """``card`` if it is a card object whose known keys have their types.
 
@@ -63,8 +73,11 @@ def check_card(card: Any, where: str) -> dict[str, Any]:
                 f"{value!r:.60}"
             )
     trailers = card.get("env_kwargs", {}).get("n_trailers")
-    if trailers is not None and not files.is_integer(trailers):
-        raise ValueError(f"model card {where}: env_kwargs.n_trailers must be an integer")
+    if trailers is not None and not (files.is_integer(trailers) or is_count_range(trailers)):
+        raise ValueError(
+            f"model card {where}: env_kwargs.n_trailers must be an integer or a pair "
+            "[low, high] of integers with low < high (a generalist)"
+        )
     return card
 
 

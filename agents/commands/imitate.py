@@ -12,7 +12,13 @@ argument                   bound
 ``--planner-iterations``   1 .. 100
 ``--net-arch``             10,000,000 parameters, 64 layers
 ``--seed``                 training seeds below 2**32
+``--n-trailers``           one count N, or a range LOW-HIGH (a generalist)
+``--randomize``            a preset of :data:`trailer_env.randomize.PRESETS`
 =========================  ==========================================
+
+A generalist (``--n-trailers 1-3 --randomize mismatch20``): the env draws each
+episode's n and physics; the expert (one planner per n) plans with the episode's true
+parameters, the student sees the padded observation and the trailer mask only.
 
 The run folder and ``--export`` are checked as by ``agents.train`` (writable, no
 symbolic link, locked while the run writes it).
@@ -36,6 +42,26 @@ from agents.envs import HEADLINE_ENV_ID
 from agents.oracles.planner import PlannerConfig
 from agents.policies.sb3 import limit_torch_threads
 from agents.training.imitate import ImitationConfig, imitate
+from trailer_env.randomize import PRESETS
+
+
+def trailer_counts(text: str) -> int | tuple[int, int]:
+    """``--n-trailers``: ``N`` (>= 0) or ``LOW-HIGH`` (0 <= LOW < HIGH)."""
+    low, dash, high = text.partition("-")
+    try:
+        if not dash:
+            value = int(text)
+            if value < 0:
+                raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+            return value
+        bounds = (int(low), int(high))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a count N or a range LOW-HIGH such as 1-3, got {text[:40]!r}"
+        ) from None
+    if not 0 <= bounds[0] < bounds[1]:
+        raise argparse.ArgumentTypeError(f"a range LOW-HIGH needs 0 <= LOW < HIGH, got {text!r}")
+    return bounds
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -43,7 +69,18 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m agents.imitate", description=(__doc__ or "").split("\n")[0]
     )
     cli.add_env(parser, default=HEADLINE_ENV_ID)
-    cli.add_n_trailers(parser)
+    parser.add_argument(
+        "--n-trailers",
+        type=trailer_counts,
+        default=2,
+        help="number of trailers (default 2), or a range LOW-HIGH (e.g. 1-3): a generalist",
+    )
+    parser.add_argument(
+        "--randomize",
+        choices=sorted(PRESETS),
+        default=None,
+        help="randomised physics, a preset (the expert plans with the true parameters)",
+    )
     cli.add_seed(parser, 0, "seed of the network, the training episodes and the planner")
     parser.add_argument(
         "--iterations", type=cli.at_least(1, 1000), default=6, help="DAgger iterations (<= 1000)"
@@ -91,6 +128,7 @@ def main(argv: list[str] | None = None) -> int:
         config = ImitationConfig(
             env_id=args.env,
             n_trailers=args.n_trailers,
+            randomize=args.randomize,
             seed=args.seed,
             iterations=args.iterations,
             episodes=args.episodes,
@@ -108,7 +146,9 @@ def main(argv: list[str] | None = None) -> int:
         problem = export_problem(args.export, args.overwrite)
         if problem is not None:
             parser.error(f"argument --export: {problem}")
-    default = default_run_dir(config.env_id, "dagger", config.n_trailers, config.seed)
+    default = default_run_dir(config.env_id, "dagger", config.run_label, config.seed)  # type: ignore[arg-type]
+    if config.randomize is not None:
+        default = default.with_name(f"{default.name}_{config.randomize}")
     try:
         with claimed_run_dir(default, args.run_dir, overwrite=args.overwrite) as run_dir:
             limit_torch_threads()

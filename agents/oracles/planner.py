@@ -35,7 +35,9 @@ written by ``python -m agents.certify`` and quoted in docs/physics.md section 14
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -52,6 +54,7 @@ from trailer_env.controllers import (
     linearise,
 )
 from trailer_env.core import ConvoyCore
+from trailer_env.randomize import PARAMETERS
 from trailer_env.settings import EnvSettings
 
 #: Stage-cost weights (per step) and penalties of a rollout.
@@ -137,7 +140,22 @@ class SamplingPlanner:
         config: Search settings.
 
     :meth:`plan` takes the exact states of the E environments and returns their actions.
+
+    Per-row parameters (a privileged expert for randomised physics): when ``settings``
+    randomise a physical parameter (``randomize=``), :meth:`plan` takes each row's TRUE
+    parameters ``params`` (E, 7), columns :data:`trailer_env.randomize.PARAMETERS`
+    (``core.param_values``). Each row's vector is repeated over its candidate copies in
+    the planning core (the kernels take per-row parameters), and the LQR feedback and the
+    terminal Riccati matrices of a row are those designed for its parameters (a design is
+    cached per distinct vector, as ``lqr-adaptive`` does). A row's label is then what a
+    planner built for that row's parameters alone (``randomize=None``,
+    ``params=ConvoyParams(...)``) would give for the same sampled offsets.
+    :meth:`plan` may also plan for a subset ``rows`` of the E environments (the others'
+    warm starts are kept): the planning core then steps only those rows' candidates.
     """
+
+    #: Most cached LQR designs (a design per distinct parameter vector); cleared when full.
+    MAX_DESIGNS = 8192
 
     def __init__(
         self,
@@ -164,6 +182,14 @@ class SamplingPlanner:
         self.rng = np.random.default_rng(self.config.seed)
         self.mean = np.zeros((self.batch_size, self.config.horizon))
         self.simulated_steps = 0
+        randomize = settings.randomize
+        #: Whether the planning core takes per-row parameters (``plan(..., params=...)``).
+        self.per_row = randomize is not None and any(name in PARAMETERS for name in randomize.names)
+        self._designs: dict[tuple[float, ...], tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        # Per candidate row while a per-row plan is evaluated: gains tables (forward,
+        # reverse: (m, S, n+3)) and Riccati matrices (m, S, n+3, n+3).
+        self._row_tables: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._rows_stepped: np.ndarray | None = None
 
     def reset(self, rows: np.ndarray | None = None) -> None:
         """Forget the warm start of ``rows`` (default all), e.g. after their episodes ended."""
@@ -181,9 +207,13 @@ class SamplingPlanner:
         n = self.n
         count, samples, horizon = offsets.shape
         flat = offsets.reshape(count * samples, horizon)
-        core.z[:] = np.repeat(z, samples, axis=0)
-        core.act[:] = np.repeat(act, samples, axis=0)
-        core.refresh()
+        used = count * samples
+        whole = used == core.batch_size
+        stepped = None if whole else np.arange(used, dtype=np.int64)
+        self._rows_stepped = stepped
+        core.z[:used] = np.repeat(z, samples, axis=0)
+        core.act[:used] = np.repeat(act, samples, axis=0)
+        core.refresh(stepped)
         cost = np.zeros(count * samples)
         alive = np.ones(count * samples, dtype=bool)
         first = np.zeros(count * samples)
@@ -197,17 +227,22 @@ class SamplingPlanner:
             np.clip(command, -1.0, 1.0, out=command)
             if t == 0:
                 first[:] = command
-            action[:, 0] = command
-            core.step(action)
+            if whole:
+                action[:, 0] = command
+                core.step(action)
+            else:
+                full = np.zeros((core.batch_size, 1))
+                full[:used, 0] = command
+                core.step(full, stepped)
             self.simulated_steps += count * samples
-            alpha = core.z[:, 2 : 2 + n]
+            alpha = core.z[:used, 2 : 2 + n]
             stage = (
                 ANGLE_COST * np.sum(alpha**2, axis=1)
-                + OMEGA_COST * core.z[:, 1] ** 2
-                + RAIL_COST * (core.act[:, 1] / s_max) ** 2
-                + BAND_COST * core.cost
+                + OMEGA_COST * core.z[:used, 1] ** 2
+                + RAIL_COST * (core.act[:used, 1] / s_max) ** 2
+                + BAND_COST * core.cost[:used]
             )
-            failed = alive & core.terminated & ~core.success
+            failed = alive & core.terminated[:used] & ~core.success[:used]
             cost += np.where(alive, stage, 0.0)
             cost += np.where(failed, FAILURE_COST + FAILURE_COST_PER_STEP * (total - t), 0.0)
             alive &= ~failed
@@ -221,11 +256,15 @@ class SamplingPlanner:
                 core.act[rows, 0] = settings.params.b
                 core.refresh(rows)
         # Terminal cost x^T P x with the Riccati matrix at the nearest design speed.
-        nearest = np.abs(core.z[:, :1] - self.speeds[None, :]).argmin(axis=1)
+        nearest = np.abs(core.z[:used, :1] - self.speeds[None, :]).argmin(axis=1)
         state = np.column_stack(
-            [core.z[:, 1], core.z[:, 2 : 2 + n], core.act[:, 1], core.act[:, 3]]
+            [core.z[:used, 1], core.z[:used, 2 : 2 + n], core.act[:used, 1], core.act[:used, 3]]
         )
-        terminal = np.einsum("bi,bij,bj->b", state, self.riccati[nearest], state)
+        if self._row_tables is None:
+            riccati = self.riccati[nearest]
+        else:
+            riccati = self._row_tables[2][np.arange(used), nearest]
+        terminal = np.einsum("bi,bij,bj->b", state, riccati, state)
         cost += np.where(alive, terminal, 0.0)
         return cost.reshape(count, samples), first.reshape(count, samples)
 
@@ -234,39 +273,124 @@ class SamplingPlanner:
         core = self.core
         n = self.n
         settings = self.settings
-        speed = core.z[:, 0]
-        gains = self.lqr.gains(speed)
+        used = core.batch_size if self._rows_stepped is None else self._rows_stepped.size
+        speed = core.z[:used, 0]
+        if self._row_tables is None:
+            gains = self.lqr.gains(speed)
+        else:
+            gains = _row_gains(speed, self._row_tables[0], self._row_tables[1])
         state = np.column_stack(
-            [core.z[:, 1], core.z[:, 2 : 2 + n], core.act[:, 1], core.act[:, 3]]
+            [core.z[:used, 1], core.z[:used, 2 : 2 + n], core.act[:used, 1], core.act[:used, 3]]
         )
         accel = -np.sum(gains * state, axis=1)
         return settings.actuator.command_for_accel(
             accel,
-            core.act[:, 1],
-            core.act[:, 3],
+            core.act[:used, 1],
+            core.act[:used, 3],
             settings.params.s_max,
             settings.rail_accel_max,
             settings.servo_frequency,
         )
 
-    def plan(self, z: np.ndarray, act: np.ndarray) -> np.ndarray:
-        """Actions (E, 1), float64 in [-1, 1], for the environments' exact states.
+    def _design(self, values: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Forward and reverse gain tables and Riccati matrices for one parameter vector."""
+        key = tuple(float(value) for value in values)
+        design = self._designs.get(key)
+        if design is None:
+            if len(self._designs) >= self.MAX_DESIGNS:
+                self._designs.clear()
+            params = self.settings.params.replace(**dict(zip(PARAMETERS, key, strict=True)))
+            settings = dataclasses.replace(self.settings, params=params, randomize=None)
+            lqr = LQRController(settings)
+            design = (lqr.forward_gains, lqr.reverse_gains, riccati_matrices(settings, self.speeds))
+            self._designs[key] = design
+        return design
+
+    def _set_row_params(self, params: np.ndarray) -> None:
+        """Each planned row's parameters over its candidate copies, and its designs."""
+        samples = self.config.samples
+        count = params.shape[0]
+        designs = [self._design(values) for values in params]
+        forward = np.repeat(np.stack([d[0] for d in designs]), samples, axis=0)
+        reverse = np.repeat(np.stack([d[1] for d in designs]), samples, axis=0)
+        riccati = np.repeat(np.stack([d[2] for d in designs]), samples, axis=0)
+        self._row_tables = (forward, reverse, riccati)
+        used = np.arange(count * samples, dtype=np.int64)
+        self.core.set_row_params(used, np.repeat(params, samples, axis=0))
+
+    def label(self, core: Any) -> np.ndarray:
+        """:meth:`plan` for every row of a scene core of this planner's settings, from its
+        exact states (and its rows' parameters when :attr:`per_row`)."""
+        if self.per_row:
+            return self.plan(core.z, core.act, core.param_values)
+        return self.plan(core.z, core.act)
+
+    def plan(
+        self,
+        z: np.ndarray,
+        act: np.ndarray,
+        params: np.ndarray | None = None,
+        rows: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Actions (E, 1) (or (len(rows), 1)), float64 in [-1, 1], for exact states.
 
         Args:
             z: (E, >= n+2) states (u, omega, alpha_1..alpha_n, ...); the pose is ignored.
             act: (E, 6) mass states as in :attr:`ConvoyCore.act`.
+            params: (E, 7) each row's true parameters (columns
+                :data:`trailer_env.randomize.PARAMETERS`), required when the settings
+                randomise the physics (:attr:`per_row`) and refused otherwise.
+            rows: Which of the E environments ``z``, ``act`` and ``params`` are (distinct
+                indices, int); default all, in order.
+
+        Raises:
+            ValueError: On shapes that do not match, ``params`` given to (or missing
+                from) a planner without (with) per-row parameters, non-finite or
+                non-positive parameters, or bad ``rows``.
         """
         config = self.config
-        count = self.batch_size
         n = self.n
+        if rows is None:
+            count = self.batch_size
+            picked: Any = slice(None)
+        else:
+            picked = np.asarray(rows)
+            if picked.ndim != 1 or not np.issubdtype(picked.dtype, np.integer):
+                raise ValueError(f"rows must be a 1-d integer array, got {picked!r}")
+            if picked.size and (picked.min() < 0 or picked.max() >= self.batch_size):
+                raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
+            if np.unique(picked).size != picked.size:
+                raise ValueError("rows must be distinct")
+            count = picked.size
+            if count == 0:
+                return np.zeros((0, 1))
         z = np.asarray(z, dtype=np.float64)
         act = np.asarray(act, dtype=np.float64)
         if z.shape[0] != count or act.shape != (count, 6) or z.shape[1] < n + 2:
             raise ValueError(f"expected {count} states, got z {z.shape} and act {act.shape}")
+        if self.per_row:
+            if params is None:
+                raise ValueError(
+                    "the settings randomise the physics: plan() needs each row's params (E, 7)"
+                )
+            values = np.asarray(params, dtype=np.float64)
+            if values.shape != (count, len(PARAMETERS)):
+                raise ValueError(
+                    f"params must be ({count}, {len(PARAMETERS)}) (columns {PARAMETERS}), "
+                    f"got {values.shape}"
+                )
+            if not (np.all(np.isfinite(values)) and np.all(values > 0.0)):
+                raise ValueError("params must be finite and > 0")
+            self._set_row_params(values)
+        elif params is not None:
+            raise ValueError(
+                "params given, but the planner's settings do not randomise the physics "
+                "(build it with the env's randomize= settings)"
+            )
         width = self.core.z.shape[1]
         state = np.zeros((count, width))
         state[:, : n + 2] = z[:, : n + 2]
-        mean = self.mean.copy()
+        mean = self.mean[picked].copy()
         spread = np.full_like(mean, config.noise)
         best_cost = np.full(count, np.inf)
         best_offsets = np.zeros_like(mean)
@@ -276,7 +400,10 @@ class SamplingPlanner:
             offsets = mean[:, None, :] + spread[:, None, :] * noise
             offsets[:, 0] = mean  # the current mean (the shifted previous plan)
             offsets[:, 1] = 0.0  # the LQR's own sequence
-            costs, first = self._evaluate(state, act, offsets)
+            try:
+                costs, first = self._evaluate(state, act, offsets)
+            finally:
+                self._rows_stepped = None
             order = np.argsort(costs, axis=1)
             rows = np.arange(count)
             top = order[:, 0]
@@ -287,9 +414,38 @@ class SamplingPlanner:
             elites = np.take_along_axis(offsets, order[:, : config.elites, None], axis=1)
             mean = elites.mean(axis=1)
             spread = np.maximum(elites.std(axis=1), config.min_noise)
-        self.mean[:, :-1] = best_offsets[:, 1:]
-        self.mean[:, -1] = 0.0
+        self._row_tables = None
+        if rows is None:
+            self.mean[:, :-1] = best_offsets[:, 1:]
+            self.mean[:, -1] = 0.0
+        else:
+            shifted = np.zeros_like(best_offsets)
+            shifted[:, :-1] = best_offsets[:, 1:]
+            self.mean[picked] = shifted
         return best_first[:, None]
+
+
+def _interp_rows(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """``np.interp(x[i], xp, fp[i, :, c])`` for every row i and column c at once (the
+    same arithmetic, so the same bits): x (m,) within [xp[0], xp[-1]], xp (S,)
+    increasing, fp (m, S, C); returns (m, C)."""
+    rows = np.arange(x.size)
+    last = xp.size - 1
+    j = np.clip(np.searchsorted(xp, x, side="right") - 1, 0, last - 1)
+    low, high = fp[rows, j], fp[rows, j + 1]
+    slope = (high - low) / (xp[j + 1] - xp[j])[:, None]
+    out = slope * (x - xp[j])[:, None] + low
+    out = np.where((x == xp[j])[:, None], low, out)
+    out = np.where((x >= xp[last])[:, None], fp[rows, last], out)
+    return np.where((x <= xp[0])[:, None], fp[rows, 0], out)
+
+
+def _row_gains(speed: np.ndarray, forward: np.ndarray, reverse: np.ndarray) -> np.ndarray:
+    """:meth:`LQRController.gains` with each row's own gain tables (m, S, n+3)."""
+    magnitude = np.clip(np.abs(speed), DESIGN_SPEEDS[0], DESIGN_SPEEDS[-1])
+    ahead = _interp_rows(magnitude, DESIGN_SPEEDS, forward)
+    back = _interp_rows(magnitude, DESIGN_SPEEDS, reverse)
+    return np.where((speed >= 0.0)[:, None], ahead, back)
 
 
 def state_from_observation(obs: np.ndarray, settings: EnvSettings) -> tuple[np.ndarray, np.ndarray]:
@@ -337,6 +493,80 @@ class MPCPolicy:
         if self.planner is None or self.planner.batch_size != z.shape[0]:
             self.planner = SamplingPlanner(self.core_class, self.settings, z.shape[0], self.config)
         return self.planner.plan(z, act).astype(np.float32)
+
+
+class PrivilegedExpert:
+    """The planner as a labeller of a batch core's rows: the DAgger expert.
+
+    For a scene's own core, one :class:`SamplingPlanner` (seeded ``config.seed``); for a
+    :class:`trailer_env.mixed.MixedCore` (``n_trailers=(low, high)``), one planner per
+    count n, seeded ``config.seed + n``, that plans the rows whose episode has n trailers
+    from their state in the count's core. Under randomised physics each row is planned
+    with its TRUE parameters (``core.param_values``, see :class:`SamplingPlanner`): a
+    privileged expert, the student sees only the observations.
+
+    Args:
+        core_class: The scene's core.
+        settings: The settings of each count (``{n: settings}``; one entry for one n).
+        batch_size: Rows of the core labelled (E).
+        config: The planners' search settings.
+    """
+
+    def __init__(
+        self,
+        core_class: type[ConvoyCore],
+        settings: dict[int, EnvSettings],
+        batch_size: int,
+        config: PlannerConfig | None = None,
+    ) -> None:
+        if not settings:
+            raise ValueError("settings must hold at least one count")
+        self.config = config or PlannerConfig()
+        self.mixed = len(settings) > 1
+        self.planners = {
+            n: SamplingPlanner(
+                core_class,
+                value,
+                batch_size,
+                dataclasses.replace(self.config, seed=self.config.seed + n)
+                if self.mixed
+                else self.config,
+            )
+            for n, value in sorted(settings.items())
+        }
+        self.batch_size = batch_size
+
+    @property
+    def simulated_steps(self) -> int:
+        return sum(planner.simulated_steps for planner in self.planners.values())
+
+    def reset(self, rows: np.ndarray | None = None) -> None:
+        """Forget the warm starts of ``rows`` (default all) in every planner."""
+        for planner in self.planners.values():
+            planner.reset(rows)
+
+    def label(self, core: Any) -> np.ndarray:
+        """The planner's actions (E, 1) for every row of ``core`` (a scene core of one n
+        or a MixedCore of the same counts), from the exact states."""
+        if core.batch_size != self.batch_size:
+            raise ValueError(
+                f"core has {core.batch_size} rows, the expert labels {self.batch_size}"
+            )
+        if not self.mixed:
+            (planner,) = self.planners.values()
+            return planner.label(core)
+        cores = getattr(core, "cores", None)
+        if cores is None or sorted(cores) != sorted(self.planners):
+            raise ValueError("the expert's counts differ from the core's")
+        labels = np.zeros((self.batch_size, 1))
+        for n, planner in self.planners.items():
+            rows = np.flatnonzero(core.trailers == n)
+            if rows.size == 0:
+                continue
+            sub = cores[n]
+            params = sub.param_values[rows] if planner.per_row else None
+            labels[rows] = planner.plan(sub.z[rows], sub.act[rows], params, rows)
+        return labels
 
 
 @dataclass(frozen=True)
@@ -408,6 +638,7 @@ __all__ = [
     "MPCPolicy",
     "PlannedEpisodes",
     "PlannerConfig",
+    "PrivilegedExpert",
     "SamplingPlanner",
     "plan_episodes",
     "riccati_matrices",

@@ -16,7 +16,9 @@ import re
 from pathlib import Path
 from typing import Any
 
-from agents.artifacts.cards import read_card
+import numpy as np
+
+from agents.artifacts.cards import is_count_range, read_card
 from agents.artifacts.curves import CURVE_COLUMNS, read_curve
 from agents.artifacts.paths import curve_path, stats_path
 from agents.artifacts.run_folder import RLLIB_CHECKPOINT
@@ -28,6 +30,7 @@ from agents.envs import (
 )
 from agents.policies.baselines import BASELINES, Policy, make_baseline
 from agents.policies.sb3 import ModelPolicy, load_model, load_stats
+from trailer_env.mixed import is_trailer_range, pad_observations, trailer_range
 
 #: ``package.module:attribute`` (the form of console-script entry points).
 _CALLABLE_SPEC = re.compile(r"[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*:[A-Za-z_][\w]*")
@@ -92,7 +95,20 @@ def check_card(card: dict[str, Any], spec: str, env_id: str, env_kwargs: dict[st
         return
     trained_id = card.get("env_id")
     trained_n = card.get("env_kwargs", {}).get("n_trailers")
-    wanted_n = env_settings(env_kwargs).n_trailers
+    wanted_n: Any = _wanted_trailers(env_kwargs)
+    if is_count_range(trained_n):
+        low, high = trained_n
+        if isinstance(wanted_n, int) and wanted_n > high:
+            raise ValueError(
+                f"model {spec} is a generalist over n_trailers = {low}..{high}: its padded "
+                f"observation holds at most {high} trailers, so it cannot act with "
+                f"n_trailers = {wanted_n}"
+            )
+        if isinstance(wanted_n, int) and low <= wanted_n <= high:
+            trained_n = wanted_n  # a generalist, run on one of its counts (padded)
+        else:
+            trained_n = list(trained_n)
+            wanted_n = list(wanted_n) if isinstance(wanted_n, tuple) else wanted_n
     if (trained_id is not None and trained_id != env_id) or (
         trained_n is not None and trained_n != wanted_n
     ):
@@ -100,6 +116,28 @@ def check_card(card: dict[str, Any], spec: str, env_id: str, env_kwargs: dict[st
             f"model {spec} was trained on {trained_id} with n_trailers = {trained_n}, not "
             f"{env_id} with n_trailers = {wanted_n}; pass --force to evaluate it anyway"
         )
+
+
+def _wanted_trailers(env_kwargs: dict[str, Any]) -> int | tuple[int, int]:
+    """The env's ``n_trailers``: one count, or the range ``(low, high)``."""
+    value = env_kwargs.get("n_trailers")
+    if is_trailer_range(value):
+        return trailer_range(value)
+    return env_settings(env_kwargs).n_trailers
+
+
+class PaddedPolicy:
+    """A generalist (trained on ``n_trailers=(low, top)``) acting in a scene of one n:
+    each observation is laid out as the mixed env would observe the same state
+    (:func:`trailer_env.mixed.pad_observations`: zeros beyond n, the mask's n ones)."""
+
+    def __init__(self, policy: Policy, n: int, top: int) -> None:
+        self.policy = policy
+        self.n = n
+        self.top = top
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return np.asarray(self.policy(pad_observations(obs, self.n, self.top)))
 
 
 def model_card(spec: str) -> dict[str, Any]:
@@ -173,7 +211,21 @@ def load_policy(
     if not force:
         check_card(card, spec, env_id, kwargs)
     read_curve(curve_path(path), CURVE_COLUMNS)  # a damaged curve fails now, not at the end
-    model = load_model(path, env_id=env_id, env_kwargs=kwargs, trust_pickle=trust_pickle)
+    trained_n = card.get("env_kwargs", {}).get("n_trailers")
+    padded: tuple[int, int] | None = None
+    space_kwargs = kwargs
+    wanted_n = _wanted_trailers(kwargs)
+    if is_count_range(trained_n) and isinstance(wanted_n, int):
+        top = int(trained_n[1])
+        if wanted_n > top:
+            raise ValueError(
+                f"model {spec} is a generalist over n_trailers = {trained_n[0]}..{top}: its "
+                f"padded observation holds at most {top} trailers, so it cannot act with "
+                f"n_trailers = {wanted_n}"
+            )
+        padded = (wanted_n, top)
+        space_kwargs = {**kwargs, "n_trailers": list(trained_n)}
+    model = load_model(path, env_id=env_id, env_kwargs=space_kwargs, trust_pickle=trust_pickle)
     stats = load_stats(path, model.observation_space, trust_pickle)
     normalize = card.get("normalize")
     if stats is None and isinstance(normalize, dict) and normalize.get("norm_obs", True):
@@ -181,4 +233,6 @@ def load_policy(
             f"model {path} was trained on normalised observations (its card), but its "
             f"statistics {stats_path(path).name} are missing"
         )
+    if padded is not None:
+        return PaddedPolicy(ModelPolicy(model, stats), *padded)
     return ModelPolicy(model, stats)

@@ -5,6 +5,11 @@ Usage::
     python -m agents.imitate --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \
         [--iterations 6] [--episodes 256] [--run-dir DIR] [--export PATH] [--overwrite]
 
+A generalist: ``--n-trailers 1-3 --randomize mismatch20`` (the env draws each
+episode's n and physics; the expert, :class:`agents.oracles.planner.PrivilegedExpert`,
+plans each row with its true parameters; the student sees the padded observation and
+the trailer mask, no parameters).
+
 Why: PPO from scratch stays below the LQR's basin (the figures are in the docs, Agents:
 what limits performance), because the states that matter (near the edge of the
 recoverable set, where the rail saturates) are rare under its exploration. The ``mpc``
@@ -60,12 +65,14 @@ from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import save_stats
 from agents.envs import check_env_id, env_settings, make_sb3_env
 from agents.evaluation.metrics import rollout, summarize
-from agents.oracles.planner import PlannerConfig, SamplingPlanner
+from agents.oracles.planner import PlannerConfig, PrivilegedExpert, SamplingPlanner
 from agents.policies.sb3 import ModelPolicy
 from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
 from agents.training.config import load_hyperparams, parse_policy_kwargs
+from trailer_env.mixed import is_trailer_range, mixed_settings, trailer_range
+from trailer_env.randomize import PRESETS, Randomization
 from trailer_env.registry import core_class_of
 from trailer_env.vector import ConvoyVectorEnv
 
@@ -95,7 +102,9 @@ class ImitationConfig:
 
     Attributes:
         env_id: The scene (one whose baselines include ``mpc``).
-        n_trailers: Trailers.
+        n_trailers: Trailers: one count, or a range ``(low, high)`` (a generalist: the
+            env draws each episode's n, the student sees the padded observation and
+            its mask, :mod:`trailer_env.mixed`).
         seed: Seed of the network's initialisation, the training episodes' offset and
             the planner's sampling.
         iterations: DAgger iterations (iteration 0 is the planner driving).
@@ -109,10 +118,14 @@ class ImitationConfig:
         planner: The expert's search settings (its seed is replaced by ``seed``). More
             samples make its labels less noisy: two default planners label the same
             states with a mean squared difference of about 0.02.
+        randomize: The env's ``randomize=`` (a preset name of
+            :data:`trailer_env.randomize.PRESETS` or a dict of factor ranges; None: the
+            nominal physics). The expert plans with each episode's true parameters; the
+            student does not observe them.
     """
 
     env_id: str
-    n_trailers: int
+    n_trailers: int | tuple[int, int]
     seed: int = 0
     iterations: int = 6
     episodes: int = 256
@@ -122,9 +135,18 @@ class ImitationConfig:
     net_arch: tuple[int, ...] | None = None
     validation_episodes: int = 100
     planner: PlannerConfig = field(default_factory=PlannerConfig)
+    randomize: str | dict[str, Any] | None = None
 
     def __post_init__(self) -> None:
         check_env_id(self.env_id)
+        if is_trailer_range(self.n_trailers):
+            object.__setattr__(self, "n_trailers", trailer_range(self.n_trailers))
+        if self.randomize is not None:
+            if isinstance(self.randomize, str) and self.randomize not in PRESETS:
+                raise ValueError(
+                    f"randomize: unknown preset {self.randomize!r}; presets: {sorted(PRESETS)}"
+                )
+            Randomization.coerce(self.randomize)  # TypeError/ValueError naming the problem
         for name in ("iterations", "episodes", "epochs", "batch_size", "validation_episodes"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int):
@@ -150,16 +172,32 @@ class ImitationConfig:
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
         if "mpc" not in core_class_of(self.env_id).oracle_baselines:
             raise ValueError(f"{self.env_id} has no planner (mpc) to imitate")
-        env_settings(self.env_kwargs)  # a bad number of trailers fails here, named
+        self.settings_by_count()  # a bad number of trailers fails here, named
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
-        return {"n_trailers": self.n_trailers}
+        kwargs: dict[str, Any] = {"n_trailers": self.n_trailers}
+        if self.randomize is not None:
+            kwargs["randomize"] = self.randomize
+        return kwargs
+
+    @property
+    def run_label(self) -> str:
+        """The trailer part of the default run folder's name: ``2`` or ``1-3``."""
+        if isinstance(self.n_trailers, tuple):
+            return f"{self.n_trailers[0]}-{self.n_trailers[1]}"
+        return str(self.n_trailers)
+
+    def settings_by_count(self) -> dict[int, Any]:
+        """The env settings of each count (one entry for one n)."""
+        if isinstance(self.n_trailers, tuple):
+            return mixed_settings(self.env_kwargs)
+        return {self.n_trailers: env_settings(self.env_kwargs)}
 
 
 def collect(
     envs: ConvoyVectorEnv,
-    planner: SamplingPlanner,
+    planner: PrivilegedExpert | SamplingPlanner,
     policy: Any,
     seed: int,
     progress: Progress | None = None,
@@ -178,7 +216,7 @@ def collect(
     observations = np.empty((steps, *obs.shape), dtype=np.float32)
     labels = np.empty((steps, envs.num_envs), dtype=np.float64)
     for t in range(steps):
-        label = planner.plan(core.z, core.act)
+        label = planner.label(core)
         observations[t] = obs
         labels[t] = label[:, 0]
         action = label if policy is None else policy(obs)
@@ -241,14 +279,14 @@ def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
 def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[str, Any]:
     """Run DAgger (see the module); returns the run's record (also its ``config.json``)."""
     started = time.perf_counter()
-    settings = env_settings(config.env_kwargs)
+    settings = config.settings_by_count()
     core_class = core_class_of(config.env_id)
     run_dir.mkdir(parents=True, exist_ok=True)
     model, stats, hyperparams = _build_model(config)
     envs = ConvoyVectorEnv(
         core_class, config.episodes, autoreset_mode="same_step", **config.env_kwargs
     )
-    planner = SamplingPlanner(
+    planner = PrivilegedExpert(
         core_class, settings, config.episodes, dataclasses.replace(config.planner, seed=config.seed)
     )
     rng = np.random.default_rng(config.seed)
@@ -263,7 +301,7 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
         "imitation": {
             key: (list(value) if isinstance(value, tuple) else value)
             for key, value in asdict(config).items()
-            if key not in ("env_id", "n_trailers", "seed", "planner")
+            if key not in ("env_id", "n_trailers", "seed", "planner", "randomize")
         },
         "planner": asdict(planner.config),
         "hyperparams": {
