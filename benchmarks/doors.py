@@ -118,20 +118,25 @@ def native_door(num_envs: int, seed: int) -> tuple[Runner, Callable[[], None]]:
     return _vector_runner(envs, num_envs, seed)
 
 
-def _vector_runner(envs: Any, num_envs: int, seed: int) -> tuple[Runner, Callable[[], None]]:
-    envs.action_space.seed(seed)
-    actions = _float32_batches(envs.action_space, ACTION_BANK)
-    envs.reset(seed=seed)
+def _cycling(envs: Any, actions: list[np.ndarray], num_envs: int) -> Runner:
+    """A runner stepping ``envs`` through the pre-drawn ``actions`` in a cycle."""
     cursor = 0
 
     def run(calls: int) -> int:
         nonlocal cursor
         for _ in range(calls):
             envs.step(actions[cursor])
-            cursor = (cursor + 1) % ACTION_BANK
+            cursor = (cursor + 1) % len(actions)
         return calls * num_envs
 
-    return run, envs.close
+    return run
+
+
+def _vector_runner(envs: Any, num_envs: int, seed: int) -> tuple[Runner, Callable[[], None]]:
+    envs.action_space.seed(seed)
+    actions = _float32_batches(envs.action_space, ACTION_BANK)
+    envs.reset(seed=seed)
+    return _cycling(envs, actions, num_envs), envs.close
 
 
 def sb3_door(num_envs: int, seed: int) -> tuple[Runner, Callable[[], None]]:
@@ -143,16 +148,7 @@ def sb3_door(num_envs: int, seed: int) -> tuple[Runner, Callable[[], None]]:
     envs.action_space.seed(seed)
     actions = [np.stack(_float32_batches(envs.action_space, num_envs)) for _ in range(ACTION_BANK)]
     envs.reset()
-    cursor = 0
-
-    def run(calls: int) -> int:
-        nonlocal cursor
-        for _ in range(calls):
-            envs.step(actions[cursor])
-            cursor = (cursor + 1) % ACTION_BANK
-        return calls * num_envs
-
-    return run, envs.close
+    return _cycling(envs, actions, num_envs), envs.close
 
 
 def gymnasium_door(mode: str) -> Callable[[int, int], tuple[Runner, Callable[[], None]]]:
