@@ -69,21 +69,6 @@ def restart_config(config: ILQRConfig, core_class: type[ConvoyCore], restart: in
     )
 
 
-class GuardedPlanner(ILQRPlanner):
-    """:class:`ILQRPlanner` whose rollouts never send a non-finite command.
-
-    Near a fold the backward pass can return non-finite gains (Dock-v0, n = 2: rollout
-    row 176, start 44 of the first pass); a rollout then asked for a NaN acceleration and the core
-    refused the step, stopping the whole batch. Here such a fraction becomes 0 (no rail
-    acceleration) in place, before the rollout records it: that candidate is costed like
-    any other, and every other row plans exactly as :class:`ILQRPlanner` would.
-    """
-
-    def _command(self, fraction: np.ndarray, core: ConvoyCore) -> np.ndarray:
-        fraction[~np.isfinite(fraction)] = 0.0
-        return super()._command(fraction, core)
-
-
 @dataclass(frozen=True)
 class GoalEpisodes:
     """What :func:`drive` did: actions (E, steps) float64 (zero after the end), lengths
@@ -110,7 +95,7 @@ def drive(
     core_class = type(core)
     count = core.batch_size
     steps = core_class.max_episode_steps
-    planner = GuardedPlanner(core_class, settings, count, config)
+    planner = ILQRPlanner(core_class, settings, count, config)
     actions = np.zeros((count, steps))
     lengths = np.full(count, steps, dtype=np.int64)
     success = np.zeros(count, dtype=bool)
@@ -299,7 +284,6 @@ __all__ = [
     "CLOSED_LOOP_INTEGRATORS",
     "GOAL_SCENES",
     "GoalEpisodes",
-    "GuardedPlanner",
     "certify_goals",
     "check_closed_loop",
     "drive",

@@ -249,7 +249,13 @@ class ILQRPlanner:
         return np.column_stack([core.z, core.act[:, 1], core.act[:, 3]])
 
     def _command(self, fraction: np.ndarray, core: ConvoyCore) -> np.ndarray:
-        """The action (clipped to [-1, 1]) asking the actuator for ``fraction`` of the bound."""
+        """The action (clipped to [-1, 1]) asking the actuator for ``fraction`` of the bound.
+
+        A non-finite fraction becomes 0 in place, before the rollout records it: near a
+        fold the backward pass can return non-finite gains (Dock-v0, n = 2), and a NaN
+        command would make the core refuse the whole batch's step.
+        """
+        fraction[~np.isfinite(fraction)] = 0.0
         settings = self.settings
         accel_max = settings.rail_accel_max
         command = settings.actuator.command_for_accel(
