@@ -16,7 +16,10 @@ from trailer_env.scenes.reverse_v1 import ReverseV1Core
 
 #: Labels of the planner of main (commit be25ddb, before per-row parameters), default
 #: PlannerConfig with seed 4, 6 rows started from generators seeded 50..55, three
-#: planned steps each, n = 1 then n = 3 (rows of the three steps in order).
+#: planned steps each, n = 1 then n = 3 (rows of the three steps in order). Recorded on
+#: one CPU: another CPU's kernels differ in the last bits (docs/reliability.md, "What
+#: reproduces where"), so they are compared to LABEL_RTOL; within one process the
+#: comparisons stay exact.
 OLD_LABELS = [
     0.14163990804285975, 0.19492624724119342, -0.1308665401776027, 0.21271531698267407,
     0.21216224011582288, 0.07918508508769712, 0.3594773434327049, 0.14672548451635728,
@@ -28,6 +31,10 @@ OLD_LABELS = [
     -0.16902773398279744, -0.18715156835974261, -0.04668610231621573, -0.2706932775417408,
     0.27024877645270695, 0.023073146536230847, -0.19963118591547763, -0.2876663269117614,
 ]  # fmt: skip
+
+#: Relative tolerance of labels recorded on another CPU (AVX-512 and a generic x86-64
+#: differ from the recording by at most 2.4e-14 relative).
+LABEL_RTOL = 1e-9
 
 SMALL = PlannerConfig(samples=8, elites=2, horizon=5, tail=10, seed=3)
 
@@ -46,7 +53,7 @@ def _direct(settings, values: np.ndarray, config: PlannerConfig) -> SamplingPlan
     )
 
 
-def test_labels_without_randomisation_are_the_old_planners_bit_for_bit() -> None:
+def test_labels_without_randomisation_are_the_old_planners() -> None:
     labels = []
     for n in (1, 3):
         settings = env_settings({"n_trailers": n})
@@ -59,7 +66,7 @@ def test_labels_without_randomisation_are_the_old_planners_bit_for_bit() -> None
             np.testing.assert_array_equal(expert.label(core), action)
             labels.append(action)
             core.step(action)
-    assert np.concatenate(labels)[:, 0].tolist() == OLD_LABELS
+    np.testing.assert_allclose(np.concatenate(labels)[:, 0], OLD_LABELS, rtol=LABEL_RTOL, atol=0)
 
 
 def test_a_rows_label_is_that_of_a_planner_built_for_its_parameters() -> None:
