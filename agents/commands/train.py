@@ -84,7 +84,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
         prog="python -m agents.train",
-        description="Train PPO, SAC or TD3 on a trailer_env scene (native batched env).",
+        description="Train PPO, PPO-Lagrangian, SAC or TD3 on a trailer_env scene "
+        "(native batched env).",
     )
     parser.add_argument(
         "--backend",
@@ -94,7 +95,12 @@ def build_parser() -> argparse.ArgumentParser:
         "local Ray or a cluster (--address), see agents.rllib_backend",
     )
     cli.add_env(parser)
-    parser.add_argument("--algo", required=True, choices=sorted(ALGOS), help="algorithm")
+    parser.add_argument(
+        "--algo",
+        required=True,
+        choices=sorted(ALGOS),
+        help="algorithm: " + "; ".join(f"{name}: {record.label}" for name, record in ALGOS.items()),
+    )
     cli.add_n_trailers(parser)
     _optional_positive(
         parser,

@@ -41,6 +41,7 @@ from typing import Any
 
 import yaml
 
+from agents.algorithms import algo_class
 from agents.artifacts import files, limits
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
@@ -59,7 +60,8 @@ _INT_KEYS = ("n_steps", "batch_size", "n_epochs", "buffer_size", "learning_start
              "gradient_steps", "policy_delay", "target_update_interval", "sde_sample_freq",
              "stats_window_size")  # fmt: skip
 _NUMBER_KEYS = ("gamma", "gae_lambda", "vf_coef", "max_grad_norm", "tau",
-                "target_policy_noise", "target_noise_clip", "target_kl")  # fmt: skip
+                "target_policy_noise", "target_noise_clip", "target_kl", "cost_limit",
+                "lambda_lr", "lambda_init")  # fmt: skip
 #: Arguments the trainer sets itself (an entry may not).
 _RESERVED = ("self", "policy", "env", "verbose", "seed", "device", "_init_setup_model",
              "tensorboard_log", "action_noise")  # fmt: skip
@@ -274,11 +276,23 @@ def _count(value: Any, key: str, maximum: int, where: str, minimum: int = 1) -> 
     return int(value)
 
 
+def _init_arguments(cls: type) -> set[str]:
+    """The named arguments of ``cls``'s constructor, those its ``**kwargs`` passes on to
+    the base classes' included (PPO-Lagrangian adds three to PPO's)."""
+    names: set[str] = set()
+    for klass in cls.__mro__:
+        if "__init__" not in vars(klass):
+            continue
+        parameters = inspect.signature(klass.__init__).parameters.values()  # type: ignore[misc]
+        names |= {p.name for p in parameters if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
+        if all(p.kind != p.VAR_KEYWORD for p in parameters):
+            break
+    return names
+
+
 def _check_keys(algo: str, raw: dict[str, Any], where: str) -> None:
     """Refuse an entry key that is neither rl-zoo3's nor an argument of the algorithm."""
-    from agents.artifacts.sb3_zip import algo_class
-
-    accepted = set(inspect.signature(algo_class(algo).__init__).parameters) - set(_RESERVED)
+    accepted = _init_arguments(algo_class(algo)) - set(_RESERVED)
     for key in raw:
         if key not in accepted and key not in _ZOO_KEYS and key not in (
             "env_wrapper", "vec_env_wrapper", "frame_stack", "callback"
@@ -308,7 +322,7 @@ class TrainConfig:
 
     Attributes:
         env_id: A trailer_env id.
-        algo: "ppo", "sac" or "td3".
+        algo: A name of :data:`agents.algorithms.ALGOS` ("ppo", "ppo_lag", "sac", "td3").
         n_trailers: Number of trailers (over the file's ``env_kwargs``).
         seed: Seed of the model and of the training environments (env i gets seed + i).
         budget: Total training budget in environment steps.

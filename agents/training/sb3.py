@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.algorithms import algorithm
 from agents.artifacts.cards import read_card, write_card
 from agents.artifacts.paths import pickled_stats_path, replay_buffer_path, stats_path
 from agents.artifacts.run_folder import (
@@ -126,7 +127,7 @@ def train(
         save_freq=max((checkpoint_freq or max(budget // 5, batch)) // batch, 1),
         save_path=str(run_dir / CHECKPOINTS),
         name_prefix=algo,
-        save_replay_buffer=algo in ("sac", "td3"),
+        save_replay_buffer=algorithm(algo).off_policy,
     )
     callbacks: list[Any] = [evaluator, checkpoints]
     if progress_bar:
