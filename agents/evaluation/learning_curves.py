@@ -130,7 +130,7 @@ def _check_window(window: Any, eps: Any) -> tuple[int, float]:
     return int(window), float(eps)
 
 
-def is_flat(values: Sequence[float], window: int, eps: float) -> bool:
+def is_flat(values: Sequence[float] | np.ndarray, window: int, eps: float) -> bool:
     """Whether the last ``window`` of ``values`` all lie within ``eps`` of their mean
     (False while there are fewer; a window of non-finite values is not flat)."""
     if len(values) < window:
@@ -143,7 +143,10 @@ def is_flat(values: Sequence[float], window: int, eps: float) -> bool:
 
 
 def plateau(
-    steps: Sequence[float], values: Sequence[float], window: int, eps: float
+    steps: Sequence[float] | np.ndarray,
+    values: Sequence[float] | np.ndarray,
+    window: int,
+    eps: float,
 ) -> Plateau | None:
     """The first evaluation at which ``values`` is flat (the module's rule), or None.
 

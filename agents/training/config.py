@@ -179,13 +179,14 @@ def hyperparams_file(algo: str, directory: Path = HYPERPARAMS_DIR) -> Path:
     return path
 
 
-def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> Hyperparams:
-    """Read and preprocess ``env_id``'s entry of ``<directory>/<algo>.yml``.
+def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> dict[str, Any]:
+    """``env_id``'s entry of ``<directory>/<algo>.yml`` as the YAML holds it (anchors
+    merged, nothing checked but the file's size and shape).
 
     Raises:
         FileNotFoundError: If the algorithm has no file.
         KeyError: If the file has no entry for ``env_id``.
-        ValueError: On a value the trainer cannot use.
+        ValueError: If the file is too large, not YAML, or not a mapping of mappings.
     """
     path = hyperparams_file(algo, directory)
     size = path.stat().st_size
@@ -201,7 +202,19 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
         raise KeyError(f"{path} has no entry for {env_id}; entries: {sorted(map(str, entries))}")
     if not isinstance(entries[env_id], dict):
         raise ValueError(f"{path}: the entry for {env_id} must be a mapping")
-    raw = {str(key): value for key, value in entries[env_id].items()}
+    return {str(key): value for key, value in entries[env_id].items()}
+
+
+def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> Hyperparams:
+    """Read and preprocess ``env_id``'s entry of ``<directory>/<algo>.yml``.
+
+    Raises:
+        FileNotFoundError: If the algorithm has no file.
+        KeyError: If the file has no entry for ``env_id``.
+        ValueError: On a value the trainer cannot use.
+    """
+    raw = raw_entry(algo, env_id, directory)
+    path = hyperparams_file(algo, directory)
     where = f"{path}, entry {env_id}"
     _check_keys(algo, raw, where)
     env_kwargs = raw.pop("env_kwargs", None) or {}
@@ -276,7 +289,7 @@ def _count(value: Any, key: str, maximum: int, where: str, minimum: int = 1) -> 
     return int(value)
 
 
-def _init_arguments(cls: type) -> set[str]:
+def init_arguments(cls: type) -> set[str]:
     """The named arguments of ``cls``'s constructor, those its ``**kwargs`` passes on to
     the base classes' included (PPO-Lagrangian adds three to PPO's)."""
     names: set[str] = set()
@@ -292,7 +305,7 @@ def _init_arguments(cls: type) -> set[str]:
 
 def _check_keys(algo: str, raw: dict[str, Any], where: str) -> None:
     """Refuse an entry key that is neither rl-zoo3's nor an argument of the algorithm."""
-    accepted = _init_arguments(algo_class(algo)) - set(_RESERVED)
+    accepted = init_arguments(algo_class(algo)) - set(_RESERVED)
     for key in raw:
         if key not in accepted and key not in _ZOO_KEYS and key not in (
             "env_wrapper", "vec_env_wrapper", "frame_stack", "callback"
