@@ -6,7 +6,8 @@ Usage::
     python -m agents.curves runs --out out/curves --plateau 5,0.05 --level lqr=0.62
 
 Each RUN is a run folder of ``agents.train`` (``config.json`` + ``evaluations.csv``)
-or a folder of run folders (its subfolders that are runs). Runs are grouped by
+or a folder of run folders (its subfolders holding both; an RLlib run, which has no
+``evaluations.csv``, is passed over). Runs are grouped by
 (scene, n, algorithm) over their training seeds (:mod:`agents.evaluation.learning_curves`);
 ``<out>/learning_curves.png`` draws each group's validation headline rate (safe for
 Reverse, success otherwise) against env steps and against wall time, the mean over
@@ -30,7 +31,7 @@ import math
 from pathlib import Path
 
 from agents.artifacts.certificates import committed_certificate
-from agents.artifacts.run_folder import CONFIG_FILE
+from agents.artifacts.run_folder import CONFIG_FILE, CURVE_FILE
 from agents.commands import options as cli
 from agents.evaluation.learning_curves import (
     GroupKey,
@@ -96,7 +97,11 @@ def _run_folders(parser: argparse.ArgumentParser, paths: list[Path]) -> list[Pat
         if (path / CONFIG_FILE).is_file():
             folders.append(path)
             continue
-        inside = sorted(child for child in path.iterdir() if (child / CONFIG_FILE).is_file())
+        inside = sorted(
+            child
+            for child in path.iterdir()
+            if (child / CONFIG_FILE).is_file() and (child / CURVE_FILE).is_file()
+        )
         if not inside:
             parser.error(f"argument RUN: {path} is not a run folder and holds none")
         folders.extend(inside)
