@@ -37,6 +37,16 @@ class BatchInfos(Sequence[dict[str, Any]]):
     def __len__(self) -> int:
         return self._count
 
+    def column(self, key: str) -> Any:
+        """The step's values of ``key`` for every environment (the (N,) array, not a copy:
+        read it, do not write it), without building any dict. Writes into the dicts of
+        :meth:`__getitem__` are not seen here.
+
+        Raises:
+            KeyError: If the step has no such info.
+        """
+        return self._columns[key]
+
     def _build(self, i: int) -> dict[str, Any]:
         if self._lists is None:  # Python scalars, as the dicts held before
             self._lists = [_per_row(column) for column in self._columns.values()]

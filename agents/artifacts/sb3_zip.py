@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.algorithms import ALGOS, algo_class, algorithm
 from agents.artifacts import files, limits
 from agents.artifacts.files import UnsafeFileError
 
@@ -35,32 +36,7 @@ _RUNTIME_STATE = (
 )
 
 
-#: Module of each algorithm's MlpPolicy, as SB3 records it in ``policy_class``.
-_POLICY_MODULES = {
-    "ppo": "stable_baselines3.common.policies",
-    "sac": "stable_baselines3.sac.policies",
-    "td3": "stable_baselines3.td3.policies",
-}
-
-
 __all__ = ["ALGOS", "UnsafeFileError", "algo_class", "check_zip", "load_sb3", "read_sb3_data"]
-
-
-#: Algorithm name (as on the command line) -> stable-baselines3 class name.
-ALGOS: dict[str, str] = {"ppo": "PPO", "sac": "SAC", "td3": "TD3"}
-
-
-def algo_class(algo: str) -> Any:
-    """The stable-baselines3 class of ``algo`` ("ppo", "sac" or "td3").
-
-    Raises:
-        ValueError: On an unknown algorithm.
-    """
-    if algo not in ALGOS:
-        raise ValueError(f"unknown algorithm {algo!r}; choose from {sorted(ALGOS)}")
-    import stable_baselines3
-
-    return getattr(stable_baselines3, ALGOS[algo])
 
 
 def check_zip(path: Path) -> None:
@@ -180,7 +156,7 @@ def safe_custom_objects(
 
     Args:
         path: The model zip.
-        algo: "ppo", "sac" or "td3".
+        algo: A name of :data:`agents.algorithms.ALGOS`.
         observation_space, action_space: The spaces of the environment the model will
             act in (checked against the saved shapes).
         algo_kwargs: The hyperparameter file's algorithm arguments: schedules, train
@@ -191,8 +167,6 @@ def safe_custom_objects(
         ValueError: On a shape mismatch, a policy class of another algorithm, or a
             serialized entry that has no safe replacement.
     """
-    from agents.artifacts.sb3_zip import algo_class
-
     data = read_sb3_data(path)
     check_network(path, data, observation_space)
     kwargs = algo_kwargs or {}
@@ -208,7 +182,7 @@ def safe_custom_objects(
     if not isinstance(entry, dict):
         raise ValueError(f"{path}: its policy_class entry is not an SB3 class record")
     module = str(entry.get("__module__", ""))
-    if module and module != _POLICY_MODULES[algo]:
+    if module and module != algorithm(algo).policy_module:
         raise ValueError(
             f"{path}: policy class from {module!r}, not {algo}'s MlpPolicy; "
             "custom policies load only with --trust-pickle"
@@ -257,8 +231,6 @@ def load_sb3(
             (damaged or missing weights included), or needs unpickling and
             ``trust_pickle`` is false (:class:`UnsafeFileError`).
     """
-    from agents.artifacts.sb3_zip import algo_class
-
     if trust_pickle:
         check_network(path, read_sb3_data(path), observation_space)
     custom = (

@@ -82,6 +82,22 @@ def at_least(minimum: int, maximum: int | None = None) -> Callable[[str], int]:
     return parse
 
 
+def plateau_rule(text: str) -> tuple[int, float]:
+    """``WINDOW,EPS``: a window of >= 2 evaluations and a band >= 0 (the plateau rule of
+    :mod:`agents.evaluation.learning_curves`)."""
+    window_text, comma, eps_text = text.partition(",")
+    try:
+        window, eps = int(window_text), float(eps_text)
+        valid = bool(comma) and window >= 2 and math.isfinite(eps) and eps >= 0.0
+    except ValueError:
+        valid = False
+    if not valid:
+        raise argparse.ArgumentTypeError(
+            f"expected WINDOW,EPS (an integer >= 2 and a number >= 0), got {text[:40]!r}"
+        )
+    return window, eps
+
+
 def bounded(minimum: int, maximum: int) -> Callable[[str], int]:
     """A parser of integers in ``minimum .. maximum``, also written as "1e6"."""
 

@@ -25,6 +25,11 @@ that is in no run folder (e.g. a shipped ``agents/models/*.zip``) starts the fre
 default run folder instead: its own folder is never turned into a run. A folder that
 already holds another run is refused unless ``--overwrite`` (:mod:`agents.artifacts.run_folder`).
 
+``--stop-on-plateau WINDOW,EPS`` ends the run early once its validation headline rate
+(safe for Reverse, success otherwise) is flat: its last WINDOW evaluations within EPS
+of their mean (:mod:`agents.evaluation.learning_curves`); the cards record the step
+(``stopped_on_plateau_at``).
+
 ``--export PATH`` copies the best model, its card, statistics and learning curve to
 PATH (e.g. ``agents/models/``); existing files there are refused unless ``--overwrite``
 (:func:`agents.artifacts.run_folder.export_model`).
@@ -84,7 +89,8 @@ def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
         prog="python -m agents.train",
-        description="Train PPO, SAC or TD3 on a trailer_env scene (native batched env).",
+        description="Train PPO, PPO-Lagrangian, SAC or TD3 on a trailer_env scene "
+        "(native batched env).",
     )
     parser.add_argument(
         "--backend",
@@ -94,7 +100,12 @@ def build_parser() -> argparse.ArgumentParser:
         "local Ray or a cluster (--address), see agents.rllib_backend",
     )
     cli.add_env(parser)
-    parser.add_argument("--algo", required=True, choices=sorted(ALGOS), help="algorithm")
+    parser.add_argument(
+        "--algo",
+        required=True,
+        choices=sorted(ALGOS),
+        help="algorithm: " + "; ".join(f"{name}: {record.label}" for name, record in ALGOS.items()),
+    )
     cli.add_n_trailers(parser)
     _optional_positive(
         parser,
@@ -153,6 +164,14 @@ def build_parser() -> argparse.ArgumentParser:
         parser, "--checkpoint-freq", "steps between checkpoints (default: budget / 5)"
     )
     parser.add_argument(
+        "--stop-on-plateau",
+        type=cli.plateau_rule,
+        default=None,
+        metavar="WINDOW,EPS",
+        help="stop once the validation headline rate is flat: its last WINDOW evaluations "
+        "within EPS of their mean (e.g. 5,0.05; sb3 only)",
+    )
+    parser.add_argument(
         "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
     )
     cli.add_torch_threads(parser)
@@ -203,6 +222,7 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
         for name, unsupported in (
             ("--resume", args.resume is not None),
             ("--export", args.export is not None),
+            ("--stop-on-plateau", args.stop_on_plateau is not None),
         ):
             if unsupported:
                 parser.error(f"argument {name}: not supported with --backend rllib")
@@ -335,6 +355,7 @@ def _run(
         progress_bar=not args.no_progress,
         verbose=0 if args.quiet else 1,
         trust_pickle=args.trust_pickle,
+        stop_on_plateau=args.stop_on_plateau,
     )
     print(
         f"trained {args.algo} on {args.env} (n = {args.n_trailers}) to {model.num_timesteps} "

@@ -55,7 +55,8 @@ def detect_algo(model_path: Path) -> str:
     """The algorithm that saved ``model_path``: from its card, else from the policy class.
 
     Raises:
-        ValueError: If the file is not a stable-baselines3 zip of PPO, SAC or TD3.
+        ValueError: If the file is not a stable-baselines3 zip of an algorithm of
+            :data:`agents.algorithms.ALGOS`.
     """
     algo = read_card(model_path).get("algo")
     if algo in ALGOS:
@@ -64,11 +65,13 @@ def detect_algo(model_path: Path) -> str:
     if not isinstance(data.get("policy_class", {}), dict):
         raise ValueError(f"{model_path} is not a stable-baselines3 model: unexpected data")
     module = str(data.get("policy_class", {}).get("__module__", ""))
-    for name in ("sac", "td3"):
-        if f".{name}." in module:
-            return name
-    if module.endswith("common.policies"):
-        return "ppo"  # actor-critic policies (PPO, A2C) predict the same way
+    candidates = [record for record in ALGOS.values() if record.policy_module == module]
+    for record in candidates:
+        if record.marker is not None and record.marker in data:
+            return record.name
+    for record in candidates:
+        if record.marker is None:
+            return record.name  # PPO for actor-critic policies (A2C's predict the same way)
     raise ValueError(f"{model_path}: cannot tell the algorithm from policy module {module!r}")
 
 

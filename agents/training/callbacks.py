@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import io
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,10 +26,41 @@ from agents.artifacts.paths import card_path, stats_path
 from agents.artifacts.run_folder import BEST_MODEL, CURVE_FILE
 from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import save_stats
+from agents.envs import headline_metric
+from agents.evaluation.learning_curves import is_flat
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.sb3 import ModelPolicy
 from agents.progress import Progress
 from agents.seeds import VALIDATION_SEED
+
+#: Called after each evaluation with (steps, summary); returns True to stop the run.
+EvaluationHook = Callable[[int, Mapping[str, Any]], bool]
+
+
+class PlateauStop:
+    """An :data:`EvaluationHook` that stops a run once its headline rate is flat: the last
+    ``window`` evaluations within ``eps`` of their mean (the rule of
+    :mod:`agents.evaluation.learning_curves`), earlier sessions' evaluations included.
+
+    Args:
+        metric: The rate (a key of the summaries), e.g. "safe_rate".
+        window, eps: The rule.
+        previous: The rates of the evaluations before this session (a resumed run).
+    """
+
+    def __init__(
+        self, metric: str, window: int, eps: float, previous: Sequence[float] = ()
+    ) -> None:
+        self.metric, self.window, self.eps = metric, window, eps
+        self.values = [float(value) for value in previous]
+        #: The step at which the plateau was detected, once it was.
+        self.stopped_at: int | None = None
+
+    def __call__(self, steps: int, summary: Mapping[str, Any]) -> bool:
+        self.values.append(float(summary[self.metric]))
+        if self.stopped_at is None and is_flat(self.values, self.window, self.eps):
+            self.stopped_at = steps
+        return self.stopped_at is not None
 
 
 def score(summary: Mapping[str, Any]) -> tuple[float, float, float]:
@@ -92,6 +123,8 @@ class SafetyEvalCallback(BaseCallback):
             ``evaluations.csv`` after it belong to the abandoned continuation and are
             dropped, and so is a best model selected after it.
         verbose: 1 prints one line per evaluation.
+        hooks: Called after each evaluation (:data:`EvaluationHook`); the run stops at
+            its next step once one returns True (a plateau, a pruned trial).
     """
 
     def __init__(
@@ -104,8 +137,12 @@ class SafetyEvalCallback(BaseCallback):
         seed: int = VALIDATION_SEED,
         resume_from: int | None = None,
         verbose: int = 1,
+        hooks: Sequence[EvaluationHook] = (),
     ) -> None:
         super().__init__(verbose)
+        self.hooks = list(hooks)
+        #: Set once a hook asked the run to stop.
+        self.stop_requested = False
         self.env_id = env_id
         self.env_kwargs = env_kwargs
         self.run_dir = run_dir
@@ -129,6 +166,13 @@ class SafetyEvalCallback(BaseCallback):
         self._evaluated_at = {int(row["timesteps"]) for row in previous}
         self._next_eval = 0
         self._start = time.perf_counter()
+        #: The rows evaluated before this session (a resumed run), as kept.
+        self.previous_rows = previous
+
+    @property
+    def metric(self) -> str:
+        """The scene's headline rate."""
+        return headline_metric(self.env_id)
 
     def _on_training_start(self) -> None:
         self._start = time.perf_counter()
@@ -145,10 +189,11 @@ class SafetyEvalCallback(BaseCallback):
             self.evaluate()
 
     def _on_step(self) -> bool:
-        return True
+        return not self.stop_requested
 
     def _on_training_end(self) -> None:
-        if self.num_timesteps not in self._evaluated_at:
+        # A stopped run's policy is the one evaluated last: no second row for it.
+        if self.num_timesteps not in self._evaluated_at and not self.stop_requested:
             self.evaluate()
 
     def _write_rows(self, rows: list[dict[str, Any]], append: bool = False) -> None:
@@ -193,6 +238,8 @@ class SafetyEvalCallback(BaseCallback):
                 f"band {summary['band_time_fraction']:.3f}  ({row['wall_s']:.0f} s)",
                 flush=True,
             )
+        for hook in self.hooks:
+            self.stop_requested = hook(steps, summary) or self.stop_requested
         return summary
 
 

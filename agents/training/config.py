@@ -41,6 +41,7 @@ from typing import Any
 
 import yaml
 
+from agents.algorithms import algo_class
 from agents.artifacts import files, limits
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
@@ -59,7 +60,8 @@ _INT_KEYS = ("n_steps", "batch_size", "n_epochs", "buffer_size", "learning_start
              "gradient_steps", "policy_delay", "target_update_interval", "sde_sample_freq",
              "stats_window_size")  # fmt: skip
 _NUMBER_KEYS = ("gamma", "gae_lambda", "vf_coef", "max_grad_norm", "tau",
-                "target_policy_noise", "target_noise_clip", "target_kl")  # fmt: skip
+                "target_policy_noise", "target_noise_clip", "target_kl", "cost_limit",
+                "lambda_lr", "lambda_init")  # fmt: skip
 #: Arguments the trainer sets itself (an entry may not).
 _RESERVED = ("self", "policy", "env", "verbose", "seed", "device", "_init_setup_model",
              "tensorboard_log", "action_noise")  # fmt: skip
@@ -177,13 +179,14 @@ def hyperparams_file(algo: str, directory: Path = HYPERPARAMS_DIR) -> Path:
     return path
 
 
-def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> Hyperparams:
-    """Read and preprocess ``env_id``'s entry of ``<directory>/<algo>.yml``.
+def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> dict[str, Any]:
+    """``env_id``'s entry of ``<directory>/<algo>.yml`` as the YAML holds it (anchors
+    merged, nothing checked but the file's size and shape).
 
     Raises:
         FileNotFoundError: If the algorithm has no file.
         KeyError: If the file has no entry for ``env_id``.
-        ValueError: On a value the trainer cannot use.
+        ValueError: If the file is too large, not YAML, or not a mapping of mappings.
     """
     path = hyperparams_file(algo, directory)
     size = path.stat().st_size
@@ -199,7 +202,19 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
         raise KeyError(f"{path} has no entry for {env_id}; entries: {sorted(map(str, entries))}")
     if not isinstance(entries[env_id], dict):
         raise ValueError(f"{path}: the entry for {env_id} must be a mapping")
-    raw = {str(key): value for key, value in entries[env_id].items()}
+    return {str(key): value for key, value in entries[env_id].items()}
+
+
+def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> Hyperparams:
+    """Read and preprocess ``env_id``'s entry of ``<directory>/<algo>.yml``.
+
+    Raises:
+        FileNotFoundError: If the algorithm has no file.
+        KeyError: If the file has no entry for ``env_id``.
+        ValueError: On a value the trainer cannot use.
+    """
+    raw = raw_entry(algo, env_id, directory)
+    path = hyperparams_file(algo, directory)
     where = f"{path}, entry {env_id}"
     _check_keys(algo, raw, where)
     env_kwargs = raw.pop("env_kwargs", None) or {}
@@ -274,11 +289,23 @@ def _count(value: Any, key: str, maximum: int, where: str, minimum: int = 1) -> 
     return int(value)
 
 
+def init_arguments(cls: type) -> set[str]:
+    """The named arguments of ``cls``'s constructor, those its ``**kwargs`` passes on to
+    the base classes' included (PPO-Lagrangian adds three to PPO's)."""
+    names: set[str] = set()
+    for klass in cls.__mro__:
+        if "__init__" not in vars(klass):
+            continue
+        parameters = inspect.signature(klass.__init__).parameters.values()  # type: ignore[misc]
+        names |= {p.name for p in parameters if p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)}
+        if all(p.kind != p.VAR_KEYWORD for p in parameters):
+            break
+    return names
+
+
 def _check_keys(algo: str, raw: dict[str, Any], where: str) -> None:
     """Refuse an entry key that is neither rl-zoo3's nor an argument of the algorithm."""
-    from agents.artifacts.sb3_zip import algo_class
-
-    accepted = set(inspect.signature(algo_class(algo).__init__).parameters) - set(_RESERVED)
+    accepted = init_arguments(algo_class(algo)) - set(_RESERVED)
     for key in raw:
         if key not in accepted and key not in _ZOO_KEYS and key not in (
             "env_wrapper", "vec_env_wrapper", "frame_stack", "callback"
@@ -308,7 +335,7 @@ class TrainConfig:
 
     Attributes:
         env_id: A trailer_env id.
-        algo: "ppo", "sac" or "td3".
+        algo: A name of :data:`agents.algorithms.ALGOS` ("ppo", "ppo_lag", "sac", "td3").
         n_trailers: Number of trailers (over the file's ``env_kwargs``).
         seed: Seed of the model and of the training environments (env i gets seed + i).
         budget: Total training budget in environment steps.

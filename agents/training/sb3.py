@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import importlib.util
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from agents.algorithms import algorithm
 from agents.artifacts.cards import read_card, write_card
 from agents.artifacts.paths import pickled_stats_path, replay_buffer_path, stats_path
 from agents.artifacts.run_folder import (
@@ -21,6 +23,9 @@ from agents.artifacts.stats import load_pickled_stats, read_stats, restore_stats
 from agents.envs import env_settings, make_sb3_env
 from agents.training.config import TrainConfig
 
+if TYPE_CHECKING:
+    from agents.training.callbacks import EvaluationHook
+
 
 def train(
     config: TrainConfig,
@@ -33,6 +38,8 @@ def train(
     progress_bar: bool = True,
     verbose: int = 1,
     trust_pickle: bool = False,
+    stop_on_plateau: tuple[int, float] | None = None,
+    hooks: Sequence[EvaluationHook] = (),
 ) -> Any:
     """Train (or resume) an SB3 agent; returns the model. See the module docstring for outputs.
 
@@ -47,6 +54,11 @@ def train(
         trust_pickle: Allow unpickling ``resume``'s pickled parts (serialized entries,
             replay buffer, legacy statistics); otherwise they are replaced or refused
             (:mod:`agents.artifacts`).
+        stop_on_plateau: (window, eps): stop once the validation headline rate is flat
+            for ``window`` evaluations (:class:`agents.training.callbacks.PlateauStop`);
+            the cards then record ``stopped_on_plateau_at`` (the step).
+        hooks: More :data:`~agents.training.callbacks.EvaluationHook` s (e.g. a tuner's
+            pruner): each evaluation is passed on; one returning True stops the run.
 
     Raises:
         ValueError: If ``resume`` cannot be loaded safely (or at all).
@@ -56,6 +68,7 @@ def train(
     from stable_baselines3.common.vec_env import VecNormalize
 
     from agents.training.callbacks import (
+        PlateauStop,
         ProgressCallback,
         SafetyEvalCallback,
         StatsCheckpointCallback,
@@ -121,12 +134,18 @@ def train(
         episodes=eval_episodes,
         resume_from=start_steps if resume is not None else None,
         verbose=verbose,
+        hooks=hooks,
     )
+    plateau = None
+    if stop_on_plateau is not None:
+        previous = [row[evaluator.metric] for row in evaluator.previous_rows]
+        plateau = PlateauStop(evaluator.metric, *stop_on_plateau, previous=previous)
+        evaluator.hooks.append(plateau)
     checkpoints = StatsCheckpointCallback(
         save_freq=max((checkpoint_freq or max(budget // 5, batch)) // batch, 1),
         save_path=str(run_dir / CHECKPOINTS),
         name_prefix=algo,
-        save_replay_buffer=algo in ("sac", "td3"),
+        save_replay_buffer=algorithm(algo).off_policy,
     )
     callbacks: list[Any] = [evaluator, checkpoints]
     if progress_bar:
@@ -134,6 +153,13 @@ def train(
     model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=resume is None)
     wall = round(evaluator.wall_seconds, 1)
     record.update({"timesteps": int(model.num_timesteps), "wall_time_s": wall})
+    if plateau is not None and plateau.stopped_at is not None:
+        record["stopped_on_plateau_at"] = plateau.stopped_at
+        if verbose:
+            print(
+                f"the validation {plateau.metric} is flat ({plateau.window} evaluations "
+                f"within {plateau.eps:g}): stopped at {plateau.stopped_at} steps"
+            )
     final = run_dir / FINAL_MODEL
     stats = model.get_vec_normalize_env()
     if stats is not None:

@@ -1,0 +1,376 @@
+"""Learning curves over training seeds: grouping run folders, bands, plateaus, the chart.
+
+A run folder (``agents.train``) holds ``config.json`` (its scene, n, algorithm and seed)
+and ``evaluations.csv`` (the validation evaluations: steps, wall time and the rates).
+:func:`read_run` reads one; :func:`group_runs` puts runs of the same (environment,
+n, algorithm) together, one per training seed; :func:`seed_band` gives a group's mean
+and min-max band of the scene's headline rate (safe for Reverse, success otherwise)
+against environment steps or wall time; :func:`plateau` finds where a curve went flat;
+:func:`write_learning_curves` draws the chart (PNG) and writes the table (Markdown),
+both atomically and only over earlier files with ``overwrite``.
+
+The plateau rule: a curve is flat at evaluation ``i`` when its last ``window``
+evaluations (``i - window + 1 .. i``) all lie within ``eps`` of their mean. The first
+such ``i`` is where the plateau is *detected* (what an early stop can act on: see
+``--stop-on-plateau`` of ``agents.train``); the plateau *starts* at the window's first
+evaluation. A rate measured on 50 validation episodes moves by 0.02 per episode, and
+its binomial standard error near 0.7 is 0.065: ``eps`` well under that calls noise a
+trend, and the default of the command (``5,0.05``) treats five evaluations within 0.05
+of their mean as flat.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.artifacts import files
+from agents.artifacts.curves import read_curve
+from agents.artifacts.run_folder import CONFIG_FILE, CURVE_FILE
+from agents.envs import headline_metric, scene_title
+
+__all__ = [
+    "CHART_FILE",
+    "TABLE_FILE",
+    "Band",
+    "Plateau",
+    "RunCurve",
+    "group_runs",
+    "plateau",
+    "read_run",
+    "seed_band",
+    "write_learning_curves",
+]
+
+#: What :func:`write_learning_curves` writes in its folder.
+CHART_FILE = "learning_curves.png"
+TABLE_FILE = "learning_curves.md"
+#: The x axes of a band: evaluations.csv's step count and its wall time.
+AXES = ("timesteps", "wall_s")
+
+#: (environment id, number of trailers, algorithm): one group of runs over training seeds.
+GroupKey = tuple[str, int, str]
+
+
+@dataclass(frozen=True)
+class RunCurve:
+    """One run folder's learning curve.
+
+    Attributes:
+        run_dir: The folder.
+        env_id, n_trailers, algo, seed: From its ``config.json``.
+        rows: Its ``evaluations.csv`` rows (floats), in step order.
+    """
+
+    run_dir: Path
+    env_id: str
+    n_trailers: int
+    algo: str
+    seed: int
+    rows: tuple[dict[str, float], ...]
+
+    @property
+    def metric(self) -> str:
+        """The scene's headline rate (a column of the rows)."""
+        return headline_metric(self.env_id)
+
+    def series(self, axis: str = "timesteps") -> tuple[np.ndarray, np.ndarray]:
+        """(x, headline rate) of every evaluation; ``axis`` is "timesteps" or "wall_s"."""
+        x = np.array([row[axis] for row in self.rows])
+        return x, np.array([row[self.metric] for row in self.rows])
+
+
+@dataclass(frozen=True)
+class Plateau:
+    """Where a curve went flat (see the module's docstring).
+
+    Attributes:
+        step: The x (step) of the evaluation at which the plateau is detected.
+        start: The x of the window's first evaluation.
+        level: The window's mean.
+    """
+
+    step: float
+    start: float
+    level: float
+
+
+@dataclass(frozen=True)
+class Band:
+    """A group's curves on one x grid: the mean and the min-max over the seeds.
+
+    Attributes:
+        x: The grid: every seed's evaluation x within the range all seeds cover.
+        mean, low, high: Over the seeds, each seed linearly interpolated onto ``x``.
+        seeds: How many curves.
+    """
+
+    x: np.ndarray
+    mean: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    seeds: int
+
+
+def _check_window(window: Any, eps: Any) -> tuple[int, float]:
+    if isinstance(window, bool) or not isinstance(window, (int, np.integer)):
+        raise TypeError(f"window must be an integer, got {type(window).__name__}")
+    if window < 2:
+        raise ValueError(f"window must be >= 2 evaluations, got {window}")
+    if isinstance(eps, bool) or not isinstance(eps, (int, float, np.floating, np.integer)):
+        raise TypeError(f"eps must be a number, got {type(eps).__name__}")
+    if not (math.isfinite(eps) and eps >= 0):
+        raise ValueError(f"eps must be a finite number >= 0, got {eps!r}")
+    return int(window), float(eps)
+
+
+def is_flat(values: Sequence[float] | np.ndarray, window: int, eps: float) -> bool:
+    """Whether the last ``window`` of ``values`` all lie within ``eps`` of their mean
+    (False while there are fewer; a window of non-finite values is not flat)."""
+    if len(values) < window:
+        return False
+    last = np.asarray(values[-window:], dtype=float)
+    if not np.all(np.isfinite(last)):
+        return False
+    # The tolerance absorbs the rounding of the mean (0.7 + 0.7 + ... is not exact).
+    return bool(np.max(np.abs(last - last.mean())) <= eps + 1e-12)
+
+
+def plateau(
+    steps: Sequence[float] | np.ndarray,
+    values: Sequence[float] | np.ndarray,
+    window: int,
+    eps: float,
+) -> Plateau | None:
+    """The first evaluation at which ``values`` is flat (the module's rule), or None.
+
+    Args:
+        steps: The evaluations' steps (or any increasing x), as long as ``values``.
+        values: The rate at each.
+        window: Evaluations in the window (>= 2).
+        eps: The band around the window's mean (>= 0).
+
+    Raises:
+        TypeError: If ``window`` is not an integer or ``eps`` not a number.
+        ValueError: On a window < 2, a negative or non-finite ``eps``, lengths that
+            differ, or steps that are not finite and strictly increasing.
+    """
+    window, eps = _check_window(window, eps)
+    x = np.asarray(steps, dtype=float)
+    y = np.asarray(values, dtype=float)
+    if x.ndim != 1 or x.shape != y.shape:
+        raise ValueError(f"steps and values must be 1-D of one length, got {x.shape}, {y.shape}")
+    if not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
+        raise ValueError("steps must be finite and strictly increasing")
+    for i in range(window - 1, len(y)):
+        if is_flat(y[: i + 1], window, eps):
+            level = float(y[i - window + 1 : i + 1].mean())
+            return Plateau(step=float(x[i]), start=float(x[i - window + 1]), level=level)
+    return None
+
+
+def read_run(run_dir: Path) -> RunCurve:
+    """A run folder's configuration and learning curve.
+
+    Raises:
+        ValueError: If the folder has no ``config.json`` or ``evaluations.csv``, either
+            is unreadable, the configuration lacks the environment, n, algorithm or
+            seed, or the curve has no row or lacks the scene's headline rate.
+    """
+    config_path, curve_path = run_dir / CONFIG_FILE, run_dir / CURVE_FILE
+    for path in (config_path, curve_path):
+        if not path.is_file():
+            raise ValueError(f"{run_dir} is not a run folder: it has no {path.name}")
+    config = files.read_json(config_path, "run configuration")
+    try:
+        env_id, algo = str(config["env_id"]), str(config["algo"])
+        n_trailers, seed = config["env_kwargs"]["n_trailers"], config["seed"]
+        metric = headline_metric(env_id)
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"{config_path} lacks the run's environment, n, algorithm or seed: "
+                         f"{error}") from None  # fmt: skip
+    if not (files.is_integer(n_trailers, 1) and files.is_integer(seed, 0)):
+        raise ValueError(f"{config_path}: n_trailers and seed must be integers")
+    rows = read_curve(curve_path, ("wall_s", metric))
+    if not rows:
+        raise ValueError(f"{curve_path} has no evaluation")
+    rows.sort(key=lambda row: row["timesteps"])
+    return RunCurve(run_dir, env_id, int(n_trailers), algo, int(seed), tuple(rows))
+
+
+def group_runs(runs: Sequence[RunCurve]) -> dict[GroupKey, list[RunCurve]]:
+    """Runs by (environment, n, algorithm), each group's runs by seed.
+
+    Raises:
+        ValueError: If a group holds two runs of the same seed (two folders of one run).
+    """
+    groups: dict[GroupKey, list[RunCurve]] = {}
+    for run in runs:
+        groups.setdefault((run.env_id, run.n_trailers, run.algo), []).append(run)
+    for key, members in groups.items():
+        members.sort(key=lambda run: run.seed)
+        seeds = [run.seed for run in members]
+        if len(set(seeds)) != len(seeds):
+            raise ValueError(
+                f"{key[0]} n = {key[1]} {key[2]}: two runs of one seed "
+                f"({', '.join(str(run.run_dir) for run in members)})"
+            )
+    return groups
+
+
+def seed_band(runs: Sequence[RunCurve], axis: str = "timesteps") -> Band:
+    """Mean and min-max of the runs' headline rate against ``axis`` ("timesteps", "wall_s").
+
+    Raises:
+        ValueError: On no runs, an unknown axis, or runs whose x ranges do not overlap.
+    """
+    if axis not in AXES:
+        raise ValueError(f"axis must be one of {AXES}, got {axis!r}")
+    if not runs:
+        raise ValueError("no runs to draw")
+    series = [run.series(axis) for run in runs]
+    start = max(float(x[0]) for x, _ in series)
+    end = min(float(x[-1]) for x, _ in series)
+    if start > end:
+        raise ValueError(f"the runs' {axis} ranges do not overlap ({start:g} > {end:g})")
+    grid = np.unique(np.concatenate([x[(x >= start) & (x <= end)] for x, _ in series]))
+    if grid.size == 0:
+        grid = np.array([start])
+    values = np.array([np.interp(grid, x, y) for x, y in series])
+    return Band(grid, values.mean(axis=0), values.min(axis=0), values.max(axis=0), len(runs))
+
+
+def _group_label(key: GroupKey) -> str:
+    env_id, n, algo = key
+    return f"{scene_title(env_id)}, n = {n}, {algo}"
+
+
+def _rate_text(values: Sequence[float]) -> str:
+    array = np.asarray(values, dtype=float)
+    spread = f" ({array.min():.2f}-{array.max():.2f})" if array.size > 1 else ""
+    return f"{array.mean():.2f} ± {array.std():.2f}{spread}"
+
+
+def markdown_table(
+    groups: Mapping[GroupKey, Sequence[RunCurve]],
+    window: int,
+    eps: float,
+    levels: Mapping[GroupKey, Mapping[str, float]],
+) -> str:
+    """The groups' table: final and best rate over seeds, plateaus, steps, wall time, levels."""
+    lines = [
+        f"Plateau: {window} evaluations within {eps:g} of their mean (detected at step).",
+        "",
+        "| scene, n, algorithm | metric | seeds | final (mean ± sd, min-max) | best | "
+        "plateau per seed | steps | wall time (s) | levels |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for key, runs in groups.items():
+        finals = [run.series()[1][-1] for run in runs]
+        bests = [float(run.series()[1].max()) for run in runs]
+        plateaus = []
+        for run in runs:
+            found = plateau(*run.series(), window, eps)
+            reached = "not reached" if found is None else f"{found.step:,.0f} ({found.level:.2f})"
+            plateaus.append(f"s{run.seed}: {reached}")
+        steps = max(run.rows[-1]["timesteps"] for run in runs)
+        wall = max(run.rows[-1]["wall_s"] for run in runs)
+        marks = ", ".join(f"{name} {value:.2f}" for name, value in levels.get(key, {}).items())
+        lines.append(
+            f"| {_group_label(key)} | {runs[0].metric} | {len(runs)} | {_rate_text(finals)} | "
+            f"{_rate_text(bests)} | {'; '.join(plateaus)} | {steps:,.0f} | {wall:,.0f} | "
+            f"{marks or '-'} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _chart_png(
+    groups: Mapping[GroupKey, Sequence[RunCurve]],
+    levels: Mapping[GroupKey, Mapping[str, float]],
+) -> bytes:
+    """The chart: one row per group, the rate against steps (left) and wall time (right)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(len(groups), 2, figsize=(11, 3.4 * len(groups)), squeeze=False)
+    for row, (key, runs) in enumerate(groups.items()):
+        for column, (axis, label) in enumerate(zip(AXES, ("env steps", "wall time (s)"),
+                                                   strict=True)):  # fmt: skip
+            ax = axes[row][column]
+            band = seed_band(runs, axis)
+            ax.plot(band.x, band.mean, color="C0", label=f"mean of {band.seeds} seeds")
+            if band.seeds > 1:
+                ax.fill_between(band.x, band.low, band.high, color="C0", alpha=0.25,
+                                label="min-max over seeds")  # fmt: skip
+            for k, (name, value) in enumerate(levels.get(key, {}).items()):
+                ax.axhline(value, color=f"C{k + 1}", linestyle="--", label=f"{name} {value:.2f}")
+            ax.set_xlabel(label)
+            ax.set_ylabel(f"validation {runs[0].metric.replace('_', ' ')}")
+            ax.set_ylim(-0.02, 1.02)
+            ax.set_title(_group_label(key))
+            ax.legend(loc="lower right", fontsize=8)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=80)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
+def write_problem(out: Path, overwrite: bool) -> str | None:
+    """Why :func:`write_learning_curves` would refuse ``out``, or None."""
+    problem = files.writable_problem(out, folder=True)
+    for name in (CHART_FILE, TABLE_FILE) if problem is None else ():
+        path = out / name
+        if path.exists() or path.is_symlink():
+            problem = problem or files.writable_problem(path)
+            if problem is None and not overwrite:
+                problem = f"{path} exists; pass --overwrite to replace it"
+    return problem
+
+
+def write_learning_curves(
+    runs: Sequence[RunCurve],
+    out: Path,
+    *,
+    window: int = 5,
+    eps: float = 0.05,
+    levels: Mapping[GroupKey, Mapping[str, float]] | None = None,
+    overwrite: bool = False,
+) -> tuple[Path, Path]:
+    """Draw ``out/learning_curves.png`` and write ``out/learning_curves.md``.
+
+    Args:
+        runs: The run folders' curves (:func:`read_run`).
+        out: The folder.
+        window, eps: The plateau rule (the module's docstring).
+        levels: Horizontal lines per group (name -> rate: the LQR, the certified ceiling).
+        overwrite: Replace earlier files.
+
+    Raises:
+        TypeError, ValueError: On a bad ``window`` or ``eps``, no runs, two runs of one
+            seed in a group, or an ``out`` that cannot be written (or holds the files
+            and ``overwrite`` is false); nothing is written then.
+    """
+    window, eps = _check_window(window, eps)
+    if not runs:
+        raise ValueError("no runs to draw")
+    problem = write_problem(out, overwrite)
+    if problem is not None:
+        raise ValueError(problem)
+    groups = group_runs(runs)
+    levels = levels or {}
+    table = markdown_table(groups, window, eps, levels)
+    chart = _chart_png(groups, levels)
+    out.mkdir(parents=True, exist_ok=True)
+    return (
+        files.atomic_write_bytes(out / CHART_FILE, chart),
+        files.atomic_write_text(out / TABLE_FILE, table),
+    )

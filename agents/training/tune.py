@@ -1,0 +1,488 @@
+"""Hyperparameter search with Optuna: every trial a normal training run, resumable.
+
+:func:`tune` samples hyperparameters from a search space (``agents/hyperparams/search.yml``,
+one per algorithm, in the spirit of rl-baselines3-zoo's), writes each trial's entry as
+an rl-zoo3 file beside its run (``<out>/trials/trial_<k>/<algo>.yml``, checked by
+:func:`agents.training.config.load_hyperparams` like any file) and trains it with the
+project's trainer (:func:`agents.training.sb3.train`): each trial is a run folder with
+its ``evaluations.csv``, models and logs.
+
+The objective is the **area under the validation curve over the budget**: the
+headline rate (safe for Reverse, success otherwise) of the periodic validation
+evaluations (50 episodes from :data:`agents.seeds.VALIDATION_SEED` by default),
+integrated over the steps (trapezoids) and divided by the budget, so it is the rate
+averaged over the training: 1 for a run that is perfect from the start, the final rate
+times the share of the budget left after the curve reached it otherwise. It rewards a
+high rate *and* an early plateau in one number (a second objective, "first step at 0.9
+of the best rate", would make the search multi-objective, where Optuna's pruners do not
+apply, and is noisy on 50-episode evaluations). The final and best rates are kept with
+each trial (``user_attrs``) and in ``best_trials.md``.
+
+Sampler and pruner: TPE (Optuna's ``TPESampler``, seeded with ``--seed``) and the
+median pruner on the intermediate values: after each evaluation the trial reports the
+area so far (over the whole budget, so trials are compared at the same evaluation
+index) and stops once below the median of the earlier trials at that index
+(``n_startup_trials`` complete trials first, no pruning before the second evaluation).
+
+The study is an Optuna journal file, ``<out>/study.log``: a search that was killed
+resumes by running the same command again (trials left running are marked failed; the
+settings in ``<out>/search.json`` must match). At the end :func:`write_results` writes
+``best_trials.md`` (the best complete trials) and ``best_hyperparams.yml`` (the best
+trial's entry, in the format of ``agents/hyperparams/<algo>.yml``, to be committed),
+atomically.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import yaml
+
+from agents.algorithms import algo_class
+from agents.artifacts import files
+from agents.artifacts.curves import read_curve
+from agents.artifacts.run_folder import CURVE_FILE
+from agents.envs import headline_metric
+from agents.progress import duration
+from agents.training.config import (
+    HYPERPARAMS_DIR,
+    MAX_HYPERPARAMS_BYTES,
+    TrainConfig,
+    init_arguments,
+    load_hyperparams,
+    parse_policy_kwargs,
+    raw_entry,
+)
+
+#: The search spaces shipped with the package.
+SEARCH_SPACES = HYPERPARAMS_DIR / "search.yml"
+#: Files of a search's folder.
+STUDY_FILE = "study.log"
+SETTINGS_FILE = "search.json"
+BEST_TRIALS = "best_trials.md"
+BEST_HYPERPARAMS = "best_hyperparams.yml"
+TRIALS = "trials"
+#: Searched keys that are not the algorithm's arguments: the policy's and TD3's noise.
+POLICY_KEYS = ("net_arch", "log_std_init")
+ZOO_KEYS = ("noise_std",)
+KINDS = ("categorical", "uniform", "log_uniform", "int")
+#: The install hint of a missing Optuna.
+MISSING_OPTUNA = (
+    "optuna is not installed: pip install 'trailer-env[tune]' -c constraints.txt (the tune extra)"
+)
+
+
+def require_optuna() -> Any:
+    """The optuna module.
+
+    Raises:
+        ImportError: With :data:`MISSING_OPTUNA` when it is not installed.
+    """
+    try:
+        import optuna
+    except ImportError:
+        raise ImportError(MISSING_OPTUNA) from None
+    return optuna
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """One searched key: ``kind`` (one of :data:`KINDS`) and its choices or bounds."""
+
+    kind: str
+    values: tuple[Any, ...]
+
+
+def _distribution(key: str, spec: Any, where: str) -> Distribution:
+    if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in KINDS:
+        raise ValueError(f"{where}: {key} must be one of {{{', '.join(KINDS)}: ...}}")
+    kind, values = next(iter(spec.items()))
+    if not isinstance(values, list) or not values:
+        raise ValueError(f"{where}: {key}: {kind} needs a non-empty list")
+    if kind == "categorical":
+        if not all(isinstance(v, (int, float, str)) and not isinstance(v, bool) for v in values):
+            raise ValueError(f"{where}: {key}: choices must be numbers or strings")
+        if key == "net_arch":
+            for choice in values:
+                net_arch(choice)
+        return Distribution(kind, tuple(values))
+    if len(values) != 2 or not all(files.is_number(v) for v in values) or values[0] >= values[1]:
+        raise ValueError(f"{where}: {key}: {kind} needs [low, high] with low < high")
+    if kind == "log_uniform" and values[0] <= 0:
+        raise ValueError(f"{where}: {key}: log_uniform needs low > 0")
+    if kind == "int" and not all(files.is_integer(v) for v in values):
+        raise ValueError(f"{where}: {key}: int needs integer bounds")
+    return Distribution(kind, tuple(values))
+
+
+def net_arch(choice: Any) -> list[int]:
+    """A net_arch choice ``"64x64"`` as ``[64, 64]``.
+
+    Raises:
+        ValueError: If it is not layer widths >= 1 joined by ``x``.
+    """
+    parts = str(choice).split("x")
+    if not all(part.isdigit() and int(part) >= 1 for part in parts):
+        raise ValueError(f"net_arch choice {choice!r} is not widths joined by x, e.g. '64x64'")
+    return [int(part) for part in parts]
+
+
+def read_space(algo: str, path: Path = SEARCH_SPACES) -> dict[str, Distribution]:
+    """``algo``'s search space from ``path``, checked.
+
+    Raises:
+        ValueError: If the file is unreadable, has no space for ``algo``, names a key the
+            algorithm does not take, or a distribution is malformed.
+    """
+    try:
+        if path.stat().st_size > MAX_HYPERPARAMS_BYTES:
+            raise ValueError(f"{path} is over {MAX_HYPERPARAMS_BYTES} bytes")
+        spaces = yaml.safe_load(path.read_text())
+    except (OSError, yaml.YAMLError, UnicodeDecodeError) as error:
+        raise ValueError(f"cannot read the search spaces {path}: {str(error)[:200]}") from None
+    if not isinstance(spaces, dict) or not isinstance(spaces.get(algo), dict):
+        raise ValueError(f"{path} has no search space for {algo}")
+    accepted = init_arguments(algo_class(algo)) | set(POLICY_KEYS) | set(ZOO_KEYS)
+    space = {}
+    for key, spec in spaces[algo].items():
+        if key not in accepted:
+            raise ValueError(f"{path}, {algo}: {key!r} is not an argument of {algo}")
+        space[str(key)] = _distribution(str(key), spec, f"{path}, {algo}")
+    if not space:
+        raise ValueError(f"{path}: the search space of {algo} is empty")
+    return space
+
+
+def sample(trial: Any, space: Mapping[str, Distribution]) -> dict[str, Any]:
+    """One point of ``space`` from an Optuna trial (its parameters, as Optuna records them)."""
+    params: dict[str, Any] = {}
+    for key, distribution in space.items():
+        low, high = distribution.values[0], distribution.values[-1]
+        if distribution.kind == "categorical":
+            params[key] = trial.suggest_categorical(key, list(distribution.values))
+        elif distribution.kind == "int":
+            params[key] = trial.suggest_int(key, int(low), int(high))
+        else:
+            log = distribution.kind == "log_uniform"
+            params[key] = trial.suggest_float(key, float(low), float(high), log=log)
+    return params
+
+
+def _policy_text(kwargs: Mapping[str, Any]) -> str:
+    """policy_kwargs as rl-zoo3's text (``"dict(net_arch=[64, 64], log_std_init=-1.0)"``)."""
+
+    def text(value: Any) -> str:
+        if isinstance(value, type):
+            return f"nn.{value.__name__}"
+        if isinstance(value, dict):
+            return "dict(" + ", ".join(f"{k}={text(v)}" for k, v in value.items()) + ")"
+        return repr(value)
+
+    return text(dict(kwargs))
+
+
+def trial_entry(base: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, Any]:
+    """The rl-zoo3 entry of a trial: ``base`` (the algorithm's file) with ``params`` over it.
+
+    ``net_arch`` and ``log_std_init`` go into ``policy_kwargs``; a ``batch_size`` larger
+    than a rollout (``n_steps * n_envs``) is cut to it (as rl-zoo3 does).
+    """
+    entry = {key: value for key, value in base.items()}
+    policy = dict(parse_policy_kwargs(entry.get("policy_kwargs", "dict()")))
+    for key, value in params.items():
+        if key == "net_arch":
+            policy["net_arch"] = net_arch(value)
+        elif key in POLICY_KEYS:
+            policy[key] = value
+        else:
+            entry[key] = value
+    if policy:
+        entry["policy_kwargs"] = _policy_text(policy)
+    if "n_steps" in entry and "batch_size" in entry:
+        entry["batch_size"] = min(
+            int(entry["batch_size"]), int(entry["n_steps"]) * int(entry.get("n_envs", 1))
+        )
+    return entry
+
+
+def area_over_budget(steps: Sequence[float], rates: Sequence[float], budget: float) -> float:
+    """The area under the curve (trapezoids) up to ``budget``, divided by ``budget``: the
+    rate averaged over the budget (the part of the curve past ``budget`` is cut off;
+    a curve that ends earlier counts 0 after its end)."""
+    x = np.asarray(steps, dtype=float)
+    y = np.asarray(rates, dtype=float)
+    if x.size == 0:
+        return 0.0
+    if x[-1] > budget:
+        keep = x < budget
+        x, y = np.append(x[keep], budget), np.append(y[keep], np.interp(budget, x, y))
+    return float(np.trapezoid(y, x) / budget) if x.size > 1 else 0.0
+
+
+@dataclass(frozen=True)
+class TuneSettings:
+    """What a search is: its record, ``search.json``, must match when it resumes.
+
+    Attributes:
+        env_id, algo, n_trailers: The task and the algorithm.
+        budget: Environment steps per trial.
+        seed: The training seed of every trial and the sampler's seed.
+        n_envs: Environments per trial (None: the file's).
+        eval_freq, eval_episodes: The validation schedule of every trial.
+        hyperparams: Folder of the base ``<algo>.yml`` (None: the package's).
+        space: The search-space file.
+        startup_trials: Complete trials before the pruner prunes.
+    """
+
+    env_id: str
+    algo: str
+    n_trailers: int
+    budget: int
+    seed: int = 0
+    n_envs: int | None = None
+    eval_freq: int | None = None
+    eval_episodes: int = 50
+    hyperparams: Path | None = None
+    space: Path = SEARCH_SPACES
+    startup_trials: int = 5
+    command: tuple[str, ...] = field(default=(), compare=False)
+
+    @property
+    def evaluation_every(self) -> int:
+        """Steps between evaluations (default: a tenth of the budget)."""
+        return self.eval_freq or max(self.budget // 10, 1)
+
+    def document(self) -> dict[str, Any]:
+        """The record of ``search.json`` (without the command, which may differ on resume)."""
+        record = asdict(self)
+        record.pop("command")
+        record["hyperparams"] = str(self.hyperparams) if self.hyperparams else None
+        record["space"] = str(self.space)
+        return record
+
+    def base_entry(self) -> dict[str, Any]:
+        """The algorithm file's entry for the environment, raw (the trials' base).
+
+        Raises:
+            FileNotFoundError, KeyError, ValueError: As :func:`raw_entry`.
+        """
+        directory = self.hyperparams or HYPERPARAMS_DIR
+        load_hyperparams(self.algo, self.env_id, directory)  # the base must be valid
+        return raw_entry(self.algo, self.env_id, directory)
+
+
+def search_problem(out: Path, settings: TuneSettings, overwrite: bool) -> str | None:
+    """Why a search could not run in ``out`` (None when it can), found without writing.
+
+    A folder holding this search's study resumes it; its results (``best_*``) are
+    replaced only with ``overwrite``; a folder holding anything else is refused unless
+    ``overwrite``; a study of other settings is always refused.
+    """
+    problem = files.writable_problem(out, folder=True)
+    if problem is not None or not out.exists():
+        return problem
+    settings_path = out / SETTINGS_FILE
+    if (out / STUDY_FILE).exists():
+        if not settings_path.is_file():
+            return f"{out} holds a study without its {SETTINGS_FILE}"
+        try:
+            saved = files.read_json(settings_path, "search settings")
+        except ValueError as error:
+            return str(error)
+        current = settings.document()
+        changed = sorted(key for key in current if saved.get(key) != current[key])
+        if changed:
+            return (f"{out} holds a search with other settings ({', '.join(changed)}); "
+                    "use another --out")  # fmt: skip
+        for name in (BEST_TRIALS, BEST_HYPERPARAMS):
+            if (out / name).exists() and not overwrite:
+                return f"{out / name} exists (a finished search); pass --overwrite to go on"
+        return None
+    if any(out.iterdir()) and not overwrite:
+        return f"{out} is not empty and holds no search; pass --overwrite to search there"
+    return None
+
+
+def _print(text: str, verbose: int) -> None:
+    if verbose:
+        import sys
+
+        print(text, file=sys.stderr, flush=True)
+
+
+def tune(
+    settings: TuneSettings,
+    out: Path,
+    trials: int,
+    *,
+    overwrite: bool = False,
+    verbose: int = 1,
+) -> Any:
+    """Run (or resume) the search until the study holds ``trials`` finished trials.
+
+    Returns the Optuna study. Writes the results (:func:`write_results`) at the end.
+
+    Raises:
+        ImportError: Without Optuna (:data:`MISSING_OPTUNA`).
+        ValueError: On a bad search space or base file, or an ``out`` that
+            :func:`search_problem` refuses; nothing is written then.
+    """
+    optuna = require_optuna()
+    from agents.training.sb3 import train
+
+    space = read_space(settings.algo, settings.space)
+    base = settings.base_entry()
+    problem = search_problem(out, settings, overwrite)
+    if problem is not None:
+        raise ValueError(problem)
+    metric = headline_metric(settings.env_id)
+    with files.RunLock(out):
+        files.write_json(out / SETTINGS_FILE, settings.document())
+        optuna.logging.set_verbosity(optuna.logging.WARNING)
+        storage = optuna.storages.JournalStorage(
+            optuna.storages.journal.JournalFileBackend(str(out / STUDY_FILE))
+        )
+        study = optuna.create_study(
+            study_name="search",
+            storage=storage,
+            direction="maximize",
+            load_if_exists=True,
+            sampler=optuna.samplers.TPESampler(seed=settings.seed),
+            pruner=optuna.pruners.MedianPruner(
+                n_startup_trials=settings.startup_trials, n_warmup_steps=1
+            ),
+        )
+        for stale in study.get_trials(states=(optuna.trial.TrialState.RUNNING,)):
+            study.tell(stale.number, state=optuna.trial.TrialState.FAIL)
+            _print(f"trial {stale.number} was left running by a killed search: failed", verbose)
+        finished = len(study.get_trials(deepcopy=False))
+        started = time.perf_counter()
+        done_here = 0
+        while finished < trials:
+            trial = study.ask()
+            params = sample(trial, space)
+            run_dir = out / TRIALS / f"trial_{trial.number:04d}"
+            run_dir.mkdir(parents=True, exist_ok=True)
+            entry = trial_entry(base, params)
+            text = yaml.safe_dump({settings.env_id: entry}, sort_keys=False)
+            files.atomic_write_text(run_dir / f"{settings.algo}.yml", text)
+            state, value = _run_trial(optuna, train, settings, trial, run_dir, metric)
+            if state == "complete":
+                study.tell(trial, value)
+            else:
+                study.tell(trial, state=getattr(optuna.trial.TrialState, state.upper()))
+            finished += 1
+            done_here += 1
+            elapsed = time.perf_counter() - started
+            eta = elapsed / done_here * (trials - finished)
+            best = _best_text(study, optuna)
+            shown = f"{value:.3f}" if value is not None else state
+            _print(f"trial {finished}/{trials} (#{trial.number}): {shown}; best {best}; "
+                   f"{duration(elapsed)} so far, ETA {duration(eta)}", verbose)  # fmt: skip
+        write_results(study, settings, base, out)
+    return study
+
+
+def _best_text(study: Any, optuna: Any) -> str:
+    complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+    if not complete:
+        return "none yet"
+    return f"{study.best_value:.3f} (#{study.best_trial.number})"
+
+
+def _run_trial(
+    optuna: Any, train: Any, settings: TuneSettings, trial: Any, run_dir: Path, metric: str
+) -> tuple[str, float | None]:
+    """Train one trial; returns ("complete", value), ("pruned", None) or ("fail", None)."""
+    steps: list[float] = []
+    rates: list[float] = []
+    pruned: list[int] = []
+
+    def report(step: int, summary: Mapping[str, Any]) -> bool:
+        steps.append(float(step))
+        rates.append(float(summary[metric]))
+        trial.report(area_over_budget(steps, rates, settings.budget), len(steps) - 1)
+        if not pruned and trial.should_prune():
+            pruned.append(step)
+        return bool(pruned)
+
+    try:
+        hp = load_hyperparams(settings.algo, settings.env_id, run_dir)
+        config = TrainConfig.resolve(
+            settings.env_id, settings.algo, settings.n_trailers, settings.seed, hp,
+            timesteps=settings.budget, n_envs=settings.n_envs,
+            command=settings.command,
+        )  # fmt: skip
+        train(
+            config, run_dir, eval_freq=settings.evaluation_every,
+            eval_episodes=settings.eval_episodes, checkpoint_freq=settings.budget,
+            progress_bar=False, verbose=0, hooks=[report],
+        )  # fmt: skip
+    except (ValueError, KeyError, FileNotFoundError, RuntimeError) as error:
+        # A sampled combination the trainer refuses (or a diverging run) fails the trial,
+        # not the search.
+        trial.set_user_attr("error", f"{type(error).__name__}: {error}"[:500])
+        return "fail", None
+    rows = read_curve(run_dir / CURVE_FILE, ("timesteps", metric))
+    x = [row["timesteps"] for row in rows]
+    y = [row[metric] for row in rows]
+    trial.set_user_attr("final_rate", y[-1] if y else math.nan)
+    trial.set_user_attr("best_rate", max(y) if y else math.nan)
+    trial.set_user_attr("steps", x[-1] if x else 0)
+    if pruned:
+        trial.set_user_attr("pruned_at", pruned[0])
+        return "pruned", None
+    return "complete", area_over_budget(x, y, settings.budget)
+
+
+def write_results(study: Any, settings: TuneSettings, base: Mapping[str, Any], out: Path) -> None:
+    """``best_trials.md`` and ``best_hyperparams.yml`` (atomic), when a trial completed."""
+    optuna = require_optuna()
+    states = optuna.trial.TrialState
+    complete = study.get_trials(deepcopy=False, states=(states.COMPLETE,))
+    counts = {
+        name: len(study.get_trials(deepcopy=False, states=(getattr(states, name.upper()),)))
+        for name in ("complete", "pruned", "fail")
+    }
+    metric = headline_metric(settings.env_id)
+    lines = [
+        f"# Search: {settings.algo} on {settings.env_id}, n = {settings.n_trailers}",
+        "",
+        f"{settings.budget:,} steps per trial; objective: the validation {metric} averaged "
+        "over the budget (area under the curve / budget); trials: "
+        + ", ".join(f"{count} {name}" for name, count in counts.items()),
+        "",
+        "| rank | trial | objective | final rate | best rate | hyperparameters |",
+        "|---|---|---|---|---|---|",
+    ]
+    ranked = sorted(complete, key=lambda trial: -float(trial.value))
+    for rank, trial in enumerate(ranked[:10], start=1):
+        params = ", ".join(f"{key}={_short(value)}" for key, value in trial.params.items())
+        lines.append(
+            f"| {rank} | {trial.number} | {trial.value:.3f} | "
+            f"{trial.user_attrs.get('final_rate', math.nan):.2f} | "
+            f"{trial.user_attrs.get('best_rate', math.nan):.2f} | {params} |"
+        )
+    files.atomic_write_text(out / BEST_TRIALS, "\n".join(lines) + "\n")
+    if not ranked:
+        return
+    best = ranked[0]
+    entry = trial_entry(base, best.params)
+    header = (
+        f"# The best trial (#{best.number}, objective {best.value:.3f}) of the search in {out}:\n"
+        f"# {settings.algo} on {settings.env_id}, n = {settings.n_trailers}, "
+        f"{settings.budget:,} steps per trial, seed {settings.seed}.\n"
+        f"# Copy the entry into agents/hyperparams/{settings.algo}.yml to commit it.\n"
+    )
+    text = header + yaml.safe_dump({settings.env_id: entry}, sort_keys=False)
+    files.atomic_write_text(out / BEST_HYPERPARAMS, text)
+
+
+def _short(value: Any) -> str:
+    return f"{value:.3g}" if isinstance(value, float) else str(value)

@@ -1,0 +1,146 @@
+"""Learning curves over seeds: the plateau rule, the bands, the chart and table, the command."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.artifacts.curves import CURVE_COLUMNS, write_curve
+from agents.commands import curves
+from agents.evaluation.learning_curves import (
+    CHART_FILE,
+    TABLE_FILE,
+    Plateau,
+    group_runs,
+    plateau,
+    read_run,
+    seed_band,
+    write_learning_curves,
+)
+
+REVERSE = "trailer_env/Reverse-v1"
+STEPS = [0, 100, 200, 300, 400, 500, 600, 700]
+
+
+def test_plateau_is_the_first_flat_window() -> None:
+    values = [0.1, 0.3, 0.5, 0.62, 0.6, 0.61, 0.6, 0.9]
+    # (0.5, 0.62, 0.6) spreads 0.07 from its mean; (0.62, 0.6, 0.61) only 0.01.
+    found = plateau(STEPS, values, 3, 0.02)
+    assert found == Plateau(step=500.0, start=300.0, level=pytest.approx(0.61))
+    assert plateau(STEPS, values, 4, 0.02) == Plateau(600.0, 300.0, pytest.approx(0.6075))
+    assert plateau(STEPS, values, 3, 0.0) is None
+    assert plateau(STEPS[:2], values[:2], 3, 1.0) is None  # fewer evaluations than the window
+    assert plateau([0, 1], [0.7, 0.7], 2, 0.0) == Plateau(1.0, 0.0, 0.7)
+
+
+@pytest.mark.parametrize(
+    ("args", "error", "message"),
+    [
+        ((STEPS, [0.0] * 8, 1, 0.1), ValueError, "window must be >= 2 evaluations, got 1"),
+        ((STEPS, [0.0] * 8, 2.0, 0.1), TypeError, "window must be an integer, got float"),
+        ((STEPS, [0.0] * 8, 2, -0.1), ValueError, "eps must be a finite number >= 0"),
+        ((STEPS, [0.0] * 8, 2, "0.1"), TypeError, "eps must be a number, got str"),
+        ((STEPS, [0.0] * 7, 2, 0.1), ValueError, "1-D of one length"),
+        (([0, 200, 100], [0.0] * 3, 2, 0.1), ValueError, "strictly increasing"),
+    ],
+)
+def test_plateau_refuses_bad_input(args: tuple, error: type, message: str) -> None:  # type: ignore[type-arg]
+    with pytest.raises(error, match=message):
+        plateau(*args)
+
+
+def make_run(
+    folder: Path, seed: int, rates: list[float], algo: str = "ppo", n: int = 2,
+    wall_per_eval: float = 10.0,
+) -> Path:  # fmt: skip
+    """A synthetic run folder: config.json and evaluations.csv with ``rates`` as safe_rate."""
+    folder.mkdir(parents=True)
+    config = {"env_id": REVERSE, "algo": algo, "env_kwargs": {"n_trailers": n}, "seed": seed}
+    (folder / "config.json").write_text(json.dumps(config))
+    rows = [
+        {**dict.fromkeys(CURVE_COLUMNS, 0.0), "timesteps": step,
+         "wall_s": wall_per_eval * i, "safe_rate": rate}
+        for i, (step, rate) in enumerate(zip(STEPS, rates, strict=False))
+    ]  # fmt: skip
+    write_curve(folder / "evaluations.csv", rows, CURVE_COLUMNS)
+    return folder
+
+
+def test_groups_and_bands_over_seeds(tmp_path: Path) -> None:
+    a = read_run(make_run(tmp_path / "a", 0, [0.0, 0.2, 0.4, 0.6]))
+    b = read_run(make_run(tmp_path / "b", 1, [0.0, 0.4, 0.6, 0.8], wall_per_eval=20.0))
+    c = read_run(make_run(tmp_path / "c", 0, [0.1, 0.1], algo="ppo_lag"))
+    groups = group_runs([b, c, a])
+    assert list(groups) == [(REVERSE, 2, "ppo"), (REVERSE, 2, "ppo_lag")]
+    assert [run.seed for run in groups[(REVERSE, 2, "ppo")]] == [0, 1]
+    band = seed_band(groups[(REVERSE, 2, "ppo")])
+    np.testing.assert_allclose(band.x, [0, 100, 200, 300])
+    np.testing.assert_allclose(band.mean, [0.0, 0.3, 0.5, 0.7])
+    np.testing.assert_allclose(band.low, [0.0, 0.2, 0.4, 0.6])
+    np.testing.assert_allclose(band.high, [0.0, 0.4, 0.6, 0.8])
+    # Against wall time: a runs to 30 s, b to 60 s; the grid stops at 30 s, b interpolated.
+    wall = seed_band(groups[(REVERSE, 2, "ppo")], "wall_s")
+    np.testing.assert_allclose(wall.x, [0, 10, 20, 30])
+    np.testing.assert_allclose(wall.mean, [0.0, 0.2, 0.4, 0.55])  # b: 0.2, 0.4, 0.5 at 10-30 s
+    with pytest.raises(ValueError, match="two runs of one seed"):
+        group_runs([a, read_run(make_run(tmp_path / "a2", 0, [0.5]))])
+    with pytest.raises(ValueError, match="axis must be one of"):
+        seed_band([a], "episodes")
+
+
+def test_chart_and_table_are_written_and_not_overwritten(tmp_path: Path) -> None:
+    runs = [
+        read_run(make_run(tmp_path / "s0", 0, [0.1, 0.5, 0.7, 0.72, 0.71, 0.7])),
+        read_run(make_run(tmp_path / "s1", 1, [0.2, 0.6, 0.9, 0.8, 0.6, 0.9])),
+    ]
+    out = tmp_path / "out"
+    levels = {(REVERSE, 2, "ppo"): {"lqr": 0.62, "ceiling": 0.98}}
+    chart, table = write_learning_curves(runs, out, window=3, eps=0.02, levels=levels)
+    assert chart.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and chart.name == CHART_FILE
+    lines = table.read_text().splitlines()
+    assert lines[0] == "Plateau: 3 evaluations within 0.02 of their mean (detected at step)."
+    assert lines[-1] == (
+        "| Reverse-v1, n = 2, ppo | safe_rate | 2 | 0.80 ± 0.10 (0.70-0.90) | "
+        "0.81 ± 0.09 (0.72-0.90) | s0: 400 (0.71); s1: not reached | 500 | 50 | "
+        "lqr 0.62, ceiling 0.98 |"
+    )
+    before = table.read_text()
+    with pytest.raises(ValueError, match=r"learning_curves\.png exists; pass --overwrite"):
+        write_learning_curves(runs[:1], out, window=3, eps=0.02)
+    assert table.read_text() == before
+    write_learning_curves(runs[:1], out, window=3, eps=0.02, overwrite=True)
+    assert "| 1 |" in table.read_text()
+
+
+def test_command_writes_and_refuses(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    runs = tmp_path / "runs"
+    make_run(runs / "s0", 0, [0.1, 0.5, 0.7, 0.7])
+    make_run(runs / "s1", 1, [0.3, 0.5, 0.7, 0.7])
+    out = tmp_path / "out"
+    # A folder of runs; Reverse-v1 n = 2 has a committed certificate: its ceiling is drawn.
+    assert curves.main([str(runs), "--out", str(out), "--plateau", "2,0.0",
+                        "--level", "lqr=0.5"]) == 0  # fmt: skip
+    text = (out / TABLE_FILE).read_text()
+    assert "s0: 300 (0.70); s1: 300 (0.70)" in text
+    assert "certified ceiling (test starts) 1.00, lqr 0.50" in text
+    before = {path.name: path.read_bytes() for path in out.iterdir()}
+    capsys.readouterr()
+    for argv, message in (
+        ([str(runs)], "learning_curves.png exists; pass --overwrite"),
+        ([str(tmp_path / "none")], "is not a folder"),
+        ([str(out)], "is not a run folder and holds none"),
+        ([str(runs), "--plateau", "1,0.1"], "expected WINDOW,EPS"),
+        ([str(runs), "--level", "lqr=1.5"], "expected NAME=RATE with a rate in"),
+    ):
+        with pytest.raises(SystemExit) as refused:
+            curves.main([*argv, "--out", str(out)])
+        assert refused.value.code == 2 and message in capsys.readouterr().err
+    assert {path.name: path.read_bytes() for path in out.iterdir()} == before
+    (runs / "s1" / "evaluations.csv").write_text("timesteps,wall_s\n0,0\n")
+    with pytest.raises(SystemExit):
+        curves.main([str(runs), "--out", str(tmp_path / "fresh")])
+    assert "lacks ['safe_rate']" in capsys.readouterr().err
+    assert not (tmp_path / "fresh").exists()

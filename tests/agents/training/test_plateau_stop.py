@@ -1,0 +1,53 @@
+"""``agents.train --stop-on-plateau``: a flat validation curve ends the run early."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from agents.artifacts.curves import read_curve
+from agents.commands import train
+from agents.training.callbacks import PlateauStop
+
+TINY_PPO = """\
+trailer_env/Reverse-v1:
+  n_envs: 8
+  policy: MlpPolicy
+  n_steps: 64
+  batch_size: 256
+  n_epochs: 1
+  policy_kwargs: "dict(net_arch=[8])"
+"""
+
+
+def test_plateau_stop_hook() -> None:
+    stop = PlateauStop("safe_rate", 3, 0.05, previous=[0.1])
+    evaluations = ((10, 0.5), (20, 0.52), (30, 0.56), (40, 0.9))
+    stops = [stop(step, {"safe_rate": rate}) for step, rate in evaluations]
+    assert stops == [False, False, True, True]
+    assert stop.stopped_at == 30
+
+
+def test_a_flat_curve_stops_the_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "hp").mkdir()
+    (tmp_path / "hp" / "ppo.yml").write_text(TINY_PPO)
+    run = tmp_path / "run"
+    # Any two evaluations are within 1.0 of their mean: flat at the second (512 steps).
+    code = train.main([
+        "--env", "trailer_env/Reverse-v1", "--algo", "ppo", "--n-trailers", "1",
+        "--hyperparams", str(tmp_path / "hp"), "--run-dir", str(run), "--timesteps", "8192",
+        "--eval-freq", "512", "--eval-episodes", "2", "--stop-on-plateau", "2,1.0",
+        "--no-progress",
+    ])  # fmt: skip
+    assert code == 0
+    assert [row["timesteps"] for row in read_curve(run / "evaluations.csv")] == [0, 512]
+    card = json.loads((run / "final_model.json").read_text())
+    # Stopped at the first step of the next rollout (8 environments).
+    assert (card["stopped_on_plateau_at"], card["timesteps"]) == (512, 520)
+    assert "stopped at 512 steps" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        train.main(["--env", "trailer_env/Reverse-v1", "--algo", "ppo",
+                    "--stop-on-plateau", "5"])  # fmt: skip
+    assert "expected WINDOW,EPS" in capsys.readouterr().err
