@@ -3,7 +3,7 @@
 # Extra arguments go to pytest (e.g. `-m slow` for the long checks).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash scripts/install.sh dev,agents,rendering,rllib,torchrl,docs
+bash scripts/install.sh dev,agents,rendering,rllib,torchrl,docs,tune
 # The site test (tests/docs/test_site.py) opens every page in Debian's headless Chromium.
 if ! command -v chromium >/dev/null 2>&1 || ! command -v chromedriver >/dev/null 2>&1; then
   if command -v apt-get >/dev/null 2>&1; then
