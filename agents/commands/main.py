@@ -48,7 +48,7 @@ from agents.evaluation.results import (
 from agents.evaluation.tables import markdown_table
 from agents.oracles.certify import ceiling_note
 from agents.policies.sb3 import limit_torch_threads
-from agents.progress import duration
+from agents.progress import duration, plural
 from agents.seeds import TEST_SEED
 
 ENV_ID = "trailer_env/Reverse-v1"
@@ -124,7 +124,7 @@ def _imitate_short(
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.main", description=(__doc__ or "").split("\n")[0]
+        prog=cli.program("agents.main"), description=(__doc__ or "").split("\n")[0]
     )
     parser.add_argument("--out", type=Path, default=Path("out"), help="output folder (default out)")
     cli.add_episodes(parser, 100, "evaluation episodes (default 100)")
@@ -193,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     files.write_json(args.out / "results.json", document)
     table = markdown_table(evaluations, curve_metric(ENV_ID))
     print(
-        f"\n{ENV_ID}, n = {N_TRAILERS}: {args.episodes} episodes, seeds "
+        f"\n{ENV_ID}, n = {N_TRAILERS}: {plural(args.episodes, 'episode')}, seeds "
         f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "
         "(margin < 0.3), never folded, never slowed to 0.3 m/s\n"
     )

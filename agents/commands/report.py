@@ -45,7 +45,7 @@ from agents.evaluation.results import (
 from agents.evaluation.tables import markdown_table
 from agents.oracles.certify import ceiling_note
 from agents.policies.sb3 import limit_torch_threads
-from agents.progress import Progress, duration
+from agents.progress import Progress, duration, plural
 from agents.seeds import TEST_SEED
 
 #: The pictures the report writes (under ``<out>/img`` or ``<docs>/img``).
@@ -58,7 +58,7 @@ PICTURES = (
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.report", description=(__doc__ or "").split("\n")[0]
+        prog=cli.program("agents.report"), description=(__doc__ or "").split("\n")[0]
     )
     parser.add_argument(
         "--out",
@@ -109,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
                 specs, env_id, env_kwargs, args.episodes, TEST_SEED, progress=False
             )
             heading = (
-                f"{env_id}, n = {n}: {args.episodes} episodes, seeds "
+                f"{env_id}, n = {n}: {plural(args.episodes, 'episode')}, seeds "
                 f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}"
             )
             ceiling = ceiling_note(env_id, n, args.episodes, TEST_SEED)
