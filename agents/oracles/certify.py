@@ -201,6 +201,21 @@ def certify(
     }
 
 
+def ceiling_fraction(
+    env_id: str, n_trailers: int, episodes: int, seed: int, directory: Path = CERTIFICATES_DIR
+) -> float | None:
+    """The certified share of the starts of episodes ``seed .. seed + episodes - 1``, or None
+    when no committed certificate covers all of them (the leaderboard's ceiling line)."""
+    certificate = committed_certificate(env_id, n_trailers, directory)
+    if certificate is None:
+        return None
+    statuses = {start["seed"]: start["status"] for start in certificate["starts"]}
+    wanted = range(seed, seed + episodes)
+    if any(episode_seed not in statuses for episode_seed in wanted):
+        return None
+    return sum(statuses[episode_seed] == FEASIBLE for episode_seed in wanted) / episodes
+
+
 def ceiling_note(
     env_id: str, n_trailers: int, episodes: int, seed: int, directory: Path = CERTIFICATES_DIR
 ) -> str:
