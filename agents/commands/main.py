@@ -111,9 +111,10 @@ def _imitate_short(
 ) -> Path:
     from agents.training.imitate import ImitationConfig, imitate
 
+    reason = "--retrain" if committed_models(ENV_ID, N_TRAILERS) else "no committed agent"
     print(
-        f"no committed agent: imitating the planner ({iterations} DAgger iterations of "
-        f"{episodes} convoys) into {run_dir} ...",
+        f"{reason}: imitating the planner ({plural(iterations, 'DAgger iteration')} of "
+        f"{plural(episodes, 'convoy')}) into {run_dir} ...",
         flush=True,
     )
     config = ImitationConfig(ENV_ID, N_TRAILERS, seed, iterations=iterations, episodes=episodes)
@@ -121,8 +122,8 @@ def _imitate_short(
     return export_model(run_dir, _short_export(out), overwrite=overwrite)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status."""
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
     parser = argparse.ArgumentParser(
         prog=cli.program("agents.main"), description=(__doc__ or "").split("\n")[0]
     )
@@ -157,6 +158,12 @@ def main(argv: list[str] | None = None) -> int:
     cli.add_overwrite(
         parser, "with --retrain: replace the run (and exported model) already in --out"
     )
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     cli.check_out_folder(parser, args.out, files_in=OUT_FILES)
     cli.check_seeds(parser, TEST_SEED, args.episodes)
