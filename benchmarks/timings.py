@@ -55,9 +55,13 @@ class Timed:
 COMMANDS: tuple[Timed, ...] = (
     Timed(
         "first-step",
-        ("python", "-c", "import gymnasium as gym, trailer_env; "
-         "env = gym.make('trailer_env/Reverse-v1'); env.reset(seed=0); "
-         "env.step(env.action_space.sample())"),  # fmt: skip
+        (
+            "python",
+            "-c",
+            "import gymnasium as gym, trailer_env; "
+            "env = gym.make('trailer_env/Reverse-v1'); env.reset(seed=0); "
+            "env.step(env.action_space.sample())",
+        ),
         True,
         "the first gym.make + step",
     ),
@@ -65,8 +69,19 @@ COMMANDS: tuple[Timed, ...] = (
     Timed("main", ("python", "-m", "agents.main"), True, "the main job"),
     Timed(
         "evaluate-video",
-        ("python", "-m", "agents.evaluate", "--policy", "ppo_reverse_n2", "--episodes", "1",
-         "--no-plots", "--video", "out/ppo_reverse_n2.mp4", "--overwrite"),  # fmt: skip
+        (
+            "python",
+            "-m",
+            "agents.evaluate",
+            "--policy",
+            "ppo_reverse_n2",
+            "--episodes",
+            "1",
+            "--no-plots",
+            "--video",
+            "out/ppo_reverse_n2.mp4",
+            "--overwrite",
+        ),
         True,
         "one episode and its video",
     ),
@@ -85,8 +100,19 @@ COMMANDS: tuple[Timed, ...] = (
     Timed("main-planner", ("python", "-m", "agents.main", "--planner"), False, "mpc re-plans"),
     Timed(
         "certify",
-        ("python", "-m", "agents.certify", "--env", "trailer_env/Reverse-v1", "--n-trailers", "2",
-         "--seeds", "1000-1099", "--out", "out/cert_v1_n2"),  # fmt: skip
+        (
+            "python",
+            "-m",
+            "agents.certify",
+            "--env",
+            "trailer_env/Reverse-v1",
+            "--n-trailers",
+            "2",
+            "--seeds",
+            "1000-1099",
+            "--out",
+            "out/cert_v1_n2",
+        ),
         False,
         "100 starts",
     ),
@@ -280,7 +306,11 @@ def main(argv: list[str] | None = None) -> int:
     files.write_json(folder / "timings.json", records)
     files.atomic_write_text(folder / "timings.md", markdown(records))
     print(f"wrote {folder / 'timings.json'} and {folder / 'timings.md'}")
-    return 0 if all(record["first"]["status"] == record["warm"]["status"] == 0 for record in new) else 1
+    return (
+        0
+        if all(record["first"]["status"] == record["warm"]["status"] == 0 for record in new)
+        else 1
+    )
 
 
 if __name__ == "__main__":

@@ -15,10 +15,7 @@ from typing import Any
 from numba.core import event
 
 #: The line printed before the first compile.
-NOTICE = (
-    "trailer-env: compiling kernels once, about 30 s; "
-    "`trailer-env --compile` does it ahead"
-)
+NOTICE = "trailer-env: compiling kernels once, about 30 s; `trailer-env --compile` does it ahead"
 
 #: The top-level packages whose kernels the notice speaks for.
 PACKAGES = frozenset({"dynamics", "trailer_env", "agents"})

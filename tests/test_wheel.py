@@ -85,7 +85,10 @@ def test_record_video_needs_only_the_rendering_extra(tmp_path: Path) -> None:
     run([sys.executable, "-m", "venv", str(venv)], tmp_path)
     python = venv / "bin" / "python"
     constraints = str(ROOT / "constraints.txt")
-    run([str(python), "-m", "pip", "install", "-q", "-c", constraints, f"{wheel}[rendering]"], tmp_path)
+    run(
+        [str(python), "-m", "pip", "install", "-q", "-c", constraints, f"{wheel}[rendering]"],
+        tmp_path,
+    )
     work = tmp_path / "elsewhere"
     work.mkdir()
     run([str(python), "-c", RECORD_VIDEO], work)

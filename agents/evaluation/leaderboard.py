@@ -167,10 +167,18 @@ def plot_leaderboard(
         plt.Line2D([], [], color="#1b9e77", ls="--", lw=2, label="certified ceiling"),
         plt.Line2D([], [], color=KIND_COLOURS["lqr"], ls=":", lw=1, label="LQR"),
         plt.Line2D([], [], color=KIND_COLOURS["learned"], marker="o", ls="", label="learned"),
-        plt.Line2D([], [], color=KIND_COLOURS["oracle"], marker="o", ls="",
-                   label="oracle (exact state)"),  # fmt: skip
-        plt.Line2D([], [], color=KIND_COLOURS["other"], marker="o", lw=2.5, alpha=0.6,
-                   label="baseline, 95% interval"),  # fmt: skip
+        plt.Line2D(
+            [], [], color=KIND_COLOURS["oracle"], marker="o", ls="", label="oracle (exact state)"
+        ),
+        plt.Line2D(
+            [],
+            [],
+            color=KIND_COLOURS["other"],
+            marker="o",
+            lw=2.5,
+            alpha=0.6,
+            label="baseline, 95% interval",
+        ),
     ]
     fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False,
                fontsize=8 if small else 9)  # fmt: skip

@@ -123,7 +123,9 @@ def certify(
     planner = SamplingPlanner(core_class, settings, count, config)
     started = time.perf_counter()
     steps = core_class.max_episode_steps
-    with Progress(steps, f"certify {env_id}, n = {n_trailers}: planning {plural(count, 'start')}") as bar:
+    with Progress(
+        steps, f"certify {env_id}, n = {n_trailers}: planning {plural(count, 'start')}"
+    ) as bar:
         planned = plan_episodes(core, planner, steps, bar)
     first_pass_time = time.perf_counter() - started
     first_pass_safe = int(planned.safe.sum())

@@ -200,7 +200,9 @@ def certify_goals(
             break
         retry = restart_config(config, core_class, restart)
         core = reset_core(core_class, settings, [seeds[i] for i in rows])
-        with Progress(steps, f"certify: restart {restart}, {plural(int(rows.size), 'start')}") as bar:
+        with Progress(
+            steps, f"certify: restart {restart}, {plural(int(rows.size), 'start')}"
+        ) as bar:
             retried, more = drive(core, settings, retry, bar)
         simulated += more
         attempts[rows] += 1

@@ -24,7 +24,6 @@ import importlib.util
 import re
 import shlex
 import subprocess
-import tomllib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -46,9 +45,7 @@ AGENT_COMMANDS = {
     for name in ("main", "train", "evaluate", "certify", "imitate", "report")
 }
 #: The example module that protocol.md's ``--policy my_module:act`` imports.
-MY_MODULE = (
-    "import numpy as np\n\n\ndef act(obs):\n    return np.zeros((len(obs), 1))\n"
-)
+MY_MODULE = "import numpy as np\n\n\ndef act(obs):\n    return np.zeros((len(obs), 1))\n"
 
 
 @dataclass(frozen=True)
@@ -130,6 +127,7 @@ def _check_setup_line(command: Command) -> None:
         assert script.is_file(), f"{command.where}: {command.text}: no {script}"
         subprocess.run(["bash", "-n", str(script)], check=True)
     elif Path(head).name == "pip" or words[1:3] == ("-m", "pip"):
+        tomllib = pytest.importorskip("tomllib")  # Python 3.11+
         extras = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"][
             "optional-dependencies"
         ]

@@ -5,7 +5,9 @@ The site is built (``mkdocs build --strict``) into a temporary folder, served on
 ``chromium`` and ``chromium-driver``, driven by selenium). On every page: no console
 message of level SEVERE, every ``<img>`` loaded (``naturalWidth > 0``, the GIFs
 included), and every link to the same origin resolves: its page or file is served and,
-when it has an ``#anchor``, an element with that id exists on the target page.
+when it has an ``#anchor``, an element with that id exists on the target page; and no
+table overflows its content column at the browser's 1280 px (its right edge stays
+inside the column and it needs no horizontal scrolling).
 
 ``scripts/test.sh`` installs mkdocs, selenium and Chromium, so in CI this runs; elsewhere
 it is skipped, naming what is missing.
@@ -130,6 +132,7 @@ class PageReport:
     broken_images: list[str] = field(default_factory=list)
     images: list[str] = field(default_factory=list)
     severe: list[str] = field(default_factory=list)
+    overflowing_tables: list[str] = field(default_factory=list)
 
 
 _WAIT_FOR_IMAGES = """
@@ -149,6 +152,19 @@ return [
 """
 
 
+_TABLES = """
+const column = document.querySelector('.md-content__inner');
+if (!column) return [];
+const right = column.getBoundingClientRect().right;
+return Array.from(column.querySelectorAll('table')).map((table, index) => {
+    const wrap = table.closest('.md-typeset__scrollwrap') || table.parentElement;
+    const head = (table.querySelector('th') || table).textContent.trim().slice(0, 30);
+    return [index, head, table.getBoundingClientRect().right - right,
+            wrap.scrollWidth - wrap.clientWidth];
+});
+"""
+
+
 def visit(driver: object, url: str) -> PageReport:
     """Open ``url``; its ids, links, images that did not load and SEVERE console lines."""
     driver.get(url)  # type: ignore[attr-defined]
@@ -156,6 +172,11 @@ def visit(driver: object, url: str) -> PageReport:
     ids, links = driver.execute_script(_COLLECT)  # type: ignore[attr-defined]
     report = PageReport(url, set(ids), list(links), images=[src for src, _ in images])
     report.broken_images = [src for src, width in images if not width]
+    report.overflowing_tables = [
+        f"table {index} ({head!r}): {past:.0f} px past the column, {hidden} px to scroll"
+        for index, head, past, hidden in driver.execute_script(_TABLES)  # type: ignore[attr-defined]
+        if past > 1 or hidden > 1
+    ]
     report.severe = [
         entry["message"]
         for entry in driver.get_log("browser")  # type: ignore[attr-defined]
@@ -215,6 +236,7 @@ def test_every_page_loads_without_errors_and_every_link_resolves(
     for url, report in reports.items():
         problems += [f"{url}: console SEVERE: {line}" for line in report.severe]
         problems += [f"{url}: image did not load: {src}" for src in report.broken_images]
+        problems += [f"{url}: {table}" for table in report.overflowing_tables]
         for link in report.links:
             parsed = urlparse(link)
             if parsed.scheme not in ("http", "https") or parsed.netloc != origin:

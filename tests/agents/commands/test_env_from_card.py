@@ -26,8 +26,10 @@ def test_the_card_names_the_scene_when_env_is_not_given(
     document = json.loads((out / "results.json").read_text())
     assert document["env_id"] == "trailer_env/Reverse-v0"
     assert document["env_kwargs"]["n_trailers"] == 2
-    assert (out / "results.md").read_text().startswith(
-        "trailer_env/Reverse-v0, n = 2: 1 episode, seeds 1000..1000\n"
+    assert (
+        (out / "results.md")
+        .read_text()
+        .startswith("trailer_env/Reverse-v0, n = 2: 1 episode, seeds 1000..1000\n")
     )
 
 
