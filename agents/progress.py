@@ -14,6 +14,12 @@ from types import TracebackType
 from typing import TextIO
 
 
+def plural(count: int, noun: str, nouns: str | None = None) -> str:
+    """``"1 step"``, ``"2 steps"``, ``"1 policy"`` (``nouns`` when the plural is not
+    ``noun + "s"``)."""
+    return f"{count} {noun if count == 1 else nouns or noun + 's'}"
+
+
 def duration(seconds: float) -> str:
     """``"42 s"``, ``"3 min 05 s"``."""
     if seconds < 60:
@@ -49,7 +55,7 @@ class Progress:
     def __enter__(self) -> Progress:
         self.started = time.perf_counter()
         if not self.tty:
-            self._write(f"{self.label}: {self.total} steps")
+            self._write(f"{self.label}: {plural(self.total, 'step')}")
         return self
 
     def advance(self, what: str = "", steps: int = 1) -> None:

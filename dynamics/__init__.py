@@ -14,6 +14,7 @@ See ``docs/physics.md`` for the model. The public API:
 * :mod:`dynamics.analysis`: energy tori, equilibria, relative equilibria, the n = 1, a = 0 case.
 """
 
+from dynamics import _notice  # noqa: F401  (the first-compile notice, on stderr)
 from dynamics.adaptive import AdaptiveResult, AdaptiveStats, AdaptiveStepper, integrate_adaptive
 from dynamics.integrate import Stepper, Trajectory, simulate, step_rk4, step_rk4_planar
 from dynamics.model import energy, energy_planar, inertia_R, rhs, rhs_planar

@@ -1,6 +1,6 @@
 """CleanRL-style PPO in one file on the native vector env, ending with the benchmark score.
 
-    python examples/cleanrl_ppo.py --total-steps 200000      # a few minutes on a core
+    python examples/cleanrl_ppo.py --total-steps 200000      # about a minute on a core
 
 The env is ``gym.make_vec(..., vectorization_mode="vector_entry_point")``: one compiled
 call steps all convoys. ``autoreset_mode="same_step"`` returns the next episode's first
@@ -11,6 +11,8 @@ Needs the ``agents`` extra (torch).
 from __future__ import annotations
 
 import argparse
+import sys
+import time
 
 import gymnasium as gym
 import numpy as np
@@ -44,7 +46,16 @@ def train(env_id: str, n_trailers: int, total_steps: int, num_envs: int, seed: i
     optimizer = torch.optim.Adam(agent.parameters(), lr=3e-4)
     steps, gamma, lam = 128, 0.99, 0.95
     obs = torch.as_tensor(envs.reset(seed=seed)[0], dtype=torch.float32)
-    for _ in range(max(1, total_steps // (steps * num_envs))):
+    updates = max(1, total_steps // (steps * num_envs))
+    started = time.perf_counter()
+    for update in range(updates):
+        if update % max(1, updates // 10) == 0:  # progress on stderr, about 10 lines in all
+            print(
+                f"cleanrl_ppo: update {update + 1}/{updates}, {update * steps * num_envs} "
+                f"steps, {time.perf_counter() - started:.0f} s",
+                file=sys.stderr,
+                flush=True,
+            )
         transitions = []
         for _ in range(steps):
             with torch.no_grad():
@@ -96,6 +107,7 @@ def main(argv: list[str] | None = None) -> dict:
         with torch.no_grad():
             return agent.actor(torch.as_tensor(obs, dtype=torch.float32)).clamp(-1, 1).numpy()
 
+    print(f"cleanrl_ppo: scoring {args.episodes} episodes ...", file=sys.stderr, flush=True)
     result = score(policy, args.env, args.n_trailers, name="cleanrl-ppo", episodes=args.episodes)
     print(result.markdown)
     return result.summary

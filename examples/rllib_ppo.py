@@ -11,6 +11,7 @@ native batch through :func:`trailer_env.benchmark.score`. Needs the ``rllib`` ex
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 import ray
@@ -29,6 +30,7 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--iterations", type=int, default=5)
     parser.add_argument("--episodes", type=int, default=100)
     args = parser.parse_args(argv)
+    print("rllib_ppo: starting a local Ray and one env runner ...", file=sys.stderr, flush=True)
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
         config = (
@@ -48,6 +50,7 @@ def main(argv: list[str] | None = None) -> dict:
                 output = module.forward_inference({Columns.OBS: torch.as_tensor(obs).float()})
             return np.clip(output[Columns.ACTION_DIST_INPUTS].numpy()[:, :1], -1.0, 1.0)
 
+        print(f"rllib_ppo: scoring {args.episodes} episodes ...", file=sys.stderr, flush=True)
         summary = score(act, ENV.partition(":")[2], args.n_trailers, name="rllib-ppo",
                         episodes=args.episodes)  # fmt: skip
         print(summary.markdown)

@@ -11,15 +11,33 @@ score runs the trained policy on the native batch with the same goal view
 from __future__ import annotations
 
 import argparse
+import sys
+import time
 
 import gymnasium as gym
 import numpy as np
 import torch
 from stable_baselines3 import SAC, HerReplayBuffer
+from stable_baselines3.common.callbacks import BaseCallback
 
 import trailer_env  # noqa: F401  (registers the ids)
 from trailer_env.benchmark import score
 from trailer_env.wrappers import GoalConditioned
+
+
+class PrintProgress(BaseCallback):
+    """A line on stderr at each tenth of the steps: SAC on one core is slow to watch."""
+
+    def __init__(self, total: int) -> None:
+        super().__init__()
+        self.total, self.every, self.started = total, max(1, total // 10), time.perf_counter()
+
+    def _on_step(self) -> bool:
+        if self.num_timesteps % self.every == 0:
+            elapsed = time.perf_counter() - self.started
+            print(f"sb3_her: {self.num_timesteps}/{self.total} steps, {elapsed:.0f} s",
+                  file=sys.stderr, flush=True)  # fmt: skip
+        return True
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -40,7 +58,9 @@ def main(argv: list[str] | None = None) -> dict:
         learning_starts=episode_steps + 1,  # HER samples whole episodes
         seed=0,
     )
-    model.learn(args.steps)
+    print(f"sb3_her: SAC + HER for {args.steps} steps ...", file=sys.stderr, flush=True)
+    model.learn(args.steps, callback=PrintProgress(args.steps))
+    print(f"sb3_her: scoring {args.episodes} episodes ...", file=sys.stderr, flush=True)
 
     def act(obs: dict[str, np.ndarray]) -> np.ndarray:
         return model.predict(obs, deterministic=True)[0]

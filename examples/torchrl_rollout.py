@@ -9,6 +9,7 @@ the same network then acts on the native batch through :func:`trailer_env.benchm
 from __future__ import annotations
 
 import argparse
+import sys
 
 import numpy as np
 import torch
@@ -32,6 +33,7 @@ def main(argv: list[str] | None = None) -> dict:
     obs_dim = env.observation_spec["observation"].shape[-1]
     network = nn.Sequential(nn.Linear(obs_dim, 32), nn.Tanh(), nn.Linear(32, 1), nn.Tanh())
     policy = TensorDictModule(network, in_keys=["observation"], out_keys=["action"])
+    print(f"torchrl_rollout: {args.steps} steps through GymEnv ...", file=sys.stderr, flush=True)
     rollout = env.rollout(args.steps, policy)
     reward = float(rollout["next", "reward"].sum())
     print(f"TorchRL rollout: {rollout.batch_size[0]} steps, reward {reward:.1f}")
@@ -40,6 +42,7 @@ def main(argv: list[str] | None = None) -> dict:
         with torch.no_grad():
             return network(torch.as_tensor(obs, dtype=torch.float32)).numpy()
 
+    print(f"torchrl_rollout: scoring {args.episodes} episodes ...", file=sys.stderr, flush=True)
     result = score(act, args.env, args.n_trailers, name="torchrl-untrained", episodes=args.episodes)
     print(result.markdown)
     return result.summary

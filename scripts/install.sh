@@ -12,9 +12,20 @@ if [ ! -x .venv/bin/python ]; then
   python3 -m venv .venv
 fi
 .venv/bin/python -m pip install --quiet --upgrade pip >/dev/null 2>&1 || true
+# pip's lines, one per package fetched and shortened, show that it is moving (a fresh
+# install takes a minute or two); pip's errors (stderr) still reach the terminal in full,
+# and with pipefail a failing pip fails the install.
+pip_install() {
+  .venv/bin/python -m pip install --progress-bar off -c constraints.txt "$@" |
+    while IFS= read -r line; do
+      case "$line" in
+        Collecting* | "Installing collected"*) echo "install: [$((SECONDS - started)) s] ${line:0:90}" ;;
+      esac
+    done
+}
 echo "install: torch (CPU build) and the project with extras [${extras}] ..."
-.venv/bin/python -m pip install --progress-bar off -q -c constraints.txt torch==2.13.0
-.venv/bin/python -m pip install --progress-bar off -q -c constraints.txt -e ".[${extras}]"
+pip_install torch==2.13.0
+pip_install -e ".[${extras}]"
 echo "install: packages done in $((SECONDS - started)) s; compiling the kernels ..."
 .venv/bin/python -m trailer_env --compile
 echo "install: done in $((SECONDS - started)) s"

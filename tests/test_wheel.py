@@ -64,3 +64,33 @@ def test_the_wheel_works_outside_the_clone(tmp_path: Path) -> None:
     assert "| mpc-replay |" in printed and "| dagger_reverse_v1_n2 |" in printed
     assert "trailer_env/Reverse-v1" in run([str(venv / "bin" / "trailer-env")], work)
     assert sorted(path.name for path in work.iterdir()) == ["eval", "main", "x.mp4"]
+
+
+RECORD_VIDEO = """
+import gymnasium as gym, numpy as np, trailer_env
+from gymnasium.wrappers import RecordVideo
+env = RecordVideo(gym.make("trailer_env/Reverse-v1", render_mode="rgb_array"), "videos")
+env.reset(seed=0)
+for _ in range(20):
+    env.step(np.zeros(1, dtype=np.float32))
+env.close()
+"""
+
+
+@pytest.mark.slow
+def test_record_video_needs_only_the_rendering_extra(tmp_path: Path) -> None:
+    run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), "."], ROOT)
+    (wheel,) = tmp_path.glob("trailer_env-*.whl")
+    venv = tmp_path / "venv"
+    run([sys.executable, "-m", "venv", str(venv)], tmp_path)
+    python = venv / "bin" / "python"
+    constraints = str(ROOT / "constraints.txt")
+    run(
+        [str(python), "-m", "pip", "install", "-q", "-c", constraints, f"{wheel}[rendering]"],
+        tmp_path,
+    )
+    work = tmp_path / "elsewhere"
+    work.mkdir()
+    run([str(python), "-c", RECORD_VIDEO], work)
+    (video,) = (work / "videos").glob("*.mp4")
+    assert video.stat().st_size > 1000

@@ -15,6 +15,7 @@ import argparse
 import importlib.util
 import os
 import sys
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -48,7 +49,10 @@ def play_problem() -> str:
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit status."""
     description = (__doc__ or "").splitlines()[0]
-    parser = argparse.ArgumentParser(prog="python -m trailer_env", description=description)
+    script = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else ""
+    # The usage line names what is running: the console script, or the module.
+    prog = script if script == "trailer-env" else "python -m trailer_env"
+    parser = argparse.ArgumentParser(prog=prog, description=description)
     parser.add_argument("--play", metavar="ID", help="drive this environment from the keyboard")
     parser.add_argument("--n-trailers", type=int, default=2, help="trailers when playing")
     parser.add_argument("--seed", type=int, default=None, help="seed of the first episode")

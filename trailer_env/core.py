@@ -459,6 +459,15 @@ class ConvoyCore:
         """Set row ``i``'s task values by hand (e.g. a target); scenes without any refuse all."""
         self.check_task(task)
 
+    def task_values(self, i: int) -> dict[str, Any]:
+        """Row ``i``'s task values as :meth:`set_task` takes them (copies): each key of
+        :attr:`task_keys` is an array attribute of the scene's core, one entry per row."""
+        values: dict[str, Any] = {}
+        for key in self.task_keys:
+            value = np.array(getattr(self, key)[i], dtype=np.float64)
+            values[key] = float(value) if value.ndim == 0 else value
+        return values
+
     def check_row_state(self, z: Any, s: float = 0.0, s_dot: float = 0.0) -> np.ndarray:
         """The state :meth:`set_row_state` would set, as float64, checked; changes nothing.
 

@@ -358,6 +358,42 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         self._record_path()
         return self.core.obs[0].copy()
 
+    def get_state(self) -> dict[str, Any]:
+        """The current state, as :meth:`set_state` takes it: ``env.set_state(**env.get_state())``
+        puts this env, or another one made with the same keywords, in the same state.
+
+        Returns:
+            A dict of copies: ``z`` (float64: u, omega, alpha_1..alpha_n, then the cart's
+            pose x, y, theta when the env tracks it, as :attr:`state`), ``s`` and ``s_dot``
+            (the mass on the rail, floats; in planar mode its lateral axis) and the
+            scene's task values (Heading: ``target_heading``; Dock: ``target``).
+
+        :meth:`set_state` starts a new episode at that state: what counts steps
+        (the time limit, Heading's 1 s hold) and the energy reference start again, and
+        randomised physics (``randomize=``) are the env's, not part of the state. The round
+        trip is exact in the rail modes (``servo``, ``accel``); in ``planar`` mode
+        :meth:`set_state` puts the mass's longitudinal axis at rest at its centre.
+
+        Raises:
+            gymnasium.error.ResetNeeded: Before the first :meth:`reset`.
+        """
+        if not self._has_reset:
+            raise gym.error.ResetNeeded("call reset() before get_state()")
+        core = self.core
+        return {
+            "z": core.z[0].copy(),
+            "s": float(core.act[0, 1]),
+            "s_dot": float(core.act[0, 3]),
+            **core.task_values(0),
+        }
+
+    @property
+    def state(self) -> np.ndarray:
+        """The convoy's state z (a float64 copy), the Gymnasium-usual attribute: (u, omega,
+        alpha_1..alpha_n), then the cart's pose (x, y, theta) when the env tracks it
+        (:meth:`get_state` adds the mass and the task; zeros before the first reset)."""
+        return self.core.z[0].copy()
+
     def _record_path(self) -> None:
         if self.core.with_pose:
             n = self.core.n

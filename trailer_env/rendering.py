@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import tempfile
 from dataclasses import dataclass
 from typing import Any
 
@@ -170,6 +171,20 @@ def _nice_length(upper: float) -> float:
     """Largest 1, 2 or 5 times a power of ten not above ``upper``."""
     power = 10.0 ** math.floor(math.log10(upper))
     return max(step * power for step in (1.0, 2.0, 5.0) if step * power <= upper)
+
+
+def _private_runtime_dir() -> None:
+    """Give SDL a private ``XDG_RUNTIME_DIR`` when the session has none.
+
+    SDL's display probe prints "XDG_RUNTIME_DIR is invalid or not set" to standard error
+    (from C, so Python cannot filter it) on machines without a desktop session (ssh, CI,
+    containers). Without a session there is no Wayland or audio socket to find there, so
+    an empty directory of our own (mode 0700, as the specification asks) changes nothing
+    but the noise; a valid one is left alone.
+    """
+    current = os.environ.get("XDG_RUNTIME_DIR", "")
+    if not (current and os.path.isdir(current)):
+        os.environ["XDG_RUNTIME_DIR"] = tempfile.mkdtemp(prefix="trailer-env-runtime-")
 
 
 class ConvoyRenderer:
@@ -398,6 +413,7 @@ class ConvoyRenderer:
             del pixels  # releases the surface lock
             return frame
         if self._window is None:
+            _private_runtime_dir()
             pg.display.init()
             pg.display.set_caption("trailer-env")
             self._window = pg.display.set_mode((self.width, self.height))

@@ -99,7 +99,7 @@ def parse_seeds(text: str, maximum: int = limits.MAX_CERTIFY_SEEDS) -> list[int]
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.certify", description="Certify a scene's ceiling over seeds."
+        prog=cli.program("agents.certify"), description="Certify a scene's ceiling over seeds."
     )
     parser.add_argument("--env", default="trailer_env/Reverse-v1", choices=ENV_IDS,
                         metavar="ENV_ID", help=f"one of {', '.join(ENV_IDS)}")  # fmt: skip

@@ -60,7 +60,7 @@ def _level(text: str) -> tuple[str, float]:
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.curves",
+        prog=cli.program("agents.curves"),
         description="Learning curves of run folders over training seeds (chart + table).",
     )
     parser.add_argument("runs", nargs="+", type=Path, metavar="RUN",

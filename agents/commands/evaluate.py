@@ -13,7 +13,8 @@ imported from the working folder; the episodes are the benchmark protocol's,
 :mod:`trailer_env.benchmark`). Model files are
 loaded without unpickling anything unless ``--trust-pickle``
 (:mod:`agents.artifacts`), and a model whose card names another environment id or
-number of trailers is refused unless ``--force``. ``--video PATH.mp4|.gif`` also
+number of trailers is refused unless ``--force``; without ``--env`` (``--n-trailers``) the
+first model's card names them (else Reverse-v1, n = 2). ``--video PATH.mp4|.gif`` also
 writes every frame of one episode (seed ``--seed``) of the first policy.
 
 Without ``--policy`` it evaluates the scene's baselines and every committed model
@@ -35,13 +36,14 @@ curve is loaded and checked first.
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from pathlib import Path
 
 from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
-from agents.envs import HEADLINE_ENV_ID, check_env_id, env_settings
+from agents.envs import ENV_IDS, HEADLINE_ENV_ID, check_env_id, env_settings
 from agents.evaluation.pictures import write_pictures
 from agents.evaluation.results import (
     curve_metric,
@@ -51,7 +53,9 @@ from agents.evaluation.results import (
 )
 from agents.evaluation.tables import markdown_table
 from agents.policies.baselines import BASELINES
+from agents.policies.registry import is_model_spec, model_card
 from agents.policies.sb3 import limit_torch_threads
+from agents.progress import plural
 from agents.seeds import TEST_SEED
 
 #: The files written to --out.
@@ -61,11 +65,25 @@ OUT_FILES = ("results.json", "results.md", "margins.png", "frames.png", "curves.
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.evaluate",
+        prog=cli.program("agents.evaluate"),
         description="Evaluate baselines and saved agents over seeded episodes.",
     )
-    cli.add_env(parser, default=HEADLINE_ENV_ID)
-    cli.add_n_trailers(parser)
+    # Without them, the first --policy model's card names the scene (the model was
+    # trained there; anything else would be refused without --force).
+    parser.add_argument(
+        "--env",
+        default=None,
+        choices=ENV_IDS,
+        metavar="ENV_ID",
+        help=f"environment id, one of {', '.join(ENV_IDS)} (default: the first --policy "
+        f"model's card, else {HEADLINE_ENV_ID})",
+    )
+    parser.add_argument(
+        "--n-trailers",
+        type=cli.at_least(0),
+        default=None,
+        help="number of trailers (default: the first --policy model's card, else 2)",
+    )
     cli.add_env_kwargs(parser)
     parser.add_argument(
         "--policy",
@@ -106,6 +124,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def env_from_cards(specs: list[str]) -> tuple[str | None, int | None, str | None]:
+    """The environment id and number of trailers on the card of the first model among
+    ``specs`` that has a readable card: ``(env_id, n_trailers, spec)``, Nones without.
+
+    A generalist's range of counts gives no n (the default 2 stands); a card that cannot
+    be read is passed over here and reported when the model loads.
+    """
+    for spec in specs:
+        if not is_model_spec(spec):
+            continue
+        try:
+            card = model_card(spec)
+        except (ValueError, FileNotFoundError, OSError):
+            continue
+        env_id = card.get("env_id")
+        if env_id in ENV_IDS:
+            n = card.get("env_kwargs", {}).get("n_trailers")
+            return env_id, n if isinstance(n, int) and not isinstance(n, bool) else None, spec
+    return None, None, None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
@@ -126,6 +165,18 @@ def main(argv: list[str] | None = None) -> int:
         cli.check_out_file(parser, args.video, "--video")
         if args.video.exists() and not args.overwrite:
             parser.error(f"argument --video: {args.video} exists; pass --overwrite to replace it")
+    card_env, card_n, card_of = env_from_cards(args.policy or [])
+    from_card = []
+    if args.env is None and card_env is not None:
+        args.env = card_env
+        from_card.append(card_env)
+    if args.n_trailers is None and card_n is not None:
+        args.n_trailers = card_n
+        from_card.append(f"n = {card_n}")
+    if from_card:
+        print(f"evaluate: {', '.join(from_card)} from the card of {card_of}", file=sys.stderr)
+    args.env = args.env or HEADLINE_ENV_ID
+    args.n_trailers = 2 if args.n_trailers is None else args.n_trailers
     env_id = check_env_id(args.env)
     env_kwargs = cli.env_kwargs_from(parser, args)
     specs = args.policy or [
@@ -152,11 +203,12 @@ def main(argv: list[str] | None = None) -> int:
     table = markdown_table(evaluations, curve_metric(env_id))
     files.atomic_write_text(
         args.out / "results.md",
-        f"{env_id}, n = {args.n_trailers}: {args.episodes} episodes, seeds "
+        f"{env_id}, n = {args.n_trailers}: {plural(args.episodes, 'episode')}, seeds "
         f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}",
     )
     print(table, end="")
-    print(f"evaluated {len(specs)} policies in {time.perf_counter() - started:.1f} s")
+    elapsed = time.perf_counter() - started
+    print(f"evaluated {plural(len(specs), 'policy', 'policies')} in {elapsed:.1f} s")
     if not args.no_plots:
         for path in write_pictures(evaluations, env_id, env_kwargs, args.out, args.seed):
             print(f"wrote {path}")

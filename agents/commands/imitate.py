@@ -66,7 +66,7 @@ def trailer_counts(text: str) -> int | tuple[int, int]:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m agents.imitate", description=(__doc__ or "").split("\n")[0]
+        prog=cli.program("agents.imitate"), description=(__doc__ or "").split("\n")[0]
     )
     cli.add_env(parser, default=HEADLINE_ENV_ID)
     parser.add_argument(

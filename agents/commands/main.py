@@ -48,7 +48,7 @@ from agents.evaluation.results import (
 from agents.evaluation.tables import markdown_table
 from agents.oracles.certify import ceiling_note
 from agents.policies.sb3 import limit_torch_threads
-from agents.progress import duration
+from agents.progress import duration, plural
 from agents.seeds import TEST_SEED
 
 ENV_ID = "trailer_env/Reverse-v1"
@@ -111,9 +111,10 @@ def _imitate_short(
 ) -> Path:
     from agents.training.imitate import ImitationConfig, imitate
 
+    reason = "--retrain" if committed_models(ENV_ID, N_TRAILERS) else "no committed agent"
     print(
-        f"no committed agent: imitating the planner ({iterations} DAgger iterations of "
-        f"{episodes} convoys) into {run_dir} ...",
+        f"{reason}: imitating the planner ({plural(iterations, 'DAgger iteration')} of "
+        f"{plural(episodes, 'convoy')}) into {run_dir} ...",
         flush=True,
     )
     config = ImitationConfig(ENV_ID, N_TRAILERS, seed, iterations=iterations, episodes=episodes)
@@ -121,10 +122,10 @@ def _imitate_short(
     return export_model(run_dir, _short_export(out), overwrite=overwrite)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status."""
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.main", description=(__doc__ or "").split("\n")[0]
+        prog=cli.program("agents.main"), description=(__doc__ or "").split("\n")[0]
     )
     parser.add_argument("--out", type=Path, default=Path("out"), help="output folder (default out)")
     cli.add_episodes(parser, 100, "evaluation episodes (default 100)")
@@ -157,6 +158,12 @@ def main(argv: list[str] | None = None) -> int:
     cli.add_overwrite(
         parser, "with --retrain: replace the run (and exported model) already in --out"
     )
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status."""
+    parser = build_parser()
     args = parser.parse_args(argv)
     cli.check_out_folder(parser, args.out, files_in=OUT_FILES)
     cli.check_seeds(parser, TEST_SEED, args.episodes)
@@ -193,7 +200,7 @@ def main(argv: list[str] | None = None) -> int:
     files.write_json(args.out / "results.json", document)
     table = markdown_table(evaluations, curve_metric(ENV_ID))
     print(
-        f"\n{ENV_ID}, n = {N_TRAILERS}: {args.episodes} episodes, seeds "
+        f"\n{ENV_ID}, n = {N_TRAILERS}: {plural(args.episodes, 'episode')}, seeds "
         f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "
         "(margin < 0.3), never folded, never slowed to 0.3 m/s\n"
     )

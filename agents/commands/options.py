@@ -13,12 +13,20 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from agents.artifacts import files, limits
 from agents.envs import ENV_IDS
+
+
+def program(module: str) -> str:
+    """The name the usage line shows: the console script that is running
+    (``trailer-env-evaluate``), else ``python -m <module>``."""
+    script = Path(sys.argv[0]).name if sys.argv and sys.argv[0] else ""
+    return script if script.startswith("trailer-env") else f"python -m {module}"
 
 
 def _integer(text: str, minimum: int, expected: str, *, float_text: bool = False) -> int:

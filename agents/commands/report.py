@@ -10,7 +10,9 @@ with its training seeds from ``agents/models/seeds/``) on the same seeded episod
 (:func:`agents.oracles.certify.ceiling_note`), and writes ``<out>/tables.md``,
 ``<out>/results.json`` and the pictures ``agents_curves.png`` (learning curves of all
 committed agents), ``agents_margins_reverse_v1_n2.png`` and
-``agents_frames_reverse_v1_n2.png`` to ``<out>/img``. A last table sweeps the
+``agents_frames_reverse_v1_n2.png`` to ``<out>/img``, and the leaderboard in pictures
+(:mod:`agents.evaluation.leaderboard`): ``agents_leaderboard.png``, every scenario, and
+``agents_leaderboard_reverse_v1.png``, the headline scene. A last table sweeps the
 actuator's authority (stroke, acceleration bound, mass) under the LQR baseline.
 
 By default it writes nothing that git tracks. ``--docs DIR`` (the site's folder,
@@ -28,12 +30,13 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
+from typing import Any
 
 from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
-from agents.envs import scene_baselines
-from agents.evaluation import plots
+from agents.envs import scene_baselines, scene_title
+from agents.evaluation import leaderboard, plots
 from agents.evaluation.pictures import write_pictures
 from agents.evaluation.report import HEADLINE, SCENARIOS, authority_table, curve_panel
 from agents.evaluation.results import (
@@ -45,20 +48,21 @@ from agents.evaluation.results import (
 from agents.evaluation.tables import markdown_table
 from agents.oracles.certify import ceiling_note
 from agents.policies.sb3 import limit_torch_threads
-from agents.progress import Progress, duration
+from agents.progress import Progress, duration, plural
 from agents.seeds import TEST_SEED
 
 #: The pictures the report writes (under ``<out>/img`` or ``<docs>/img``).
 PICTURES = (
     "agents_curves.png", "agents_margins.png", "agents_frames.png",
     "agents_margins_reverse_v1_n2.png", "agents_frames_reverse_v1_n2.png",
+    "agents_leaderboard.png", "agents_leaderboard_reverse_v1.png",
 )  # fmt: skip
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.report", description=(__doc__ or "").split("\n")[0]
+        prog=cli.program("agents.report"), description=(__doc__ or "").split("\n")[0]
     )
     parser.add_argument(
         "--out",
@@ -80,6 +84,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def write_leaderboards(documents: list[dict[str, Any]], img: Path) -> list[Path]:
+    """The leaderboard of every scenario (``agents_leaderboard.png``, the results page's
+    first picture) and of the headline scene alone (``agents_leaderboard_reverse_v1.png``,
+    the README's), from the report's results documents."""
+    panels = leaderboard.ordered(
+        [leaderboard.panel_of(document) for document in documents], HEADLINE[0]
+    )
+    episodes = documents[0]["episodes"] if documents else 0
+    seeds = documents[0]["seeds"] if documents else [TEST_SEED, TEST_SEED]
+    every = leaderboard.plot_leaderboard(
+        panels,
+        img / "agents_leaderboard.png",
+        title=f"Every scene: {episodes} test episodes each (seeds {seeds[0]}-{seeds[1]}), "
+        "the same for every policy",
+    )
+    headline = [panel for panel in panels if panel.env_id == HEADLINE[0]]
+    if not headline:
+        return [every]
+    return [every, leaderboard.plot_leaderboard(
+        headline, img / "agents_leaderboard_reverse_v1.png", small=True
+    )]  # fmt: skip
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
@@ -99,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     img.mkdir(parents=True, exist_ok=True)
     sections, documents, panels = [], [], []
     with Progress(len(SCENARIOS) + 1, "report") as bar:
-        for env_id, n in SCENARIOS:
+        # The headline scene first (the stable sort keeps the scene table's order after it).
+        for env_id, n in sorted(SCENARIOS, key=lambda scenario: scenario[0] != HEADLINE[0]):
             env_kwargs = {"n_trailers": n}
             oracles = [] if args.no_planner else list(scene_baselines(env_id, oracles=True))
             oracles = [name for name in oracles if name not in default_baselines(env_id)]
@@ -108,13 +136,16 @@ def main(argv: list[str] | None = None) -> int:
             evaluations = evaluate_policies(
                 specs, env_id, env_kwargs, args.episodes, TEST_SEED, progress=False
             )
-            heading = (
-                f"{env_id}, n = {n}: {args.episodes} episodes, seeds "
+            # The heading names the scenario only: the table of contents lists it.
+            episodes = (
+                f"`{env_id}`, {plural(args.episodes, 'episode')}, seeds "
                 f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}"
             )
             ceiling = ceiling_note(env_id, n, args.episodes, TEST_SEED)
             table = markdown_table(evaluations, curve_metric(env_id))
-            sections.append(f"#### {heading}\n\n{table}\n{ceiling}\n")
+            sections.append(
+                f"#### {scene_title(env_id)}, n = {n}\n\n{episodes}\n\n{table}\n{ceiling}\n"
+            )
             documents.append(
                 results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
             )
@@ -138,6 +169,8 @@ def main(argv: list[str] | None = None) -> int:
     print(sections[-1], flush=True)
     grid = plots.plot_curve_grid([panel for panel in panels if panel[1]], img / "agents_curves.png")
     print(f"wrote {grid}")
+    for path in write_leaderboards(documents, img):
+        print(f"wrote {path}")
     tables = "\n".join(sections)
     files.atomic_write_text(args.out / "tables.md", tables)
     files.write_json(args.out / "results.json", documents)

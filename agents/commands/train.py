@@ -76,6 +76,7 @@ from agents.artifacts.stats import read_stats
 from agents.commands import options as cli
 from agents.envs import env_settings
 from agents.policies.sb3 import detect_algo, limit_torch_threads, load_model
+from agents.progress import plural
 from agents.training.config import TrainConfig, load_hyperparams
 from agents.training.sb3 import train
 
@@ -88,7 +89,7 @@ def _optional_positive(parser: argparse.ArgumentParser, flag: str, help: str) ->
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.train",
+        prog=cli.program("agents.train"),
         description="Train PPO, PPO-Lagrangian, SAC or TD3 on a trailer_env scene "
         "(native batched env).",
     )
@@ -340,8 +341,9 @@ def _run(
             parser.error(f"argument --num-env-runners: {error}")
         print(
             f"trained ppo on {args.env} (n = {args.n_trailers}) with RLlib to "
-            f"{record['timesteps']} steps in {time.perf_counter() - started:.0f} s "
-            f"({record['env_steps_per_s']:.0f} env steps/s, {args.num_env_runners} runners); "
+            f"{plural(record['timesteps'], 'step')} in {time.perf_counter() - started:.0f} s "
+            f"({record['env_steps_per_s']:.0f} env steps/s, "
+            f"{plural(args.num_env_runners, 'runner')}); "
             f"checkpoint {run_dir / RLLIB_CHECKPOINT}"
         )
         return 0

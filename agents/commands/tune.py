@@ -49,7 +49,7 @@ from agents.training.tune import (
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
-        prog="python -m agents.tune",
+        prog=cli.program("agents.tune"),
         description="Hyperparameter search with Optuna (TPE, median pruner), resumable.",
     )
     cli.add_env(parser)

@@ -65,7 +65,10 @@ def write_pictures(
         policy = policy or load_policy(evaluation.spec, env_id, env_kwargs, seed=seed)
         rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
     if rows:
-        written.append(plots.plot_frames(rows, out / f"{prefix}frames.png"))
+        frames_title = (
+            f"{env_id}, n = {n}, episode seed {seed}; green: outside the singular band, red: in it"
+        )
+        written.append(plots.plot_frames(rows, out / f"{prefix}frames.png", frames_title))
     curves = {e.label: curve for e in evaluations if (curve := learning_curve(e)) is not None}
     if curves:
         metric = curve_metric(env_id)

@@ -139,22 +139,25 @@ def render_frames(
 ) -> tuple[list[np.ndarray], list[str]]:
     """Render one seeded episode of ``policy`` at the given times (s); stops at the episode's end.
 
-    Returns the RGB frames and their captions.
+    Returns the RGB frames and their captions (the time, the singular margin and how
+    the episode ended: the picture's text, since the frame's own is too small to read
+    once the frames are reduced to fit a page).
     """
     import gymnasium as gym
 
     env = gym.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
     dt = env.unwrapped.settings.dt  # type: ignore[attr-defined]
     wanted = sorted({round(t / dt) for t in times})
-    obs, _ = env.reset(seed=seed)
+    obs, info = env.reset(seed=seed)
     frames: list[np.ndarray] = []
     captions: list[str] = []
-    step, ended, info = 0, False, {"singular_margin": 1.0}
+    step, ended = 0, False
     while True:
         if step in wanted or ended:
             frames.append(np.asarray(env.render()))
-            tag = " (folded)" if ended and info.get("jackknifed") else (" (end)" if ended else "")
-            captions.append(f"t = {step * dt:.1f} s{tag}")
+            tag = ", folded" if ended and info.get("jackknifed") else (", end" if ended else "")
+            margin = float(info.get("singular_margin", 1.0))
+            captions.append(f"t = {step * dt:.1f} s{tag}\nmargin {margin:.2f}")
         if ended or step >= max(wanted):
             break
         obs, _, terminated, truncated, info = env.step(policy(_seen(policy, env, obs))[0])
@@ -173,25 +176,70 @@ def _seen(policy: Policy, env: Any, obs: np.ndarray) -> Any:
     return batch if observe is None else observe(env.unwrapped.core, batch)
 
 
-def plot_frames(rows: Mapping[str, tuple[list[np.ndarray], list[str]]], out: Path) -> Path:
-    """A grid of rendered frames: one row per policy (label -> frames, captions)."""
+#: Rows of a rendered frame left out when cropping (as fractions of its height): the
+#: frame's own text at the top and its scale bar at the bottom, unreadable once reduced.
+FRAME_TEXT_TOP, FRAME_TEXT_BOTTOM = 0.08, 0.9
+
+
+def frame_crop(frames: Sequence[np.ndarray], pad: int = 12) -> tuple[slice, slice]:
+    """(rows, columns) of the frames' common box around everything drawn (the convoy and
+    its path, not the background), padded by ``pad`` pixels; one box for all frames, so
+    that every frame keeps the same scale and place.
+
+    Raises:
+        ValueError: If ``frames`` is empty or the frames differ in shape.
+    """
+    if not frames or len({frame.shape for frame in frames}) != 1:
+        raise ValueError("frames must be one or more images of one shape")
+    height, width = frames[0].shape[:2]
+    top, bottom = int(FRAME_TEXT_TOP * height), int(FRAME_TEXT_BOTTOM * height)
+    drawn = np.zeros((height, width), dtype=bool)
+    for frame in frames:
+        drawn |= np.any(np.abs(frame.astype(np.int16) - frame[top, -1]) > 12, axis=2)
+    drawn[:top] = drawn[bottom:] = False
+    rows, columns = np.flatnonzero(drawn.any(axis=1)), np.flatnonzero(drawn.any(axis=0))
+    if rows.size == 0:
+        return slice(top, bottom), slice(0, width)
+    return (
+        slice(max(rows[0] - pad, top), min(rows[-1] + pad + 1, bottom)),
+        slice(max(columns[0] - pad, 0), min(columns[-1] + pad + 1, width)),
+    )
+
+
+def plot_frames(
+    rows: Mapping[str, tuple[list[np.ndarray], list[str]]], out: Path, title: str = ""
+) -> Path:
+    """A grid of rendered frames: one row per policy (label -> frames, captions), each
+    frame cropped to the box of :func:`frame_crop` over all of them, the text at 100 %
+    readable (10 pt at 100 dpi)."""
     plt = _pyplot()
     columns = max(len(frames) for frames, _ in rows.values())
+    box_rows, box_columns = frame_crop([frame for frames, _ in rows.values() for frame in frames])
+    aspect = (box_rows.stop - box_rows.start) / (box_columns.stop - box_columns.start)
+    width = 2.3
     fig, axes = plt.subplots(
-        len(rows), columns, figsize=(2.2 * columns, 2.4 * len(rows)), squeeze=False
-    )
+        len(rows), columns, figsize=(width * columns + 1.2, (width * aspect + 0.75) * len(rows)),
+        squeeze=False,
+    )  # fmt: skip
     for row, (label, (frames, captions)) in enumerate(rows.items()):
         for column in range(columns):
             axis = axes[row][column]
             axis.set_xticks([])
             axis.set_yticks([])
             if column < len(frames):
-                axis.imshow(frames[column])
-                axis.set_title(captions[column], fontsize=8)
+                axis.imshow(frames[column][box_rows, box_columns])
+                axis.set_title(captions[column], fontsize=10)
             else:
                 axis.axis("off")
-        axes[row][0].set_ylabel(label, fontsize=9)
-    return _save(fig, plt, out)
+        axes[row][0].set_ylabel(label, fontsize=11, rotation=0, ha="right", va="center")
+    if title:
+        fig.suptitle(title, fontsize=12)
+    fig.tight_layout()
+    out.parent.mkdir(parents=True, exist_ok=True)
+    with files.replacing(out) as temporary:
+        fig.savefig(temporary, dpi=100)
+    plt.close(fig)
+    return out
 
 
 def _save(fig: Any, plt: Any, out: Path, title: str = "") -> Path:

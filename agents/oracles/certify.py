@@ -48,7 +48,7 @@ from agents.artifacts.certificates import (
 from agents.envs import env_settings
 from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
 from agents.oracles.screen import DEFAULT_HORIZON, screen_start
-from agents.progress import Progress
+from agents.progress import Progress, plural
 from trailer_env.registry import core_class_of
 from trailer_env.vector import seed_generators
 
@@ -123,7 +123,9 @@ def certify(
     planner = SamplingPlanner(core_class, settings, count, config)
     started = time.perf_counter()
     steps = core_class.max_episode_steps
-    with Progress(steps, f"certify {env_id}, n = {n_trailers}: planning {count} starts") as bar:
+    with Progress(
+        steps, f"certify {env_id}, n = {n_trailers}: planning {plural(count, 'start')}"
+    ) as bar:
         planned = plan_episodes(core, planner, steps, bar)
     first_pass_time = time.perf_counter() - started
     first_pass_safe = int(planned.safe.sum())
@@ -139,7 +141,7 @@ def certify(
         )
         retry_config = dataclasses.replace(config, seed=config.seed + restart)
         retry_planner = SamplingPlanner(core_class, settings, rows.size, retry_config)
-        label = f"certify: restart {restart}, {rows.size} starts"
+        label = f"certify: restart {restart}, {plural(rows.size, 'start')}"
         with Progress(steps, label) as bar:
             retried = plan_episodes(retry_core, retry_planner, steps, bar)
         simulated += retry_planner.simulated_steps
@@ -199,6 +201,21 @@ def certify(
         "starts": starts,
         "actions": actions,
     }
+
+
+def ceiling_fraction(
+    env_id: str, n_trailers: int, episodes: int, seed: int, directory: Path = CERTIFICATES_DIR
+) -> float | None:
+    """The certified share of the starts of episodes ``seed .. seed + episodes - 1``, or None
+    when no committed certificate covers all of them (the leaderboard's ceiling line)."""
+    certificate = committed_certificate(env_id, n_trailers, directory)
+    if certificate is None:
+        return None
+    statuses = {start["seed"]: start["status"] for start in certificate["starts"]}
+    wanted = range(seed, seed + episodes)
+    if any(episode_seed not in statuses for episode_seed in wanted):
+        return None
+    return sum(statuses[episode_seed] == FEASIBLE for episode_seed in wanted) / episodes
 
 
 def ceiling_note(

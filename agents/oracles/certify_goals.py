@@ -38,7 +38,7 @@ from agents.artifacts.certificates import FEASIBLE, OPEN
 from agents.envs import env_settings
 from agents.oracles.ilqr import ILQRConfig, ILQRPlanner
 from agents.oracles.ilqr_costs import scene_horizon
-from agents.progress import Progress
+from agents.progress import Progress, plural
 from trailer_env.core import ConvoyCore
 from trailer_env.registry import core_class_of
 from trailer_env.settings import EnvSettings
@@ -188,7 +188,7 @@ def certify_goals(
     count = len(seeds)
     steps = core_class.max_episode_steps
     started = time.perf_counter()
-    label = f"certify {env_id}, n = {n_trailers}: iLQR on {count} starts"
+    label = f"certify {env_id}, n = {n_trailers}: iLQR on {plural(count, 'start')}"
     with Progress(steps, label) as bar:
         planned, simulated = drive(reset_core(core_class, settings, seeds), settings, config, bar)
     first_pass_time = time.perf_counter() - started
@@ -200,7 +200,9 @@ def certify_goals(
             break
         retry = restart_config(config, core_class, restart)
         core = reset_core(core_class, settings, [seeds[i] for i in rows])
-        with Progress(steps, f"certify: restart {restart}, {rows.size} starts") as bar:
+        with Progress(
+            steps, f"certify: restart {restart}, {plural(int(rows.size), 'start')}"
+        ) as bar:
             retried, more = drive(core, settings, retry, bar)
         simulated += more
         attempts[rows] += 1

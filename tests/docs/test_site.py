@@ -5,7 +5,9 @@ The site is built (``mkdocs build --strict``) into a temporary folder, served on
 ``chromium`` and ``chromium-driver``, driven by selenium). On every page: no console
 message of level SEVERE, every ``<img>`` loaded (``naturalWidth > 0``, the GIFs
 included), and every link to the same origin resolves: its page or file is served and,
-when it has an ``#anchor``, an element with that id exists on the target page.
+when it has an ``#anchor``, an element with that id exists on the target page; and no
+table overflows its content column at the browser's 1280 px (its right edge stays
+inside the column and it needs no horizontal scrolling).
 
 ``scripts/test.sh`` installs mkdocs, selenium and Chromium, so in CI this runs; elsewhere
 it is skipped, naming what is missing.
@@ -130,6 +132,7 @@ class PageReport:
     broken_images: list[str] = field(default_factory=list)
     images: list[str] = field(default_factory=list)
     severe: list[str] = field(default_factory=list)
+    overflowing_tables: list[str] = field(default_factory=list)
 
 
 _WAIT_FOR_IMAGES = """
@@ -149,6 +152,20 @@ return [
 """
 
 
+_TABLES = """
+const column = document.querySelector('.md-content__inner');
+if (!column) return [];
+return Array.from(column.querySelectorAll('table')).map((table, index) => {
+    // Material's scroll wrapper reaches 0.8rem past the column on purpose (shadows).
+    const wrap = table.closest('.md-typeset__scrollwrap') || table.parentElement;
+    const head = (table.querySelector('th') || table).textContent.trim().slice(0, 30);
+    return [index, head,
+            table.getBoundingClientRect().right - wrap.getBoundingClientRect().right,
+            wrap.scrollWidth - wrap.clientWidth];
+});
+"""
+
+
 def visit(driver: object, url: str) -> PageReport:
     """Open ``url``; its ids, links, images that did not load and SEVERE console lines."""
     driver.get(url)  # type: ignore[attr-defined]
@@ -156,6 +173,11 @@ def visit(driver: object, url: str) -> PageReport:
     ids, links = driver.execute_script(_COLLECT)  # type: ignore[attr-defined]
     report = PageReport(url, set(ids), list(links), images=[src for src, _ in images])
     report.broken_images = [src for src, width in images if not width]
+    report.overflowing_tables = [
+        f"table {index} ({head!r}): {past:.0f} px past its column, {hidden} px to scroll"
+        for index, head, past, hidden in driver.execute_script(_TABLES)  # type: ignore[attr-defined]
+        if past > 1 or hidden > 1
+    ]
     report.severe = [
         entry["message"]
         for entry in driver.get_log("browser")  # type: ignore[attr-defined]
@@ -234,3 +256,18 @@ def test_every_page_loads_without_errors_and_every_link_resolves(
         page = reports[f"{base}environments/{env_id}/"]
         gifs = [src for src in page.images if src.endswith(".gif")]
         assert len(gifs) == 2, f"{page.url} shows the agent's and the zero action's GIFs: {gifs}"
+
+
+@pytest.mark.xfail(
+    reason="issue 32: the results tables (10 columns) are still about 48 px wider than the "
+    "column at 1280 px, and one table on the agents page; the check stays to show it",
+    strict=False,
+)
+def test_no_table_overflows_its_column(site: tuple[Path, str], browser: object) -> None:
+    out, base = site
+    overflowing = [
+        f"{url}: {table}"
+        for url in page_urls(out, base)
+        for table in visit(browser, url).overflowing_tables
+    ]
+    assert not overflowing, "\n".join(overflowing)
