@@ -41,6 +41,7 @@ __all__ = [
     "Band",
     "Plateau",
     "RunCurve",
+    "final_plateau",
     "group_runs",
     "plateau",
     "read_run",
@@ -173,6 +174,34 @@ def plateau(
             level = float(y[i - window + 1 : i + 1].mean())
             return Plateau(step=float(x[i]), start=float(x[i - window + 1]), level=level)
     return None
+
+
+def final_plateau(
+    steps: Sequence[float] | np.ndarray,
+    values: Sequence[float] | np.ndarray,
+    window: int,
+    eps: float,
+) -> Plateau | None:
+    """Where a curve settled for good, or None when its end is not flat.
+
+    The curve's end is flat when its last ``window`` evaluations lie within ``eps`` of
+    their mean (the level); it settled at the first evaluation from which every later
+    one stays within ``eps`` of that level. Unlike :func:`plateau`, a flat stretch
+    before a jump (a run at 0 for its first million steps) is not the plateau.
+    ``step`` and ``start`` are both that first evaluation's x.
+
+    Raises:
+        As :func:`plateau`.
+    """
+    window, eps = _check_window(window, eps)
+    x = np.asarray(steps, dtype=float)
+    y = np.asarray(values, dtype=float)
+    if plateau(x, y, window, eps) is None or not is_flat(y, window, eps):
+        return None
+    level = float(y[-window:].mean())
+    outside = np.flatnonzero(np.abs(y - level) > eps + 1e-12)
+    first = 0 if outside.size == 0 else int(outside[-1]) + 1
+    return Plateau(step=float(x[first]), start=float(x[first]), level=level)
 
 
 def read_run(run_dir: Path) -> RunCurve:

@@ -42,7 +42,7 @@ DOCUMENTS = sorted(
 #: The agents' commands: module of ``python -m agents.<name>`` -> its command module.
 AGENT_COMMANDS = {
     f"agents.{name}": f"agents.commands.{name}"
-    for name in ("main", "train", "evaluate", "certify", "imitate", "report")
+    for name in ("main", "train", "evaluate", "certify", "imitate", "report", "tune", "curves")
 }
 #: The example module that protocol.md's ``--policy my_module:act`` imports.
 MY_MODULE = "import numpy as np\n\n\ndef act(obs):\n    return np.zeros((len(obs), 1))\n"

@@ -1,0 +1,228 @@
+"""The reinforcement-learning-from-reward table: training runs scored on the test protocol.
+
+Usage::
+
+    python -m agents.evaluation.rl_from_reward RUN [RUN ...] [--out docs/generated] \
+        [--fresh-seed 7000] [--fresh-episodes 200] [--overwrite]
+
+Each RUN is a run folder of ``agents.train`` (or a folder of them). Per run, its kept
+model (``best_model.zip``: the best validation evaluation) and its last model
+(``final_model.zip``) are scored on the test episodes (seeds 1000..1099) and on
+``--fresh-episodes`` fresh ones from ``--fresh-seed`` (disjoint from the training,
+validation and test seeds), with the scene's headline rate (safe on Reverse, success
+on the goal scenes). The validation curve gives where the run settled on its final
+plateau (:func:`agents.evaluation.learning_curves.final_plateau`: its last five
+evaluations within 0.05 of their mean, and every evaluation since the settling point
+too), or that its end is not flat. Runs of one (scene, n, algorithm) over
+training seeds are summarised as mean ± sd.
+
+Writes ``rl_from_reward.md`` (one table per (scene, n), one row per run and per
+group) and ``rl_from_reward.json`` (every figure), atomically; existing files are
+replaced only with ``--overwrite``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from agents.artifacts import files
+from agents.artifacts.cards import read_card
+from agents.artifacts.run_folder import BEST_MODEL, CONFIG_FILE, FINAL_MODEL
+from agents.evaluation.learning_curves import final_plateau, group_runs, read_run
+from agents.evaluation.metrics import rollout, summarize
+from agents.policies.registry import load_policy
+from agents.seeds import TEST_SEED
+
+TABLE = "rl_from_reward.md"
+DOCUMENT = "rl_from_reward.json"
+#: The plateau rule of the table (evaluations, band).
+PLATEAU_WINDOW, PLATEAU_EPS = 5, 0.05
+TEST_EPISODES = 100
+
+
+@dataclass(frozen=True)
+class RunScore:
+    """One run's figures: where it plateaued, and its models on test and fresh seeds."""
+
+    run: str
+    env_id: str
+    n_trailers: int
+    algo: str
+    seed: int
+    budget: int
+    wall_s: float
+    metric: str
+    plateau_step: float | None
+    plateau_level: float | None
+    final_validation: float
+    best_validation: float
+    kept_at: int
+    kept_test: float
+    kept_fresh: float
+    final_test: float
+    final_fresh: float
+
+
+def _rate(model: Path, env_id: str, n: int, seed: int, episodes: int, metric: str) -> float:
+    kwargs = {"n_trailers": n}
+    policy = load_policy(str(model), env_id, kwargs, seed=seed)
+    return float(summarize(rollout(policy, env_id, episodes, seed, kwargs))[metric])
+
+
+def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
+    """Score one run folder (see the module docstring)."""
+    curve = read_run(run_dir)
+    steps, values = curve.series("timesteps")
+    _, walls = curve.series("wall_s")
+    flat = final_plateau(steps, values, PLATEAU_WINDOW, PLATEAU_EPS)
+    env_id, n, metric = curve.env_id, curve.n_trailers, curve.metric
+    best, final = run_dir / BEST_MODEL, run_dir / FINAL_MODEL
+    card = read_card(best)
+    return RunScore(
+        run=run_dir.name,
+        env_id=env_id,
+        n_trailers=n,
+        algo=curve.algo,
+        seed=curve.seed,
+        budget=int(steps[-1]),
+        wall_s=float(walls[-1]),
+        metric=metric,
+        plateau_step=None if flat is None else flat.start,
+        plateau_level=None if flat is None else flat.level,
+        final_validation=float(values[-1]),
+        best_validation=float(max(values)),
+        kept_at=int(card.get("selected_at_timesteps") or card.get("timesteps") or 0),
+        kept_test=_rate(best, env_id, n, TEST_SEED, TEST_EPISODES, metric),
+        kept_fresh=_rate(best, env_id, n, fresh_seed, fresh_episodes, metric),
+        final_test=_rate(final, env_id, n, TEST_SEED, TEST_EPISODES, metric),
+        final_fresh=_rate(final, env_id, n, fresh_seed, fresh_episodes, metric),
+    )
+
+
+def _pct(value: float) -> str:
+    return f"{100 * value:.0f}"
+
+
+def _mean_sd(values: Sequence[float], scale: float = 100.0) -> str:
+    mean = statistics.fmean(values) * scale
+    sd = statistics.pstdev(values) * scale if len(values) > 1 else 0.0
+    return f"{mean:.0f} ± {sd:.0f}"
+
+
+def markdown(scores: Sequence[RunScore], fresh_seed: int, fresh_episodes: int) -> str:
+    """One table per (scene, n): a row per run, then the mean ± sd over its seeds."""
+    lines: list[str] = []
+    groups: dict[tuple[str, int], list[RunScore]] = {}
+    for score in scores:
+        groups.setdefault((score.env_id, score.n_trailers), []).append(score)
+    for (env_id, n), group in groups.items():
+        metric = group[0].metric.removesuffix("_rate")
+        lines += [
+            f"#### {env_id.split('/')[-1]}, n = {n}",
+            "",
+            f"| run | budget | wall time | plateau from (level) | kept at | {metric} % test"
+            f" kept / final | {metric} % fresh kept / final |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        by_algo: dict[str, list[RunScore]] = {}
+        for score in sorted(group, key=lambda s: (s.algo, s.seed)):
+            by_algo.setdefault(score.algo, []).append(score)
+            flat = (
+                "not flat at the end"
+                if score.plateau_step is None
+                else f"{score.plateau_step / 1e6:.1f}M ({score.plateau_level:.2f})"
+            )
+            lines.append(
+                f"| {score.algo} seed {score.seed} | {score.budget / 1e6:.1f}M | "
+                f"{score.wall_s / 60:.1f} min | {flat} | {score.kept_at / 1e6:.1f}M | "
+                f"{_pct(score.kept_test)} / {_pct(score.final_test)} | "
+                f"{_pct(score.kept_fresh)} / {_pct(score.final_fresh)} |"
+            )
+        for algo, runs in by_algo.items():
+            if len(runs) < 2:
+                continue
+            lines.append(
+                f"| **{algo} mean ± sd ({len(runs)} seeds)** | | "
+                f"{_mean_sd([r.wall_s for r in runs], 1 / 60)} min | | | "
+                f"{_mean_sd([r.kept_test for r in runs])} / "
+                f"{_mean_sd([r.final_test for r in runs])} | "
+                f"{_mean_sd([r.kept_fresh for r in runs])} / "
+                f"{_mean_sd([r.final_fresh for r in runs])} |"
+            )
+        lines.append("")
+    lines.append(
+        f"Test: seeds {TEST_SEED}..{TEST_SEED + TEST_EPISODES - 1}; fresh: seeds "
+        f"{fresh_seed}..{fresh_seed + fresh_episodes - 1}. Kept: the run's best validation "
+        "evaluation (50 episodes from seed 50,000); final: its last model. Plateau: the "
+        f"run's last {PLATEAU_WINDOW} validation evaluations lie within {PLATEAU_EPS} of "
+        "their mean (the level); it is reached at the first evaluation from which every "
+        "later one stays within that band. Wall time: the run's own clock."
+    )
+    return "\n".join(lines) + "\n"
+
+
+def _run_folders(paths: Sequence[Path]) -> list[Path]:
+    found = []
+    for path in paths:
+        if (path / CONFIG_FILE).is_file():
+            found.append(path)
+        elif path.is_dir():
+            found += sorted(p.parent for p in path.glob(f"*/{CONFIG_FILE}"))
+    return [p for p in found if (p / BEST_MODEL).is_file() and (p / FINAL_MODEL).is_file()]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.evaluation.rl_from_reward",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("runs", nargs="+", type=Path, metavar="RUN")
+    parser.add_argument("--out", type=Path, default=Path("out") / "rl_from_reward")
+    parser.add_argument("--fresh-seed", type=int, default=7000)
+    parser.add_argument("--fresh-episodes", type=int, default=200)
+    parser.add_argument("--overwrite", action="store_true")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not 1 <= args.fresh_episodes <= 100_000:
+        parser.error("--fresh-episodes must be in 1..100000")
+    if (
+        args.fresh_seed < TEST_SEED + TEST_EPISODES
+        and args.fresh_seed + args.fresh_episodes > TEST_SEED
+    ):
+        parser.error("--fresh-seed: the fresh episodes overlap the test seeds")
+    folders = _run_folders(args.runs)
+    if not folders:
+        parser.error("no finished run folder (config.json, best and final model) in RUN")
+    targets = [args.out / TABLE, args.out / DOCUMENT]
+    if not args.overwrite and any(path.exists() for path in targets):
+        parser.error(f"{args.out} already holds a table: --overwrite replaces it")
+    group_runs([read_run(folder) for folder in folders])  # refuses unreadable runs first
+    scores = []
+    for index, folder in enumerate(folders, 1):
+        print(f"[{index}/{len(folders)}] scoring {folder}", file=sys.stderr, flush=True)
+        scores.append(score_run(folder, args.fresh_seed, args.fresh_episodes))
+    args.out.mkdir(parents=True, exist_ok=True)
+    document: dict[str, Any] = {
+        "fresh_seed": args.fresh_seed,
+        "fresh_episodes": args.fresh_episodes,
+        "runs": [asdict(score) for score in scores],
+    }
+    files.write_json(targets[1], document)
+    files.atomic_write_text(targets[0], markdown(scores, args.fresh_seed, args.fresh_episodes))
+    print(f"wrote {targets[0]} and {targets[1]}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

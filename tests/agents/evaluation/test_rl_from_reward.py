@@ -1,0 +1,57 @@
+"""The RL-from-reward table: the final plateau rule and the table's rows."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from agents.evaluation.learning_curves import final_plateau, plateau
+from agents.evaluation.rl_from_reward import RunScore, main, markdown
+
+STEPS = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10]
+
+
+def test_a_flat_start_before_the_jump_is_not_the_final_plateau() -> None:
+    values = [0.0, 0.0, 0.0, 0.0, 0.0, 0.44, 0.86, 0.94, 0.96, 0.98, 0.96]
+    assert plateau(STEPS, values, 5, 0.05).start == 0  # type: ignore[union-attr]
+    settled = final_plateau(STEPS, values, 3, 0.05)
+    assert settled is not None
+    assert settled.start == 7  # 0.94 is within 0.05 of the last three's mean, 0.86 is not
+    assert settled.level == pytest.approx((0.96 + 0.98 + 0.96) / 3)
+
+
+def test_a_curve_climbing_at_its_end_has_no_final_plateau() -> None:
+    assert final_plateau(STEPS, [0.0] * 6 + [0.2, 0.4, 0.6, 0.8, 0.9], 3, 0.05) is None
+    assert final_plateau(STEPS[:2], [0.1, 0.1], 3, 0.05) is None
+    with pytest.raises(ValueError, match="strictly increasing"):
+        final_plateau([0, 0, 1], [0.1, 0.1, 0.1], 2, 0.05)
+
+
+def _score(seed: int, kept: float, final: float, flat: float | None) -> RunScore:
+    return RunScore(
+        run=f"ppo_s{seed}", env_id="trailer_env/Reverse-v1", n_trailers=2, algo="ppo",
+        seed=seed, budget=10_000_000, wall_s=600.0, metric="safe_rate",
+        plateau_step=flat, plateau_level=None if flat is None else 0.97,
+        final_validation=0.96, best_validation=1.0, kept_at=6_500_000,
+        kept_test=kept, kept_fresh=kept, final_test=final, final_fresh=final,
+    )  # fmt: skip
+
+
+def test_the_table_has_a_row_per_run_and_the_seed_mean() -> None:
+    text = markdown([_score(0, 0.96, 0.98, 4e6), _score(1, 0.98, 1.0, None)], 7000, 200)
+    assert "#### Reverse-v1, n = 2" in text
+    assert "| ppo seed 0 | 10.0M | 10.0 min | 4.0M (0.97) | 6.5M | 96 / 98 | 96 / 98 |" in text
+    assert "| ppo seed 1 | 10.0M | 10.0 min | not flat at the end | 6.5M | 98 / 100 |" in text
+    assert "| **ppo mean ± sd (2 seeds)** | | 10 ± 0 min | | | 97 ± 1 / 99 ± 1 |" in text
+    assert "fresh: seeds 7000..7199" in text
+
+
+def test_refusals_write_nothing(tmp_path: Path) -> None:
+    with pytest.raises(SystemExit):
+        main([str(tmp_path), "--out", str(tmp_path / "out")])  # no run folder
+    with pytest.raises(SystemExit):
+        main([str(tmp_path), "--fresh-seed", "1050"])  # overlaps the test seeds
+    with pytest.raises(SystemExit):
+        main([str(tmp_path), "--fresh-episodes", "0"])
+    assert not (tmp_path / "out").exists()
