@@ -205,7 +205,13 @@ class MixedCore:
 
     # -------------------------------------------------------------- steps
     def step(self, action: np.ndarray, rows: np.ndarray | None = None) -> None:
-        """Step ``rows`` (default all), each in the core of its n (see ConvoyCore.step)."""
+        """Step ``rows`` (default all), each in the core of its n (see ConvoyCore.step).
+
+        Raises:
+            ValueError, FloatingPointError: As :meth:`ConvoyCore.step`; a refused step
+                changes nothing, in any count's core: the counts stepped before the one
+                that raised are taken back (:meth:`ConvoyCore.undo_step`).
+        """
         stepped = self._all_rows if rows is None else rows
         # Refused before any count's core moves (each core checks only its own rows).
         bad = first_non_finite_row(action, stepped)
@@ -214,11 +220,27 @@ class MixedCore:
                 f"action contains non-finite values (NaN or inf), environment {bad}: {action[bad]}"
             )
         trailers = self.trailers[stepped]
+        groups = []
         for n, core in self.cores.items():
             group = stepped[trailers == n]
             if group.size:
+                groups.append((n, core, group))
+        # A core that raises leaves its rows as they were (ConvoyCore.step); those stepped
+        # before it are taken back, so each keeps a copy of what a step overwrites (the
+        # last count stepped needs none).
+        for _, core, _ in groups[:-1]:
+            core.save_step()
+        done: list[tuple[ConvoyCore, np.ndarray]] = []
+        try:
+            for _, core, group in groups:
                 core.step(action, group)
-                self._gather(n, group)
+                done.append((core, group))
+        except BaseException:
+            for core, group in done:
+                core.undo_step(group)
+            raise
+        for n, _, group in groups:  # only once every count has stepped
+            self._gather(n, group)
 
     def _gather(self, n: int, rows: np.ndarray) -> None:
         core = self.cores[n]
