@@ -70,7 +70,8 @@ With the planar actuator, indices 2n+2 .. 2n+5 hold (xi - b) / s_max,
 eta / s_max, xi_dot / v_max, eta_dot / v_max, and task features start at 2n+6.
 With ``observe_params=True``, 7 values follow the task features
 (:attr:`ConvoyCore.param_offset` + k): ``log(value / nominal)`` of M, J0, a, m, J, l, mu,
-the episode's parameters (:mod:`trailer_env.randomize`; 0 where not randomised).
+the episode's parameters (:mod:`trailer_env.randomize`; 0 where not randomised, and 0
+where the nominal value is 0: a factor leaves such a parameter 0).
 
 Randomised physics (``randomize=``): each row's parameters are ``param_values`` (B, 7);
 the kernels then take them per row, and the auto substep rule's settings are computed
@@ -212,7 +213,8 @@ class ConvoyCore:
     #: environments replay each other.
     start_kernel: ClassVar[Any] = None
     #: Parameters the scene's own formulas read as one value for the batch (Dock's hitch
-    #: positions use ``l``): ``randomize`` refuses them.
+    #: positions use ``l``): a ``randomize`` dict that names one is refused; a preset
+    #: (``"mismatch10"``, ``"mismatch20"``) leaves them nominal and varies the others.
     fixed_parameters: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
@@ -252,10 +254,14 @@ class ConvoyCore:
         self.randomization = settings.randomize
         if self.randomization is not None:
             fixed = sorted(set(self.randomization.names) & set(self.fixed_parameters))
-            if fixed:
+            if fixed and self.randomization.preset is not None:
+                # A preset applies to every scene: it varies what this one allows.
+                self.randomization = self.randomization.without(fixed)
+            elif fixed:
                 raise ValueError(
                     f"randomize: {type(self).__name__}'s formulas use {fixed} as one value for "
-                    f"the batch; it cannot be randomised in this scene"
+                    f"the batch; it cannot be randomised in this scene (a preset varies the "
+                    f"other parameters)"
                 )
         self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
         self.act = np.zeros((size, 6))
@@ -285,6 +291,9 @@ class ConvoyCore:
         #: not randomised), and the parameters they give, columns ``PARAMETERS`` (B, 7).
         self.factors = np.ones((size, len(NAMES)))
         self.param_values = np.tile(self._packed, (size, 1))
+        # Parameters whose nominal value is 0: a factor leaves them 0, so the factor that
+        # holds, and is observed, is 1 (the draw still happens: the streams stay the same).
+        self._unscaled = np.flatnonzero(self._packed == 0.0)
         # Per-row parameters reach the kernels only when a physical parameter is drawn: the
         # shared vector keeps the kernels' shared (faster) specialisation otherwise.
         per_row = self.randomization is not None and any(
@@ -607,6 +616,8 @@ class ConvoyCore:
         indices = np.asarray(rows, dtype=np.int64)
         columns, low, high = self._draws
         draw_factors(rngs, picks, indices, columns, low, high, self.factors)
+        if self._unscaled.size:
+            self.factors[np.ix_(indices, self._unscaled)] = 1.0
         apply_factors(indices, self.factors, self._packed, self.param_values, self._nominal_auto,
                       self._row_auto, float(self._b), float(self._s_max), self.planar,
                       self.z)  # fmt: skip
@@ -617,7 +628,8 @@ class ConvoyCore:
     def set_row_params(self, rows: np.ndarray, values: np.ndarray) -> None:
         """Give ``rows`` (int array) the parameters ``values`` (len(rows), 7), columns
         :data:`trailer_env.randomize.PARAMETERS`, and the auto rule's settings they imply
-        (as a reset's draws would); their factors become ``values / nominal``. For a core
+        (as a reset's draws would); their factors become ``values / nominal`` (1 where the
+        nominal value is 0). For a core
         whose settings randomise a physical parameter (the kernels take per-row
         parameters only then); the speed and the state are left as they are.
 
@@ -641,7 +653,10 @@ class ConvoyCore:
             raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
         apply_params(indices, values, self.param_values, self._nominal_auto, self._row_auto,
                      float(self._b), float(self._s_max), self.planar)  # fmt: skip
-        self.factors[indices, : len(PARAMETERS)] = values / self._packed
+        nominal = np.broadcast_to(self._packed, values.shape)
+        self.factors[indices, : len(PARAMETERS)] = np.divide(
+            values, nominal, out=np.ones_like(values), where=nominal != 0.0
+        )
 
     def params_info(self, i: int) -> dict[str, float]:
         """Row ``i``'s episode parameters (``info["params"]``): the seven randomisable
