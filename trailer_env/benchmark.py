@@ -352,7 +352,7 @@ def _write_atomic(path: Path, text: str) -> None:
 def score(
     policy: Policy,
     env_id: str,
-    n_trailers: int = 2,
+    n_trailers: int | tuple[int, int] = 2,
     *,
     name: str = "policy",
     episodes: int = EPISODES,
@@ -366,7 +366,7 @@ def score(
     Args:
         policy: Observations (K, obs_dim) -> actions; see :func:`per_observation`.
         env_id: A trailer_env id (the protocol's tasks are :data:`TASKS`; any id works).
-        n_trailers: Number of trailers.
+        n_trailers: Number of trailers (or a range ``(low, high)``, :mod:`trailer_env.mixed`).
         name: The policy's name in the table and the JSON.
         episodes, seed: The protocol's by default (100 episodes from seed 1000); other
             values are recorded in the JSON and mark the score as off-protocol.

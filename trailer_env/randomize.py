@@ -97,9 +97,8 @@ class Randomization:
                     f"randomize: unknown preset {value!r}; presets: {sorted(PRESETS)}, or a "
                     f"dict of factor ranges over {list(NAMES)}"
                 )
-            ranges = cls.coerce(PRESETS[value])
-            assert ranges is not None
-            return cls(ranges.ranges, preset=value)
+            table = PRESETS[value]
+            return cls(tuple((name, *table[name]) for name in NAMES if name in table), value)
         if not isinstance(value, Mapping):
             raise TypeError(
                 "randomize must be None, a preset name or a dict of factor ranges such as "

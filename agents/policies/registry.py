@@ -57,7 +57,7 @@ def load_callable(spec: str) -> Policy:
         module = importlib.import_module(module_name)
     except ImportError as error:
         raise ValueError(f"policy {spec!r}: cannot import {module_name!r}: {error}") from None
-    except (Exception, SystemExit) as error:  # the module's own code failed (KeyboardInterrupt passes)
+    except (Exception, SystemExit) as error:  # its own code failed; KeyboardInterrupt passes
         raise ValueError(
             f"policy {spec!r}: importing {module_name!r} raised {type(error).__name__}: {error}"
         ) from None

@@ -138,7 +138,9 @@ def _core_arrays(core: Any) -> dict[str, np.ndarray]:
 
 def _mixed_arrays(mixed: Any) -> dict[str, np.ndarray]:
     arrays = {f"mixed.{name}": value for name, value in _core_arrays(mixed).items()}
-    arrays.update({f"mixed.info.{key}": value for key, value in mixed.info_batch().items()})
+    for key, value in mixed.info_batch().items():
+        columns = value if isinstance(value, dict) else {"": value}  # params: a dict of arrays
+        arrays.update({f"mixed.info.{key}.{name}": column for name, column in columns.items()})
     for n, core in mixed.cores.items():
         live = mixed.trailers == n  # a core's other rows hold nothing anyone reads
         arrays.update({f"{n}.{name}": value[live] for name, value in _core_arrays(core).items()})
@@ -197,8 +199,8 @@ def test_a_refused_step_takes_back_the_counts_stepped_before_it() -> None:
     mixed.cores[3].z[row] = twin.unwrapped.core.cores[3].z[row]
     mixed.cores[3].refresh(np.array([row]))
     for _ in range(3):
-        obs, reward, terminated, _, infos = envs.step(actions)
-        twin_obs, twin_reward, twin_terminated, _, twin_infos = twin.step(actions)
+        obs, reward, terminated, _, _ = envs.step(actions)
+        twin_obs, twin_reward, twin_terminated, _, _ = twin.step(actions)
         np.testing.assert_array_equal(obs, twin_obs)
         np.testing.assert_array_equal(reward, twin_reward)
         np.testing.assert_array_equal(terminated, twin_terminated)

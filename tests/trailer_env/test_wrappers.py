@@ -190,10 +190,11 @@ def test_compute_reward_checks_the_goals() -> None:
         with pytest.raises(error, match=message):
             env.compute_reward(achieved, desired, None)
     # Batched leading axes, as hindsight relabelling passes them, and broadcasting.
-    batch = np.stack([goal, goal + [1.0, 0.0, 0.0, 0.0]])
+    batch = np.stack([goal, goal + np.array([1.0, 0.0, 0.0, 0.0])])
     np.testing.assert_array_equal(env.compute_reward(batch, goal, None), [0.0, -1.0])
     np.testing.assert_array_equal(
-        env.compute_reward(batch[np.newaxis], batch[:, np.newaxis], None), [[0.0, -1.0], [-1.0, 0.0]]
+        env.compute_reward(batch[np.newaxis], batch[:, np.newaxis], None),
+        [[0.0, -1.0], [-1.0, 0.0]],
     )
     assert env.compute_reward(goal.astype(np.float32).tolist(), goal, None) == 0.0
     heading = GoalConditioned(gym.make("trailer_env/Heading-v0", n_trailers=1))
