@@ -130,14 +130,43 @@ def per_observation(act: Callable[[np.ndarray], Any]) -> Policy:
     return batched
 
 
-def _check_episodes_and_seed(episodes: Any, seed: Any) -> None:
-    for name, value in (("episodes", episodes), ("seed", seed)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-            raise TypeError(f"{name} must be an integer, got {type(value).__name__}")
+def _integer(name: str, value: Any) -> int:
+    """``value`` as a Python int (NumPy integers accepted; bools and floats refused)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
+    return int(value)
+
+
+def _flag(name: str, value: Any) -> bool:
+    """``value`` as a Python bool (a NumPy bool accepted; 0, 1 or "no" refused)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
+    return bool(value)
+
+
+def _check_episodes_and_seed(episodes: Any, seed: Any) -> tuple[int, int]:
+    """``(episodes, seed)`` as Python ints, checked.
+
+    Raises:
+        TypeError: If either is not an integer (a bool or a float).
+        ValueError: If they are out of range.
+    """
+    episodes, seed = _integer("episodes", episodes), _integer("seed", seed)
     if not 1 <= episodes <= MAX_EPISODES:
         raise ValueError(f"episodes must be in 1..{MAX_EPISODES}, got {episodes}")
     if not 0 <= seed <= 2**32 - 1 - episodes:
         raise ValueError(f"seed must be in 0..2**32 - 1 - episodes, got {seed}")
+    return episodes, seed
+
+
+def _trailer_count(value: Any) -> int | tuple[int, int]:
+    """``n_trailers`` with Python ints: one count, or a (low, high) range
+    (:mod:`trailer_env.mixed`); the values are checked by ``gym.make``."""
+    if isinstance(value, (tuple, list)):
+        if len(value) != 2:
+            raise TypeError(f"n_trailers must be an integer or a pair (low, high), got {value!r}")
+        return (_integer("n_trailers[0]", value[0]), _integer("n_trailers[1]", value[1]))
+    return _integer("n_trailers", value)
 
 
 def rollout(
@@ -170,7 +199,7 @@ def rollout(
 
     from trailer_env.vector import ConvoyVectorEnv
 
-    _check_episodes_and_seed(episodes, seed)
+    episodes, seed = _check_episodes_and_seed(episodes, seed)
     made = gym.make_vec(
         env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
@@ -298,6 +327,14 @@ class Score:
         )
 
 
+def _file_mode() -> int:
+    """The mode ``open()`` gives a new file: 0o666 less the umask (read without a window
+    where a looser mask applies: the one set meanwhile is the strictest, 0o077)."""
+    mask = os.umask(0o077)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def _write_atomic(path: Path, text: str) -> None:
     if path.is_symlink():
         raise ValueError(f"{path} is a symbolic link; refusing to write through it")
@@ -305,6 +342,7 @@ def _write_atomic(path: Path, text: str) -> None:
     try:
         with os.fdopen(handle, "w") as stream:
             stream.write(text)
+        os.chmod(temporary, _file_mode())  # mkstemp's 0600 would outlive the rename
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
@@ -314,7 +352,7 @@ def _write_atomic(path: Path, text: str) -> None:
 def score(
     policy: Policy,
     env_id: str,
-    n_trailers: int = 2,
+    n_trailers: int | tuple[int, int] = 2,
     *,
     name: str = "policy",
     episodes: int = EPISODES,
@@ -328,23 +366,37 @@ def score(
     Args:
         policy: Observations (K, obs_dim) -> actions; see :func:`per_observation`.
         env_id: A trailer_env id (the protocol's tasks are :data:`TASKS`; any id works).
-        n_trailers: Number of trailers.
+        n_trailers: Number of trailers (or a range ``(low, high)``, :mod:`trailer_env.mixed`).
         name: The policy's name in the table and the JSON.
         episodes, seed: The protocol's by default (100 episodes from seed 1000); other
             values are recorded in the JSON and mark the score as off-protocol.
         out: A folder to write ``score.json`` and ``score.md`` into (created if absent;
-            existing files are refused unless ``overwrite``).
+            existing files are refused unless ``overwrite``; files get the mode the
+            umask gives, as ``open()``'s would).
+        overwrite: Replace an existing ``score.json`` / ``score.md`` (a bool).
         goal_conditioned: The policy reads :class:`trailer_env.wrappers.GoalConditioned`'s
             ``Dict`` observations (batched; Dock-v0 and Heading-v0), e.g. an SB3 HER agent.
 
+    Integers may be NumPy integers (they are written to the JSON as ints).
+
     Raises:
-        TypeError, ValueError: On a bad id, count, seed or keyword, or an ``out`` that
-            holds a score already (checked before any episode runs).
+        TypeError: On a bool or float where an integer is wanted (``n_trailers``,
+            ``episodes``, ``seed``), a ``name`` that is not a str, ``overwrite`` or
+            ``goal_conditioned`` not a bool, ``out`` not a path.
+        ValueError: On a bad id, count or seed, an empty ``out``, or an ``out`` whose
+            ``score.json`` or ``score.md`` exists (without ``overwrite``), is a folder or
+            a symbolic link, dangling or not. Everything is checked before any episode
+            runs; a refusal writes nothing.
     """
     from trailer_env.registry import core_class_of
 
     core = core_class_of(env_id)
-    _check_episodes_and_seed(episodes, seed)
+    n_trailers = _trailer_count(n_trailers)
+    episodes, seed = _check_episodes_and_seed(episodes, seed)
+    if not isinstance(name, str):
+        raise TypeError(f"name must be a str, got {type(name).__name__} {name!r}")
+    overwrite = _flag("overwrite", overwrite)
+    goal_conditioned = _flag("goal_conditioned", goal_conditioned)
     observe = None
     if goal_conditioned:
         from trailer_env.scenes.dock import DockCore
@@ -354,13 +406,7 @@ def score(
         if not issubclass(core, (DockCore, HeadingCore)):
             raise ValueError(f"goal_conditioned=True needs Dock-v0 or Heading-v0, not {env_id}")
         observe = goal_observation
-    folder = None if out is None else Path(out)
-    if folder is not None:
-        if folder.exists() and not folder.is_dir():
-            raise ValueError(f"out={str(folder)!r} is not a folder")
-        for file in ("score.json", "score.md"):
-            if (folder / file).exists() and not overwrite:
-                raise ValueError(f"{folder / file} exists; pass overwrite=True to replace it")
+    folder = _out_folder(out, overwrite)
     results = rollout(policy, env_id, episodes, seed, {"n_trailers": n_trailers}, observe)
     document = {
         "protocol": PROTOCOL,
@@ -378,7 +424,38 @@ def score(
     document["headline_ci"] = [round(bound, 6) for bound in wilson_interval(hits, episodes)]
     result = Score(document, results)
     if folder is not None:
+        texts = {  # both made before the folder: a failure leaves nothing behind
+            "score.json": json.dumps(document, indent=2, sort_keys=True) + "\n",
+            "score.md": result.markdown,
+        }
         folder.mkdir(parents=True, exist_ok=True)
-        _write_atomic(folder / "score.json", json.dumps(document, indent=2, sort_keys=True) + "\n")
-        _write_atomic(folder / "score.md", result.markdown)
+        for file, text in texts.items():
+            _write_atomic(folder / file, text)
     return result
+
+
+#: The files :func:`score` writes into ``out``.
+SCORE_FILES = ("score.json", "score.md")
+
+
+def _out_folder(out: Any, overwrite: bool) -> Path | None:
+    """``out`` as a folder :func:`score` may write :data:`SCORE_FILES` into, checked for
+    every file before anything is written (None: no folder)."""
+    if out is None:
+        return None
+    if not isinstance(out, (str, os.PathLike)):
+        raise TypeError(f"out must be a path (str or os.PathLike), got {type(out).__name__}")
+    if os.fspath(out) in ("", b""):
+        raise ValueError("out='' names no folder; pass '.' for the current folder")
+    folder = Path(os.fsdecode(out))
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"out={str(folder)!r} is not a folder")
+    for file in SCORE_FILES:
+        target = folder / file
+        if target.is_symlink():
+            raise ValueError(f"{target} is a symbolic link; refusing to write through it")
+        if target.is_dir():
+            raise ValueError(f"{target} is a folder")
+        if target.exists() and not overwrite:
+            raise ValueError(f"{target} exists; pass overwrite=True to replace it")
+    return folder

@@ -70,7 +70,8 @@ With the planar actuator, indices 2n+2 .. 2n+5 hold (xi - b) / s_max,
 eta / s_max, xi_dot / v_max, eta_dot / v_max, and task features start at 2n+6.
 With ``observe_params=True``, 7 values follow the task features
 (:attr:`ConvoyCore.param_offset` + k): ``log(value / nominal)`` of M, J0, a, m, J, l, mu,
-the episode's parameters (:mod:`trailer_env.randomize`; 0 where not randomised).
+the episode's parameters (:mod:`trailer_env.randomize`; 0 where not randomised, and 0
+where the nominal value is 0: a factor leaves such a parameter 0).
 
 Randomised physics (``randomize=``): each row's parameters are ``param_values`` (B, 7);
 the kernels then take them per row, and the auto substep rule's settings are computed
@@ -191,11 +192,13 @@ class ConvoyCore:
     #: and ``success`` of ``rows`` after a step from ``scene`` (:meth:`_scene_arguments`)
     #: and the step kernel's ``outputs``; and a jitted ``kernel(action, rows, prepare,
     #: config, state, outputs, scene)`` that calls :func:`trailer_env.kernels.step_serial`
-    #: with its first six arguments, then ``outcome`` if no action was refused, and
-    #: returns the step's result: one call per step. Batches of PARALLEL_MIN_ROWS rows or
-    #: more call ``step_parallel`` and then ``outcome`` (two calls: a cached function that
-    #: calls a parallel one can crash numba when loaded from its disk cache); an unfused
-    #: step ("dopri5") calls ``outcome`` on every row after the integrator. None: the
+    #: with its first six arguments, then ``outcome`` if no action was refused and no row
+    #: diverged, and returns the step's result: one call per step. Batches of
+    #: PARALLEL_MIN_ROWS rows or more call ``step_parallel`` and then ``outcome`` (two
+    #: calls: a cached function that calls a parallel one can crash numba when loaded from
+    #: its disk cache); an unfused step ("dopri5"), and a step whose diverged rows were
+    #: redone with more substeps, call ``outcome`` on every row stepped once the state is
+    #: final (so a refused step never wrote its results). None: the
     #: Python hooks compute them. Assign both as ``staticmethod(function)``; ``config``,
     #: ``state``, ``outputs`` and ``scene`` arrive as plain tuples of the named tuples'
     #: fields (:mod:`trailer_env.kernels`).
@@ -210,7 +213,8 @@ class ConvoyCore:
     #: environments replay each other.
     start_kernel: ClassVar[Any] = None
     #: Parameters the scene's own formulas read as one value for the batch (Dock's hitch
-    #: positions use ``l``): ``randomize`` refuses them.
+    #: positions use ``l``): a ``randomize`` dict that names one is refused; a preset
+    #: (``"mismatch10"``, ``"mismatch20"``) leaves them nominal and varies the others.
     fixed_parameters: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
@@ -250,10 +254,14 @@ class ConvoyCore:
         self.randomization = settings.randomize
         if self.randomization is not None:
             fixed = sorted(set(self.randomization.names) & set(self.fixed_parameters))
-            if fixed:
+            if fixed and self.randomization.preset is not None:
+                # A preset applies to every scene: it varies what this one allows.
+                self.randomization = self.randomization.without(fixed)
+            elif fixed:
                 raise ValueError(
                     f"randomize: {type(self).__name__}'s formulas use {fixed} as one value for "
-                    f"the batch; it cannot be randomised in this scene"
+                    f"the batch; it cannot be randomised in this scene (a preset varies the "
+                    f"other parameters)"
                 )
         self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
         self.act = np.zeros((size, 6))
@@ -283,6 +291,9 @@ class ConvoyCore:
         #: not randomised), and the parameters they give, columns ``PARAMETERS`` (B, 7).
         self.factors = np.ones((size, len(NAMES)))
         self.param_values = np.tile(self._packed, (size, 1))
+        # Parameters whose nominal value is 0: a factor leaves them 0, so the factor that
+        # holds, and is observed, is 1 (the draw still happens: the streams stay the same).
+        self._unscaled = np.flatnonzero(self._packed == 0.0)
         # Per-row parameters reach the kernels only when a physical parameter is drawn: the
         # shared vector keeps the kernels' shared (faster) specialisation otherwise.
         per_row = self.randomization is not None and any(
@@ -368,6 +379,7 @@ class ConvoyCore:
         # After an integrator outside the kernel ("dopri5"): the divergence bound applies.
         self._step_observe_args = (n, self.planar, step_observe_settings, *self._observe_args[3:])
         self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
+        self._saved: tuple[np.ndarray, ...] | None = None  # save_step's copies
         self._start: tuple | None = None  # built on the first reset
 
     def _start_arguments(self) -> tuple:
@@ -613,6 +625,8 @@ class ConvoyCore:
         indices = np.asarray(rows, dtype=np.int64)
         columns, low, high = self._draws
         draw_factors(rngs, picks, indices, columns, low, high, self.factors)
+        if self._unscaled.size:
+            self.factors[np.ix_(indices, self._unscaled)] = 1.0
         apply_factors(indices, self.factors, self._packed, self.param_values, self._nominal_auto,
                       self._row_auto, float(self._b), float(self._s_max), self.planar,
                       self.z)  # fmt: skip
@@ -623,7 +637,8 @@ class ConvoyCore:
     def set_row_params(self, rows: np.ndarray, values: np.ndarray) -> None:
         """Give ``rows`` (int array) the parameters ``values`` (len(rows), 7), columns
         :data:`trailer_env.randomize.PARAMETERS`, and the auto rule's settings they imply
-        (as a reset's draws would); their factors become ``values / nominal``. For a core
+        (as a reset's draws would); their factors become ``values / nominal`` (1 where the
+        nominal value is 0). For a core
         whose settings randomise a physical parameter (the kernels take per-row
         parameters only then); the speed and the state are left as they are.
 
@@ -647,7 +662,10 @@ class ConvoyCore:
             raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
         apply_params(indices, values, self.param_values, self._nominal_auto, self._row_auto,
                      float(self._b), float(self._s_max), self.planar)  # fmt: skip
-        self.factors[indices, : len(PARAMETERS)] = values / self._packed
+        nominal = np.broadcast_to(self._packed, values.shape)
+        self.factors[indices, : len(PARAMETERS)] = np.divide(
+            values, nominal, out=np.ones_like(values), where=nominal != 0.0
+        )
 
     def params_info(self, i: int) -> dict[str, float]:
         """Row ``i``'s episode parameters (``info["params"]``): the seven randomisable
@@ -678,12 +696,15 @@ class ConvoyCore:
             raise NonFiniteStateError("the state contains non-finite values (NaN or inf)")
         self._update_task(slice(None) if rows is None else indices)
 
-    def _physics_step(self, action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:
-        """One control step of ``rows``: ``(bad action row or -1, non-finite rows, over tol.)``."""
+    def _physics_step(
+        self, action: np.ndarray, rows: np.ndarray, prepare: bool, outcome: bool = True
+    ) -> tuple:
+        """One control step of ``rows``: ``(bad action row or -1, non-finite rows, over tol.)``;
+        with ``outcome``, the scene kernel's results too when no row diverged."""
         if not self._fused:
             return self._unfused_step(action, rows, prepare)
         parallel = rows.size >= PARALLEL_MIN_ROWS
-        if self.scene_kernel is not None:
+        if self.scene_kernel is not None and outcome:
             scene = self._scene_tuple()
             if not parallel:
                 return self.scene_kernel(
@@ -691,7 +712,7 @@ class ConvoyCore:
                 )
             result = step_parallel(action, rows, prepare, self._config, self._state,
                                    self._outputs)  # fmt: skip
-            if result[0] == -1:
+            if result[0] == -1 and not result[1]:
                 self.scene_outcome(rows, self._outputs, scene)
             return result
         kernel = step_parallel if parallel else step_serial
@@ -729,7 +750,9 @@ class ConvoyCore:
                 :data:`~trailer_env.kernels.DIVERGENCE_BOUND` in magnitude) even with 8
                 times the substeps, or the auto rule's substeps would exceed the work
                 budget :data:`~trailer_env.substeps.MAX_STEP_WORK` (nothing is integrated).
-                Every row is left at its state before the step.
+                Every row is left at its state before the step, and the results of the
+                last step (``reward``, ``terminated``, ``success``, ``failed``) as they were;
+                ``substeps`` and ``accuracy_exceeded`` describe the refused step.
         """
         stepped = self._all_rows if rows is None else rows
         bad, nonfinite, over = self._physics_step(action, stepped, True)
@@ -754,7 +777,9 @@ class ConvoyCore:
             )
         self._update_task(slice(None))
         if self.scene_outcome is not None:
-            if not self._fused:  # the same compiled formulas the fused step runs
+            # The same compiled formulas the fused step runs; it skipped them when a row
+            # was redone (_retry_finer), so that a refused step leaves the results alone.
+            if not self._fused or nonfinite:
                 self.scene_outcome(stepped, self._outputs, self._scene_tuple())
         else:
             self._advance()
@@ -792,7 +817,7 @@ class ConvoyCore:
             self._give_up(stepped, rows, "non-finite or beyond the divergence bound", retried=False)
         self.substeps[rows] = used * _RETRY_FACTOR
         try:
-            _, nonfinite, _ = self._physics_step(action, rows, False)
+            _, nonfinite, _ = self._physics_step(action, rows, False, outcome=False)
         finally:
             if not self.settings.fidelity.auto:
                 self.substeps[rows] = used
@@ -836,6 +861,47 @@ class ConvoyCore:
             f"result holds {cause}, {how}; the state was left at the previous step "
             "(use fidelity='auto', more substeps or a smaller dt)"
         )
+
+    def _step_records(self) -> tuple[np.ndarray, ...]:
+        """The per-row arrays a completed step writes that the state alone does not give
+        back (:meth:`save_step`): the step's results and flags. Scenes with per-step
+        bookkeeping (counters) add theirs."""
+        return (self.reward, self.terminated, self.success, self.failed, self.jackknifed,
+                self.accuracy_exceeded)  # fmt: skip
+
+    def save_step(self) -> None:
+        """Keep a copy of :meth:`_step_records` so that :meth:`undo_step` can take back the
+        next step (a :class:`~trailer_env.mixed.MixedCore` step whose later count was
+        refused). A few array copies: the plain step does not call it."""
+        records = self._step_records()
+        if self._saved is None:
+            self._saved = tuple(np.empty_like(array) for array in records)
+        for array, saved in zip(records, self._saved, strict=True):
+            np.copyto(saved, array)
+
+    def undo_step(self, rows: np.ndarray) -> None:
+        """Put ``rows`` back where they were before the last step, completed or refused,
+        with everything a step changes (state, observation, results, flags, bookkeeping)
+        as it was, but for what only that step reads (the mass's commanded accelerations,
+        ``act[:, 4:]``, and ``substeps``); :meth:`save_step` must have been called before
+        that step.
+
+        Raises:
+            RuntimeError: If :meth:`save_step` was never called.
+        """
+        if self._saved is None:
+            raise RuntimeError("undo_step needs save_step before the step")
+        indices = np.asarray(rows, dtype=np.int64)
+        # The step kernel's copies of the rows it stepped.
+        self.z[indices] = self._z_backup[indices]
+        self.act[indices] = self._act_backup[indices]
+        records = tuple(zip(self._step_records(), self._saved, strict=True))
+        for array, saved in records:  # the bookkeeping first: the task features read it
+            array[indices] = saved[indices]
+        self.refresh(indices)
+        self._after_restore(indices)
+        for array, saved in records:  # a fold seen between control instants is not in z
+            array[indices] = saved[indices]
 
     def _info_sources(self) -> list[tuple[str, np.ndarray | None]]:
         # The arrays are updated in place for the core's life, so they are looked up once.
@@ -913,6 +979,9 @@ class ShapedCore(ConvoyCore):
     def _after_restore(self, rows: np.ndarray) -> None:
         # The potential of every row's state is its previous potential between steps.
         self.previous_potential[rows] = self._potential()[rows]
+
+    def _step_records(self) -> tuple[np.ndarray, ...]:
+        return (*super()._step_records(), self.previous_potential)
 
     def _reward(self) -> np.ndarray:
         potential = self._potential()

@@ -27,7 +27,9 @@ N+2 .. 2N+1           cos(alpha_k) for k <= n, 0 beyond
 2N+2+m+T .. 3N+1+m+T  the trailer mask: 1 for k <= n, 0 beyond
 ====================  =========================================================
 
-``info["n_trailers"]`` holds each environment's n. The batch is one scene core per n
+``info["n_trailers"]`` holds each environment's n, and with ``randomize=``
+``info["params"]`` its episode's parameters, as for one n
+(:meth:`~trailer_env.core.ConvoyCore.params_info`). The batch is one scene core per n
 (each as large as the batch; a row is live in the core of its episode's n), so a step
 is one compiled call per n present, not one call: the kernels' loops over the trailers
 are bounded by one n. Measured cost: benchmarks/README.md. Not supported with a range
@@ -146,6 +148,8 @@ class MixedCore:
         self.low, self.n = self.counts[0], self.counts[-1]
         self.settings = settings[self.n]
         self.cores = {n: core_class(settings[n], batch_size) for n in self.counts}
+        #: The randomisation every count's core draws (the same for all; None: none).
+        self.randomization = self.cores[self.n].randomization
         self.batch_size = batch_size
         self.with_pose = False
         top = self.cores[self.n]
@@ -205,7 +209,13 @@ class MixedCore:
 
     # -------------------------------------------------------------- steps
     def step(self, action: np.ndarray, rows: np.ndarray | None = None) -> None:
-        """Step ``rows`` (default all), each in the core of its n (see ConvoyCore.step)."""
+        """Step ``rows`` (default all), each in the core of its n (see ConvoyCore.step).
+
+        Raises:
+            ValueError, FloatingPointError: As :meth:`ConvoyCore.step`; a refused step
+                changes nothing, in any count's core: the counts stepped before the one
+                that raised are taken back (:meth:`ConvoyCore.undo_step`).
+        """
         stepped = self._all_rows if rows is None else rows
         # Refused before any count's core moves (each core checks only its own rows).
         bad = first_non_finite_row(action, stepped)
@@ -214,11 +224,27 @@ class MixedCore:
                 f"action contains non-finite values (NaN or inf), environment {bad}: {action[bad]}"
             )
         trailers = self.trailers[stepped]
+        groups = []
         for n, core in self.cores.items():
             group = stepped[trailers == n]
             if group.size:
+                groups.append((n, core, group))
+        # A core that raises leaves its rows as they were (ConvoyCore.step); those stepped
+        # before it are taken back, so each keeps a copy of what a step overwrites (the
+        # last count stepped needs none).
+        for _, core, _ in groups[:-1]:
+            core.save_step()
+        done: list[tuple[ConvoyCore, np.ndarray]] = []
+        try:
+            for _, core, group in groups:
                 core.step(action, group)
-                self._gather(n, group)
+                done.append((core, group))
+        except BaseException:
+            for core, group in done:
+                core.undo_step(group)
+            raise
+        for n, _, group in groups:  # only once every count has stepped
+            self._gather(n, group)
 
     def _gather(self, n: int, rows: np.ndarray) -> None:
         core = self.cores[n]
@@ -230,26 +256,45 @@ class MixedCore:
             values[rows] = getattr(core, name)[rows]
 
     # -------------------------------------------------------------- infos
-    def info_batch(self) -> dict[str, np.ndarray]:
-        """:meth:`ConvoyCore.info_batch` of every row, and ``n_trailers``."""
-        infos: dict[str, np.ndarray] = {}
+    def info_batch(self) -> dict[str, Any]:
+        """:meth:`ConvoyCore.info_batch` of every row (``params`` with ``randomize=``, a
+        dict of arrays), and ``n_trailers``."""
+        infos: dict[str, Any] = {}
         for key, name in INFO_FIELDS:
             if name is None:
                 infos[key] = self._fields["energy"] - self.energy0
             else:
                 infos[key] = self._fields[name].copy()
+        if self.randomization is not None:
+            infos["params"] = self.params_batch()
         infos["n_trailers"] = self.trailers.copy()
         return infos
 
+    def params_batch(self) -> dict[str, np.ndarray]:
+        """:meth:`ConvoyCore.params_batch` of every row, each from the core of its n."""
+        batch: dict[str, np.ndarray] = {}
+        for n, core in self.cores.items():
+            live = self.trailers == n
+            for name, values in core.params_batch().items():
+                batch.setdefault(name, np.empty(self.batch_size))[live] = values[live]
+        return batch
+
     def info_row(self, i: int) -> dict[str, Any]:
-        """The info dict of environment ``i`` (Python scalars)."""
-        return {key: values.item(i) for key, values in self.info_batch().items()}
+        """The info dict of environment ``i`` (Python scalars; ``params`` a dict of them)."""
+        return self.info_rows()[i]
 
     def info_rows(self) -> list[dict[str, Any]]:
-        """One info dict per environment."""
+        """One info dict per environment (Python scalars; ``params`` a dict of them)."""
         batch = self.info_batch()
+        params = batch.pop("params", None)
         columns = [values.tolist() for values in batch.values()]
-        return [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
+        rows = [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
+        if params is not None:
+            names = list(params)
+            values = zip(*(params[name].tolist() for name in names), strict=True)
+            for row, entry in zip(rows, values, strict=True):
+                row["params"] = dict(zip(names, entry, strict=True))
+        return rows
 
     # ------------------------------------------------------------- refused
     def check_row_state(self, *args: Any, **kwargs: Any) -> np.ndarray:

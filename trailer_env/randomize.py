@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -56,7 +56,10 @@ MAX_FACTOR = 1e3
 
 _MATTER = ("M", "J0", "a", "l", "mu")
 #: Named presets: +-10 % and +-20 % on the parameters that change the LQR's results on
-#: Reverse-v1 (docs/physics.md, "Parameter mismatch"); ``m`` and ``J`` do not.
+#: Reverse-v1 (docs/physics.md, "Parameter mismatch"); ``m`` and ``J`` do not. A preset
+#: applies to every scene: one whose formulas hold a parameter fixed (Dock-v0's ``l``,
+#: ``ConvoyCore.fixed_parameters``) varies the others (:meth:`Randomization.without`);
+#: a dict of ranges that names such a parameter is refused there.
 PRESETS: dict[str, dict[str, tuple[float, float]]] = {
     "mismatch10": {name: (0.9, 1.1) for name in _MATTER},
     "mismatch20": {name: (0.8, 1.2) for name in _MATTER},
@@ -69,9 +72,11 @@ class Randomization:
 
     Attributes:
         ranges: ``(name, low, high)`` per randomised quantity, in the order of :data:`NAMES`.
+        preset: The preset's name when it came from one (:data:`PRESETS`), else None.
     """
 
     ranges: tuple[tuple[str, float, float], ...]
+    preset: str | None = field(default=None, compare=False)
 
     @classmethod
     def coerce(cls, value: object) -> Randomization | None:
@@ -92,7 +97,8 @@ class Randomization:
                     f"randomize: unknown preset {value!r}; presets: {sorted(PRESETS)}, or a "
                     f"dict of factor ranges over {list(NAMES)}"
                 )
-            value = PRESETS[value]
+            table = PRESETS[value]
+            return cls(tuple((name, *table[name]) for name in NAMES if name in table), value)
         if not isinstance(value, Mapping):
             raise TypeError(
                 "randomize must be None, a preset name or a dict of factor ranges such as "
@@ -113,6 +119,12 @@ class Randomization:
             )
         ranges = tuple((name, *_factor_range(name, value[name])) for name in NAMES if name in value)
         return cls(ranges)
+
+    def without(self, names: Sequence[str]) -> Randomization | None:
+        """The same ranges but for ``names`` (None when nothing is left); the draws of the
+        others keep their order."""
+        ranges = tuple(entry for entry in self.ranges if entry[0] not in names)
+        return Randomization(ranges, preset=self.preset) if ranges else None
 
     @property
     def names(self) -> tuple[str, ...]:

@@ -84,7 +84,8 @@ class EnvSettings:
             needs an RK4 integrator ("rk4", "rk4-energy"): "dopri5" shares one parameter
             vector.
         observe_params: Append the episode's parameter factors to the observation
-            (``log(value / nominal)`` of M, J0, a, m, J, l, mu: 0 where not randomised).
+            (``log(value / nominal)`` of M, J0, a, m, J, l, mu: 0 where not randomised,
+            and where the nominal value is 0, which a factor leaves 0).
     """
 
     params: ConvoyParams = field(default_factory=ConvoyParams)

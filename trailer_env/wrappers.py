@@ -7,6 +7,12 @@
   scenes (Dock-v0, Heading-v0): ``Dict`` observations with ``observation``,
   ``achieved_goal`` and ``desired_goal``, and a vectorised ``compute_reward`` that
   hindsight relabelling (SB3's ``HerReplayBuffer``) calls on any goal.
+
+Both wrap one environment made from a trailer_env id (``gym.make``; a vector env, another
+library's env or anything else is refused with TypeError or ValueError) and are
+:class:`gymnasium.utils.RecordConstructorArgs`, as Gymnasium's own wrappers: the wrapped
+env's ``spec`` names them, so ``env.spec.make()`` rebuilds the wrapped env and
+Gymnasium's ``check_env`` accepts :class:`GoalConditioned`.
 """
 
 from __future__ import annotations
@@ -16,15 +22,50 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from trailer_env.env import ConvoyEnv
 from trailer_env.scenes.dock import SUCCESS_HEADING, SUCCESS_RADIUS, DockCore
 from trailer_env.scenes.heading import HEADING_TOLERANCE, HeadingCore
 
 
-class SafetyStep(gym.Wrapper[Any, Any, Any, Any]):
+def _convoy_env(wrapper: str, env: Any) -> ConvoyEnv:
+    """The trailer_env environment under ``env`` (what ``wrapper`` may wrap).
+
+    Raises:
+        TypeError: If ``env`` is a vector env or not a :class:`gymnasium.Env`.
+        ValueError: If it is another library's environment.
+    """
+    if isinstance(env, gym.vector.VectorEnv):
+        raise TypeError(
+            f"{wrapper} wraps one environment, got the vector env {type(env).__name__}; "
+            f"wrap each of them (gym.make_vec(..., vectorization_mode='sync', "
+            f"wrappers=[{wrapper}]))"
+        )
+    if not isinstance(env, gym.Env):
+        raise TypeError(
+            f"{wrapper} needs an environment made with gym.make('trailer_env/...'), got "
+            f"{type(env).__name__} {env!r}"
+        )
+    base = env.unwrapped
+    if not isinstance(base, ConvoyEnv):
+        name = base.spec.id if base.spec is not None else type(base).__name__
+        raise ValueError(f"{wrapper} needs a trailer_env environment, got {name}")
+    return base
+
+
+class SafetyStep(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArgs):
     """safety-gymnasium's step signature: ``step`` returns the cost as its third value.
 
     ``reset`` is unchanged. The cost is ``info["cost"]`` (also left in ``info``).
+
+    Raises:
+        TypeError, ValueError: For anything but one trailer_env environment (see the
+            module docstring).
     """
+
+    def __init__(self, env: gym.Env[Any, Any]) -> None:
+        _convoy_env("SafetyStep", env)
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.Wrapper.__init__(self, env)
 
     def step(  # type: ignore[override]
         self, action: Any
@@ -62,7 +103,9 @@ def goal_observation(core: DockCore | HeadingCore, obs: np.ndarray) -> dict[str,
     }
 
 
-class GoalConditioned(gym.Wrapper[dict[str, np.ndarray], Any, Any, Any]):
+class GoalConditioned(
+    gym.Wrapper[dict[str, np.ndarray], Any, Any, Any], gym.utils.RecordConstructorArgs
+):
     """Dock-v0 or Heading-v0 as a goal-conditioned env with a sparse reward.
 
     Observation (``Dict``, float32):
@@ -80,23 +123,28 @@ class GoalConditioned(gym.Wrapper[dict[str, np.ndarray], Any, Any, Any]):
     its reward).
 
     Raises:
-        ValueError: For an env of another scene.
+        TypeError: For a vector env or anything that is not a :class:`gymnasium.Env`.
+        ValueError: For another library's env, or an env of another scene (or of a range
+            of trailer counts).
     """
 
     def __init__(self, env: gym.Env[Any, Any]) -> None:
-        super().__init__(env)
-        core = env.unwrapped.core  # type: ignore[attr-defined]
+        core = _convoy_env("GoalConditioned", env).core
         if not isinstance(core, (DockCore, HeadingCore)):
             raise ValueError(
-                "GoalConditioned needs trailer_env/Dock-v0 or trailer_env/Heading-v0, "
-                f"got a {type(core).__name__}"
+                "GoalConditioned needs trailer_env/Dock-v0 or trailer_env/Heading-v0 with one "
+                f"number of trailers, got a {type(core).__name__}"
             )
+        gym.utils.RecordConstructorArgs.__init__(self)
+        gym.Wrapper.__init__(self, env)
         self._core = core
         self._dock = isinstance(core, DockCore)
-        goal_size = 4 if self._dock else 2
-        goal = gym.spaces.Box(-np.inf, np.inf, (goal_size,), np.float32)
+        #: Entries of a goal: Dock (x, y, sin h, cos h), Heading (sin theta, cos theta).
+        self.goal_size = 4 if self._dock else 2
+        goal = gym.spaces.Box(-np.inf, np.inf, (self.goal_size,), np.float32)
         base = env.observation_space
-        assert isinstance(base, gym.spaces.Box)
+        if not isinstance(base, gym.spaces.Box):  # pragma: no cover - every scene's is a Box
+            raise TypeError(f"GoalConditioned needs a Box observation space, got {base}")
         self.observation_space = gym.spaces.Dict(
             {
                 "observation": gym.spaces.Box(
@@ -114,16 +162,50 @@ class GoalConditioned(gym.Wrapper[dict[str, np.ndarray], Any, Any, Any]):
     def compute_reward(
         self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any
     ) -> np.ndarray:
-        """0 where the goals agree within the scene's tolerance, else -1 (vectorised over
-        leading axes; ``info`` is unused)."""
-        achieved = np.asarray(achieved_goal, dtype=np.float64)
-        desired = np.asarray(desired_goal, dtype=np.float64)
+        """0 where the goals agree within the scene's tolerance, else -1 (float32).
+
+        Args:
+            achieved_goal, desired_goal: Goals, shape ``(..., goal_size)`` (4 on Dock, 2
+                on Heading), real numbers; leading (batch) axes broadcast together, as
+                hindsight relabelling passes them.
+            info: Unused.
+
+        Raises:
+            TypeError: If a goal is None, a string or not real numbers.
+            ValueError: If a goal's last axis is not ``goal_size`` long (a scalar
+                included), or the leading axes do not broadcast.
+        """
+        achieved = self._goals("achieved_goal", achieved_goal)
+        desired = self._goals("desired_goal", desired_goal)
+        try:
+            np.broadcast_shapes(achieved.shape, desired.shape)
+        except ValueError:
+            raise ValueError(
+                f"achieved_goal {achieved.shape} and desired_goal {desired.shape}: the leading "
+                "(batch) axes do not broadcast"
+            ) from None
         if self._dock:
             close = np.linalg.norm(achieved[..., :2] - desired[..., :2], axis=-1) < SUCCESS_RADIUS
             close &= _angle_between(achieved[..., 2:], desired[..., 2:]) < SUCCESS_HEADING
         else:
             close = _angle_between(achieved, desired) < HEADING_TOLERANCE
         return np.where(close, 0.0, -1.0).astype(np.float32)
+
+    def _goals(self, name: str, value: Any) -> np.ndarray:
+        """``value`` as float64 goals of shape (..., goal_size), or a clear error."""
+        width = self.goal_size
+        expected = f"goals of shape (..., {width})"
+        if value is None or isinstance(value, (str, bytes)):
+            raise TypeError(f"{name} must be {expected}, got {type(value).__name__} {value!r}")
+        try:
+            array = np.asarray(value)
+        except ValueError:  # a ragged sequence
+            raise ValueError(f"{name} must be {expected}, got a ragged {value!r}") from None
+        if array.dtype.kind not in "iuf":
+            raise TypeError(f"{name} must be {expected} of real numbers, got dtype {array.dtype}")
+        if array.ndim == 0 or array.shape[-1] != width:
+            raise ValueError(f"{name} must be {expected}, got shape {array.shape}")
+        return array.astype(np.float64, copy=False)
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None

@@ -3,6 +3,7 @@
 * Writes are atomic and confined: :func:`atomic_write_bytes` / :func:`atomic_write_text`
   write a temporary file in the target's folder, ``fsync`` it and ``os.replace`` it
   over the target, so a reader sees the old file or the new one, never half of one.
+  Files get the mode ``open()`` would give them (0o666 less the umask).
   A target that is a symbolic link (dangling or not) is refused: nothing a command
   writes follows a link out of the folder it was given.
 * Reads are bounded: :func:`read_json` refuses a file over :data:`MAX_JSON_BYTES`
@@ -81,8 +82,20 @@ def refuse_symlink(path: Path) -> None:
         )
 
 
+def file_mode() -> int:
+    """The mode ``open()`` gives a new file: 0o666 less the process's umask.
+
+    The umask can only be read by setting it; the mask set for that instant is the
+    strictest (0o077), so a file another thread creates meanwhile is never looser.
+    """
+    mask = os.umask(0o077)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> Path:
     """Write ``data`` to ``path`` atomically: temporary file beside it, fsync, os.replace.
+    The file gets the mode the umask gives (:func:`file_mode`), not mkstemp's 0600.
 
     Raises:
         UnsafeFileError: If ``path`` is a symbolic link.
@@ -97,6 +110,7 @@ def atomic_write_bytes(path: Path, data: bytes) -> Path:
         with os.fdopen(descriptor, "wb") as handle:
             handle.write(data)
             handle.flush()
+            os.fchmod(handle.fileno(), file_mode())
             os.fsync(handle.fileno())
         refuse_symlink(path)  # made a link while we wrote: still not followed (replace swaps it)
         os.replace(temporary, path)
@@ -116,7 +130,8 @@ def atomic_write_bytes(path: Path, data: bytes) -> Path:
 @contextlib.contextmanager
 def replacing(path: Path) -> Iterator[Path]:
     """A temporary path beside ``path`` (same suffix) for a writer that takes a file name
-    (matplotlib, imageio); it replaces ``path`` when the block ends without an error.
+    (matplotlib, imageio); it replaces ``path`` when the block ends without an error,
+    with the mode the umask gives (:func:`file_mode`).
 
     Raises:
         UnsafeFileError: If ``path`` is a symbolic link.
@@ -131,6 +146,7 @@ def replacing(path: Path) -> Iterator[Path]:
     try:
         yield temporary
         refuse_symlink(path)
+        os.chmod(temporary, file_mode())  # the writer reopened mkstemp's 0600 file
         os.replace(temporary, path)
     finally:
         temporary.unlink(missing_ok=True)

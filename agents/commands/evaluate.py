@@ -27,7 +27,9 @@ Writes to ``--out``: ``results.json`` (every metric, per policy), ``results.md``
 (singular-margin histograms), ``frames.png`` (a rendered episode per policy) and
 ``curves.png`` (learning curves of the models that have them), each atomically.
 Everything is checked before the first episode: ``--out`` and ``--video`` must be
-writable and no symbolic link (nor any of the files written in ``--out``), the
+writable and no symbolic link (nor any of the files written in ``--out``), none of
+the files it would write may exist unless ``--overwrite`` (``results.json`` and
+``results.md``, and the three pictures unless ``--no-plots``), the
 episodes' seeds must stay below 2**32 and ``--episodes`` at most 100,000
 (:mod:`agents.artifacts.limits`); every model, card, statistics file and learning
 curve is loaded and checked first.
@@ -120,7 +122,9 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="evaluate models whose card names another environment or n_trailers",
     )
-    cli.add_overwrite(parser, "replace an existing --video file")
+    cli.add_overwrite(
+        parser, "replace the files of an earlier evaluation in --out and an existing --video"
+    )
     return parser
 
 
@@ -150,6 +154,13 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     cli.check_out_folder(parser, args.out, files_in=OUT_FILES)
+    written = OUT_FILES[:2] if args.no_plots else OUT_FILES
+    present = [name for name in written if (args.out / name).exists()]
+    if present and not args.overwrite:
+        parser.error(
+            f"argument --out: {args.out} holds {', '.join(present)} of an earlier evaluation; "
+            "pass --overwrite to replace them"
+        )
     cli.check_seeds(parser, args.seed, args.episodes)
     if args.video is not None:
         from agents.evaluation.plots import VIDEO_SUFFIXES, missing_video_modules

@@ -160,7 +160,8 @@ def add_env_kwargs(parser: argparse.ArgumentParser) -> None:
 
 def env_kwargs_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict[str, Any]:
     """``{"n_trailers": args.n_trailers, **--set}``, validated as ``gym.make`` would; exits 2
-    naming ``--set`` (or ``--n-trailers``) and what is wrong."""
+    naming ``--set`` (or ``--n-trailers``) and what is wrong (a value nested deeper than
+    :data:`agents.artifacts.files.MAX_JSON_DEPTH` included)."""
     from agents.envs import env_settings
 
     kwargs: dict[str, Any] = {"n_trailers": args.n_trailers}
@@ -172,6 +173,12 @@ def env_kwargs_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -
             parser.error("argument --set: give n_trailers with --n-trailers")
         if key in kwargs:
             parser.error(f"argument --set: {key} given twice")
+        depth = files.json_depth(text.encode("utf-8", "surrogateescape"))
+        if depth > files.MAX_JSON_DEPTH:  # json.loads would end in a RecursionError
+            parser.error(
+                f"argument --set: {key}: the value is nested {depth} deep, over the limit of "
+                f"{files.MAX_JSON_DEPTH}"
+            )
         try:
             kwargs[key] = json.loads(text)
         except json.JSONDecodeError:

@@ -49,13 +49,18 @@ def load_callable(spec: str) -> Policy:
     Importing runs the module's code: name only modules you trust, as for any import.
 
     Raises:
-        ValueError: If the module cannot be imported or has no such callable.
+        ValueError: If the module cannot be imported (not found, or its code raised,
+            ``sys.exit()`` included: the exception is named) or has no such callable.
     """
     module_name, _, attribute = spec.partition(":")
     try:
         module = importlib.import_module(module_name)
     except ImportError as error:
         raise ValueError(f"policy {spec!r}: cannot import {module_name!r}: {error}") from None
+    except (Exception, SystemExit) as error:  # its own code failed; KeyboardInterrupt passes
+        raise ValueError(
+            f"policy {spec!r}: importing {module_name!r} raised {type(error).__name__}: {error}"
+        ) from None
     policy = getattr(module, attribute, None)
     if not callable(policy):
         raise ValueError(f"policy {spec!r}: {module_name} has no callable {attribute!r}")

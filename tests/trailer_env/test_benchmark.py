@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -91,3 +93,72 @@ def test_an_existing_score_is_kept_unless_overwrite(tmp_path: Path) -> None:
     assert sorted(path.name for path in tmp_path.iterdir()) == ["score.json", "score.md"]
     with pytest.raises(ValueError, match="unknown environment"):
         score(zero, "trailer_env/Nope-v0", 1)
+
+
+# ----------------------------------------------------------- issue 27 item 4: score()
+def _never(obs: np.ndarray) -> np.ndarray:
+    raise AssertionError("no episode may run")
+
+
+def _zero(obs: np.ndarray) -> np.ndarray:
+    return np.zeros((len(obs), 1))
+
+
+def test_numpy_integers_are_integers_in_the_json(tmp_path: Path) -> None:
+    out = tmp_path / "np"
+    result = score(_zero, REVERSE_V1, np.int64(1), episodes=np.int32(2), seed=np.uint16(5),
+                   out=out)  # fmt: skip
+    document = json.loads((out / "score.json").read_text())
+    assert (document["n_trailers"], document["episodes"], document["seeds"]) == (1, 2, [5, 6])
+    assert type(result.document["n_trailers"]) is int and document["on_protocol"] is False
+    assert json.loads(json.dumps(result.document)) == document
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "message"),
+    [
+        ({"n_trailers": True}, TypeError, "n_trailers must be an integer, got bool"),
+        ({"n_trailers": 2.0}, TypeError, "n_trailers must be an integer, got float"),
+        ({"n_trailers": np.float64(2)}, TypeError, "n_trailers must be an integer, got float64"),
+        ({"seed": np.bool_(True)}, TypeError, "seed must be an integer, got bool"),
+        ({"episodes": np.float32(3)}, TypeError, "episodes must be an integer, got float32"),
+        ({"overwrite": "no"}, TypeError, "overwrite must be a bool, got str 'no'"),
+        ({"overwrite": 1}, TypeError, "overwrite must be a bool, got int 1"),
+        ({"goal_conditioned": None}, TypeError, "goal_conditioned must be a bool"),
+        ({"name": 7}, TypeError, "name must be a str, got int 7"),
+        ({"out": ""}, ValueError, "out='' names no folder; pass '.'"),
+        ({"out": 5}, TypeError, r"out must be a path \(str or os.PathLike\), got int"),
+    ],
+)
+def test_score_refuses_bad_types_before_any_episode(kwargs, error, message) -> None:  # type: ignore[no-untyped-def]
+    arguments = {"n_trailers": 2, **kwargs}
+    with pytest.raises(error, match=message):
+        score(_never, REVERSE_V1, **arguments)
+
+
+def test_a_refused_target_writes_nothing(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "score.md").symlink_to(tmp_path / "nowhere.md")  # dangling
+    with pytest.raises(ValueError, match=r"score\.md is a symbolic link; refusing"):
+        score(_never, REVERSE_V1, 1, episodes=2, out=out, overwrite=True)
+    assert sorted(path.name for path in out.iterdir()) == ["score.md"]
+    assert not (tmp_path / "nowhere.md").exists()
+    (out / "score.md").unlink()
+    (out / "score.json").mkdir()
+    with pytest.raises(ValueError, match=r"score\.json is a folder"):
+        score(_never, REVERSE_V1, 1, episodes=2, out=out, overwrite=True)
+    (tmp_path / "a_file").write_text("")
+    with pytest.raises(ValueError, match="not a folder"):
+        score(_never, REVERSE_V1, 1, episodes=2, out=tmp_path / "a_file")
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077, 0o002])
+def test_score_files_honour_the_umask(tmp_path: Path, umask: int) -> None:
+    previous = os.umask(umask)
+    try:
+        score(_zero, REVERSE_V1, 1, episodes=1, out=tmp_path)
+    finally:
+        os.umask(previous)
+    for file in ("score.json", "score.md"):
+        assert stat.S_IMODE((tmp_path / file).stat().st_mode) == 0o666 & ~umask

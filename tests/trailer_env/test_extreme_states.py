@@ -61,14 +61,17 @@ def _fail_rows(core: ConvoyCore, monkeypatch: pytest.MonkeyPatch, row: int, time
     real = core._physics_step
     left = [times]
 
-    def physics_step(action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:
-        result = real(action, rows, prepare)
+    def physics_step(
+        action: np.ndarray, rows: np.ndarray, prepare: bool, outcome: bool = True
+    ) -> tuple:
         if left[0] > 0 and row in rows:
+            # As a real divergence: the scene kernel leaves the results to the core.
+            result = real(action, rows, prepare, outcome=False)
             left[0] -= 1
             core.z[row] = np.nan
             core._nonfinite[row] = True
             return result[0], 1, result[2]
-        return result
+        return real(action, rows, prepare, outcome)
 
     monkeypatch.setattr(core, "_physics_step", physics_step)
 
@@ -97,6 +100,12 @@ def test_a_diverged_step_is_retried_on_its_rows_only(
     finer.reset_rows(np.arange(1), [np.random.default_rng(4)])
     finer.step(actions[4:5])
     np.testing.assert_array_equal(core.z[4], finer.z[0])
+    # The outcome ran once, on the final state of every row.
+    np.testing.assert_array_equal(core.reward[others], reference.reward[others])
+    np.testing.assert_array_equal(core.terminated[others], reference.terminated[others])
+    assert core.reward[4] == finer.reward[0] and core.success[4] == finer.success[0]
+    np.testing.assert_array_equal(core.previous_potential[others],
+                                  reference.previous_potential[others])  # fmt: skip
     if fidelity == 2:
         np.testing.assert_array_equal(core.substeps, [2] * 6)  # restored
     # The next step is again the reference's, row for row (replays are intact).
@@ -114,10 +123,14 @@ def test_a_step_that_diverges_twice_leaves_the_state_unchanged(
     core.reset_rows(np.arange(3), [np.random.default_rng(i) for i in range(3)])
     _fail_rows(core, monkeypatch, 0, 2)
     before = core.z.copy()
+    core.reward[:] = [1.5, 2.5, 3.5]  # a previous step's results, kept by the refusal
+    core.terminated[:] = [False, True, False]
     with pytest.raises(FloatingPointError, match="previous step"):
         core.step(np.zeros((3, 1)))
     np.testing.assert_array_equal(core.z, before)
     np.testing.assert_array_equal(core.substeps, [1, 1, 1])
+    np.testing.assert_array_equal(core.reward, [1.5, 2.5, 3.5])
+    np.testing.assert_array_equal(core.terminated, [False, True, False])
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two numba threads")

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import copy
+from typing import Any
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -114,3 +117,106 @@ def test_what_needs_one_count_is_refused_with_a_range() -> None:
     with pytest.raises(ValueError, match="non-finite"):
         env.step(np.array([np.nan], dtype=np.float32))
     assert env.step(np.zeros(1, dtype=np.float32))[0].shape == (2 + 4 + 2 + 2,)
+
+
+# ------------------------------------------------- issue 27: a refused step changes nothing
+def _core_arrays(core: Any) -> dict[str, np.ndarray]:
+    """Every per-row array of a core (the kernels' scratch and the step's inputs aside):
+    what a refused step must leave as it was."""
+    arrays = {
+        name: value.copy()
+        for name, value in vars(core).items()
+        if isinstance(value, np.ndarray)
+        and value.shape[:1] == (core.batch_size,)
+        and not name.startswith("_")
+        and name != "act"
+    }
+    if hasattr(core, "act"):  # columns 4, 5: the step's commanded acceleration
+        arrays["act"] = core.act[:, :4].copy()
+    return arrays
+
+
+def _mixed_arrays(mixed: Any) -> dict[str, np.ndarray]:
+    arrays = {f"mixed.{name}": value for name, value in _core_arrays(mixed).items()}
+    for key, value in mixed.info_batch().items():
+        columns = value if isinstance(value, dict) else {"": value}  # params: a dict of arrays
+        arrays.update({f"mixed.info.{key}.{name}": column for name, column in columns.items()})
+    for n, core in mixed.cores.items():
+        live = mixed.trailers == n  # a core's other rows hold nothing anyone reads
+        arrays.update({f"{n}.{name}": value[live] for name, value in _core_arrays(core).items()})
+    return arrays
+
+
+def _assert_same(before: dict[str, np.ndarray], after: dict[str, np.ndarray]) -> None:
+    assert before.keys() == after.keys()
+    for name, value in before.items():
+        np.testing.assert_array_equal(after[name], value, err_msg=name)
+
+
+def test_a_refused_step_moves_no_count_the_issue_s_case() -> None:
+    # Issue 27 item 3: n = 3 rows diverge at t = 3 after the n = 1 rows had stepped
+    # (row 1 moved by 1.7e5 in its observation), and the failed rows kept a NaN reward.
+    envs = gym.make_vec(
+        REVERSE, num_envs=8, vectorization_mode="vector_entry_point", n_trailers=(1, 3),
+        randomize={"speed": (1, 1000)}, fidelity=1,
+    )  # fmt: skip
+    mixed = envs.unwrapped.core
+    envs.reset(seed=4)
+    rng = np.random.default_rng(0)
+    for _ in range(3):
+        envs.step(rng.uniform(-1.0, 1.0, (8, 1)))
+    assert mixed.trailers.tolist() == [1, 1, 3, 1, 2, 3, 3, 3]
+    before = _mixed_arrays(mixed)
+    with pytest.raises(FloatingPointError, match=r"environment\(s\) \[2, 5\].*previous step"):
+        envs.step(rng.uniform(-1.0, 1.0, (8, 1)))
+    _assert_same(before, _mixed_arrays(mixed))
+    assert np.isfinite(mixed.cores[3].reward[[2, 5]]).all()
+
+
+def test_a_refused_step_takes_back_the_counts_stepped_before_it() -> None:
+    # Heading keeps a hold counter and a potential per row (Python hooks): a row of n = 3
+    # made to diverge is stepped after the n = 1 and n = 2 rows, which are taken back.
+    envs = gym.make_vec(
+        "trailer_env/Heading-v0", num_envs=8, vectorization_mode="vector_entry_point",
+        n_trailers=(1, 3), fidelity=1,
+    )  # fmt: skip
+    mixed = envs.unwrapped.core
+    envs.reset(seed=2)
+    actions = np.full((8, 1), 0.4)
+    for _ in range(5):
+        envs.step(actions)
+    assert sorted(set(mixed.trailers.tolist())) == [1, 2, 3]
+    row = int(np.flatnonzero(mixed.trailers == 3)[0])
+    twin = copy.deepcopy(envs)  # steps the same rows, without the divergence
+    mixed.cores[3].z[row, 0] = 20000.0
+    mixed.cores[3].refresh(np.array([row]))
+    mixed.cores[3].energy0[row] = twin.unwrapped.core.cores[3].energy0[row]
+    before = _mixed_arrays(mixed)
+    with pytest.raises(FloatingPointError, match=rf"environment\(s\) \[{row}\]"):
+        envs.step(actions)
+    _assert_same(before, _mixed_arrays(mixed))
+    # Put the row back as the twin has it: from there both replay each other bit for bit.
+    mixed.cores[3].z[row] = twin.unwrapped.core.cores[3].z[row]
+    mixed.cores[3].refresh(np.array([row]))
+    for _ in range(3):
+        obs, reward, terminated, _, _ = envs.step(actions)
+        twin_obs, twin_reward, twin_terminated, _, _ = twin.step(actions)
+        np.testing.assert_array_equal(obs, twin_obs)
+        np.testing.assert_array_equal(reward, twin_reward)
+        np.testing.assert_array_equal(terminated, twin_terminated)
+    _assert_same(_mixed_arrays(twin.unwrapped.core), _mixed_arrays(mixed))
+
+
+def test_a_refused_step_of_one_count_keeps_the_last_results() -> None:
+    env = gym.make("trailer_env/Reverse-v0", fidelity=1)
+    env.reset(seed=0, options={"state": [-1.0, 0.0, 0.1, -0.1]})
+    env.step(np.full(1, 0.5, dtype=np.float32))
+    core = env.unwrapped.core
+    core.z[0, 0] = -20000.0
+    core.refresh()
+    results = [core.reward.copy(), core.terminated.copy(), core.success.copy()]
+    with pytest.raises(FloatingPointError, match=r"environment\(s\) \[0\]"):
+        env.step(np.zeros(1, dtype=np.float32))  # its reward was NaN, its flags the step's
+    for array, result in zip((core.reward, core.terminated, core.success), results, strict=True):
+        np.testing.assert_array_equal(array, result)
+    assert np.isfinite(core.reward[0]) and core.success[0]

@@ -263,3 +263,75 @@ def test_speed_factor_scales_the_starting_speed_only() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         fast.step(np.zeros(1, np.float32))
+
+
+# ----------------------------------------------------------- issue 27 item 7
+def test_params_are_in_the_infos_with_a_range_of_trailer_counts() -> None:
+    # The params of an episode of n are those of the scene made with n_trailers=n whose
+    # generator drew the count first (trailer_env.mixed), in the single and vector envs.
+    env = gym.make(REVERSE, n_trailers=(1, 3), randomize="mismatch20")
+    envs = make_vec(REVERSE, 4, n_trailers=(1, 3), randomize="mismatch20")
+    _, batch = envs.reset(seed=10)
+    assert batch["_params"].all() and list(batch["params"]) == [*PARAMETERS, "speed_factor"]
+    for i in range(4):
+        _, info = env.reset(seed=10 + i)
+        n = info["n_trailers"]
+        rng = np.random.default_rng(10 + i)
+        rng.random()  # the count's draw
+        single = gym.make(REVERSE, n_trailers=n, randomize="mismatch20")
+        single.unwrapped.np_random = rng
+        _, expected = single.reset()
+        assert info["params"] == expected["params"]
+        assert {name: values[i] for name, values in batch["params"].items()} == info["params"]
+        _, _, _, _, stepped = env.step(np.zeros(1, dtype=np.float32))
+        assert stepped["params"] == expected["params"]
+    _, _, _, _, batch = envs.step(np.zeros((4, 1)))
+    assert batch["params"]["mu"].shape == (4,)
+    plain = gym.make(REVERSE, n_trailers=(1, 3))
+    assert "params" not in plain.reset(seed=0)[1]
+
+
+def test_a_parameter_whose_nominal_is_zero_is_observed_as_it_is() -> None:
+    # mu = 0 and J = 0 stay 0 whatever the factor: the factor that holds, and is
+    # observed, is 1 (log 0), not the draw (the issue saw -0.44 with mu = 0).
+    ranges = {"M": (0.5, 0.6), "J": (0.6, 0.7), "mu": (0.6, 0.7)}
+    env = gym.make(REVERSE, n_trailers=1, mu=0.0, J=0.0, randomize=ranges, observe_params=True)
+    obs, info = env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    rng.uniform(*SPEED_RANGE)
+    rng.standard_normal(2)
+    m_factor = rng.uniform(*ranges["M"])  # J's and mu's are drawn too (same streams)
+    assert (info["params"]["mu"], info["params"]["J"]) == (0.0, 0.0)
+    assert info["params"]["M"] == NOMINAL.M * m_factor
+    np.testing.assert_array_equal(obs[-7:], np.float32([np.log(m_factor), 0, 0, 0, 0, 0, 0]))
+    core = env.unwrapped.core
+    np.testing.assert_array_equal(core.factors[0, :7], [m_factor, 1, 1, 1, 1, 1, 1])
+    core.set_row_params(np.array([0]), np.array([[1.0, 0.2, 0.5, 1.0, 0.05, 1.0, 0.3]]))
+    np.testing.assert_array_equal(core.factors[0, :7], [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
+
+
+@pytest.mark.parametrize("preset", ["mismatch10", "mismatch20"])
+def test_presets_apply_to_dock_which_keeps_l_nominal(preset: str) -> None:
+    low, high = PRESETS[preset]["M"]
+    env = gym.make("trailer_env/Dock-v0", n_trailers=1, randomize=preset)
+    core = env.unwrapped.core
+    assert core.randomization.names == ("M", "J0", "a", "mu")
+    assert core.randomization.preset == preset
+    for seed in range(5):
+        _, info = env.reset(seed=seed)
+        params = info["params"]
+        assert params["l"] == NOMINAL.l
+        for name in ("M", "J0", "a", "mu"):
+            factor = params[name] / getattr(NOMINAL, name)
+            assert low <= factor <= high
+    # Bit for bit the dict of the other four's ranges (the same draws in the same order).
+    ranges = {name: PRESETS[preset][name] for name in ("M", "J0", "a", "mu")}
+    same = gym.make("trailer_env/Dock-v0", n_trailers=1, randomize=ranges)
+    assert same.reset(seed=3)[1]["params"] == env.reset(seed=3)[1]["params"]
+    mixed = make_vec("trailer_env/Dock-v0", 3, n_trailers=(1, 2), randomize=preset)
+    _, infos = mixed.reset(seed=0)
+    np.testing.assert_array_equal(infos["params"]["l"], [NOMINAL.l] * 3)
+    # Elsewhere a preset still varies l; a dict naming l is still refused on Dock.
+    assert Randomization.coerce(preset).names == ("M", "J0", "a", "l", "mu")  # type: ignore[union-attr]
+    with pytest.raises(ValueError, match=r"cannot be randomised in this scene \(a preset"):
+        gym.make("trailer_env/Dock-v0", randomize={"l": (0.9, 1.1)})

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -113,3 +115,88 @@ def test_her_learns_to_hold_a_heading_on_a_short_budget() -> None:
     assert successes(None) == 0
     model.learn(6000)
     assert successes(model) >= 20
+
+
+# ----------------------------------------------------------- issue 27 item 6
+def test_gymnasium_s_checker_passes_and_the_spec_rebuilds_the_wrappers() -> None:
+    from gymnasium.utils.env_checker import check_env
+
+    for env_id in ("trailer_env/Dock-v0", "trailer_env/Heading-v0"):
+        env = GoalConditioned(gym.make(env_id, n_trailers=1))
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # Box bounds of +-inf: by design
+            check_env(env, skip_render_check=True)
+    env = GoalConditioned(gym.make("trailer_env/Dock-v0", n_trailers=1))
+    assert env.spec is not None
+    assert [wrapper.entry_point for wrapper in env.spec.additional_wrappers[-1:]] == [
+        "trailer_env.wrappers:GoalConditioned"
+    ]
+    again = env.spec.make()
+    assert isinstance(again, GoalConditioned) and again.unwrapped.core.n == 1
+    first, _ = env.reset(seed=5)
+    second, _ = again.reset(seed=5)
+    for key, value in first.items():
+        np.testing.assert_array_equal(second[key], value)
+    safe = SafetyStep(gym.make("trailer_env/Reverse-v1", n_trailers=3))
+    assert safe.spec is not None
+    rebuilt = safe.spec.make()
+    assert isinstance(rebuilt, SafetyStep) and rebuilt.unwrapped.core.n == 3
+    rebuilt.reset(seed=0)
+    assert len(rebuilt.step(np.zeros(1, dtype=np.float32))) == 6
+
+
+@pytest.mark.parametrize("wrapper", [GoalConditioned, SafetyStep])
+def test_the_wrappers_refuse_what_they_cannot_wrap(wrapper: type) -> None:
+    name = wrapper.__name__
+    made = "needs an environment made with gym.make"
+    cases: list[tuple[object, type[Exception], str]] = [
+        (None, TypeError, f"{name} {made}\\('trailer_env/...'\\), got NoneType None"),
+        ("trailer_env/Dock-v0", TypeError, f"{made}.*got str 'trailer_env/Dock-v0'"),
+        (gym.make("CartPole-v1"), ValueError, f"{name} needs a trailer_env environment, got "
+         "CartPole-v1"),
+        (gym.make_vec("trailer_env/Dock-v0", num_envs=2, vectorization_mode="vector_entry_point"),
+         TypeError, f"{name} wraps one environment, got the vector env DockVectorEnv"),
+    ]  # fmt: skip
+    for env, error, message in cases:
+        with pytest.raises(error, match=message):
+            wrapper(env)
+    if wrapper is GoalConditioned:
+        for env_id, core in (("trailer_env/Reverse-v1", "ReverseV1Core"),
+                             ("trailer_env/Dock-v0", "MixedCore")):  # fmt: skip
+            kwargs = {"n_trailers": (1, 2)} if core == "MixedCore" else {}
+            with pytest.raises(ValueError, match=f"Dock-v0 or .*Heading-v0 .*got a {core}"):
+                GoalConditioned(gym.make(env_id, **kwargs))
+
+
+def test_compute_reward_checks_the_goals() -> None:
+    env = GoalConditioned(gym.make("trailer_env/Dock-v0", n_trailers=1))
+    obs, _ = env.reset(seed=0)
+    goal = obs["achieved_goal"].astype(np.float64)
+    width = r"goals of shape \(\.\.\., 4\)"
+    cases: list[tuple[object, object, type[Exception], str]] = [
+        # The issue's case: 5 entries each, the 5th ignored, and the goals "agreed".
+        (np.r_[goal, 9.0], np.r_[goal, -9.0], ValueError,
+         rf"achieved_goal must be {width}, got shape \(5,\)"),
+        (goal[:3], goal[:3], ValueError, r"got shape \(3,\)"),
+        (None, goal, TypeError, rf"achieved_goal must be {width}, got NoneType None"),
+        (goal, 1.0, ValueError, rf"desired_goal must be {width}, got shape \(\)"),
+        (goal, "abcd", TypeError, "desired_goal must be .* got str 'abcd'"),
+        (goal, [[1.0, 2.0], [3.0]], ValueError, "desired_goal must be .* got a ragged"),
+        (goal.astype(object), goal, TypeError, "of real numbers, got dtype object"),
+        (np.zeros((5, 4)), np.zeros((3, 4)), ValueError,
+         r"achieved_goal \(5, 4\) and desired_goal \(3, 4\): the leading \(batch\) axes"),
+    ]  # fmt: skip
+    for achieved, desired, error, message in cases:
+        with pytest.raises(error, match=message):
+            env.compute_reward(achieved, desired, None)
+    # Batched leading axes, as hindsight relabelling passes them, and broadcasting.
+    batch = np.stack([goal, goal + np.array([1.0, 0.0, 0.0, 0.0])])
+    np.testing.assert_array_equal(env.compute_reward(batch, goal, None), [0.0, -1.0])
+    np.testing.assert_array_equal(
+        env.compute_reward(batch[np.newaxis], batch[:, np.newaxis], None),
+        [[0.0, -1.0], [-1.0, 0.0]],
+    )
+    assert env.compute_reward(goal.astype(np.float32).tolist(), goal, None) == 0.0
+    heading = GoalConditioned(gym.make("trailer_env/Heading-v0", n_trailers=1))
+    with pytest.raises(ValueError, match=r"goals of shape \(\.\.\., 2\), got shape \(4,\)"):
+        heading.compute_reward(goal, goal, None)

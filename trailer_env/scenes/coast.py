@@ -122,7 +122,9 @@ def coast_step(
 ) -> tuple:
     """The control step of Coast-v0 in one call: physics, then :func:`coast_outcome`."""
     result = step_serial(action, rows, prepare, config, state, outputs)
-    if result[0] == -1:  # not refused (a bad action row, or kernels.OVER_BUDGET)
+    # Not when refused (a bad action row, or kernels.OVER_BUDGET) nor when a row diverged:
+    # the core redoes those rows, then runs the outcome once (ConvoyCore.step).
+    if result[0] == -1 and result[1] == 0:
         coast_outcome(rows, outputs, scene)
     return result
 

@@ -266,7 +266,10 @@ class DockEnv(ConvoyEnv):
     As Reverse-v0: `n_trailers` (default 2), ConvoyParams fields, `dt`, `fidelity`,
     `action_mode`, `rail_accel_max`, `servo_bandwidth`, `singular_band`, `fold_angle`,
     `render_mode`. `set_state(z, target=(x, y, heading))` builds a state by hand
-    (`z` may include the cart's pose).
+    (`z` may include the cart's pose). `randomize`, `observe_params` as Reverse-v0,
+    but for `l`, which the hitch positions of the reward and the task features use as
+    one value: the presets (`"mismatch10"`, `"mismatch20"`) keep it nominal and vary
+    M, J0, a and mu; a dict of ranges that names `l` is refused.
 
     ## References
 

@@ -120,6 +120,9 @@ class HeadingCore(ShapedCore):
         self.hold_count[rows] = 0
         self.obs[rows, self.n_common + 2] = 0.0
 
+    def _step_records(self) -> tuple[np.ndarray, ...]:
+        return (*super()._step_records(), self.hold_count)
+
     def _potential(self) -> np.ndarray:
         return -HEADING_WEIGHT * np.abs(self.heading_error)
 

@@ -112,7 +112,9 @@ def reverse_step(
 ) -> tuple:
     """The control step of Reverse-v0 in one call: physics, then :func:`reverse_outcome`."""
     result = step_serial(action, rows, prepare, config, state, outputs)
-    if result[0] == -1:  # not refused (a bad action row, or kernels.OVER_BUDGET)
+    # Not when refused (a bad action row, or kernels.OVER_BUDGET) nor when a row diverged:
+    # the core redoes those rows, then runs the outcome once (ConvoyCore.step).
+    if result[0] == -1 and result[1] == 0:
         reverse_outcome(rows, outputs, scene)
     return result
 
@@ -244,7 +246,8 @@ class ReverseEnv(ConvoyEnv):
     xi_dot / v_max, eta_dot / v_max. Reverse-v0 adds no task features.
     With `observe_params=True` seven more follow (length `2n + 11`): index `2n + 4 + k`
     is `log(value / nominal)` of M, J0, a, m, J, l, mu (k = 0..6; 0 when not
-    randomised; bounds +-log(1000)). The other scenes append them after their task
+    randomised, and 0 for a parameter whose nominal value is 0, e.g. `mu=0.0`: a factor
+    leaves it 0; bounds +-log(1000)). The other scenes append them after their task
     features.
 
     ## Rewards
@@ -300,7 +303,8 @@ class ReverseEnv(ConvoyEnv):
     `randomize` (None): per-episode factors of the nominal parameters, a dict such as
     `{"M": (0.8, 1.2), "mu": (0.9, 1.1), "speed": (0.5, 1.0)}` (any of M, J0, a, m, J,
     l, mu; `speed` scales the start's drawn u) or a preset (`"mismatch10"`,
-    `"mismatch20"`: +-10 / 20 % on M, J0, a, l, mu), drawn uniformly after the start
+    `"mismatch20"`: +-10 / 20 % on M, J0, a, l, mu; a scene that holds `l` fixed,
+    Dock-v0, varies the other four), drawn uniformly after the start
     from the env's generator (`trailer_env.randomize`); bad ranges raise ValueError or
     TypeError naming the entry. `observe_params` (False): append the factors'
     logarithms to the observation.

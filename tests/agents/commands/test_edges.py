@@ -219,6 +219,71 @@ def test_evaluate_checks_its_outputs_first(
             tmp_path, capsys)  # fmt: skip
 
 
+def test_evaluate_keeps_an_earlier_evaluation_unless_overwrite(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Issue 27 item 5: results.json of an existing --out was replaced without --overwrite.
+    out = tmp_path / "out"
+    base = ["--policy", "zero", "--episodes", "2", "--no-plots", "--out", str(out)]
+    assert evaluate.main(base) == 0
+    capsys.readouterr()
+    refused(evaluate.main, base,
+            f"argument --out: {out} holds results.json, results.md of an earlier evaluation; "
+            "pass --overwrite to replace them", tmp_path, capsys)  # fmt: skip
+    (out / "results.json").unlink()
+    (out / "results.md").unlink()
+    (out / "curves.png").write_bytes(b"an earlier picture")
+    assert evaluate.main(base) == 0  # --no-plots writes no picture: nothing to replace
+    capsys.readouterr()
+    refused(evaluate.main, [*base, "--episodes", "3"], "holds results.json, results.md", tmp_path,
+            capsys)  # fmt: skip
+    refused(evaluate.main, [arg for arg in base if arg != "--no-plots"],
+            "holds results.json, results.md, curves.png", tmp_path, capsys)  # fmt: skip
+    assert evaluate.main([*base, "--episodes", "3", "--overwrite"]) == 0
+    assert json.loads((out / "results.json").read_text())["episodes"] == 3
+    assert (out / "curves.png").read_bytes() == b"an earlier picture"
+
+
+def test_a_deeply_nested_set_value_is_a_one_line_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    deep = "[" * 100_000 + "]" * 100_000  # json.loads raised RecursionError
+    argv = ["--policy", "zero", "--episodes", "2", "--no-plots", "--out", str(tmp_path / "out"),
+            "--set", f"fidelity={deep}"]  # fmt: skip
+    refused(evaluate.main, argv,
+            "argument --set: fidelity: the value is nested 100000 deep, over the limit of 64",
+            tmp_path, capsys)  # fmt: skip
+    argv[-1] = "fidelity=" + "[" * 65 + "]" * 65
+    refused(evaluate.main, argv, "nested 65 deep", tmp_path, capsys)
+
+
+@pytest.mark.parametrize(
+    ("code", "message"),
+    [
+        ("raise RuntimeError('boom')", "raised RuntimeError: boom"),
+        ("import sys\nsys.exit(0)", "raised SystemExit: 0"),
+        ("raise SystemExit('bye')", "raised SystemExit: bye"),
+        ("1 / 0", "raised ZeroDivisionError: division by zero"),
+    ],
+)
+def test_a_policy_module_whose_import_fails_is_a_one_line_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
+    code: str, message: str,
+) -> None:  # fmt: skip
+    modules = tmp_path / "modules"
+    modules.mkdir()
+    (modules / "failing_policy_27.py").write_text(code + "\ndef act(obs):\n    return obs\n")
+    monkeypatch.syspath_prepend(str(modules))
+    argv = ["--policy", "failing_policy_27:act", "--episodes", "2", "--no-plots", "--out",
+            str(tmp_path / "out")]  # fmt: skip
+    line = refused(evaluate.main, argv, message, tmp_path, capsys)
+    assert line.endswith(
+        f"error: argument --policy: policy 'failing_policy_27:act': importing "
+        f"'failing_policy_27' {message}"
+    )
+    assert "failing_policy_27" not in sys.modules
+
+
 # ---------------------------------------------------------------- train
 
 
@@ -463,6 +528,31 @@ def test_atomic_writes_refuse_links_and_leave_no_temporary_files(tmp_path: Path)
         files.atomic_write_text(link, "x")
     assert not (tmp_path / "nowhere.json").exists()
     assert sorted(path.name for path in tmp_path.iterdir()) == ["a.json", "link.json"]
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o077, 0o002])
+def test_written_files_honour_the_umask(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], umask: int
+) -> None:
+    # Issue 27 item 4: every file was 0600 (mkstemp's mode outlived the rename).
+    import matplotlib.pyplot as plt
+
+    previous = os.umask(umask)
+    try:
+        files.write_json(tmp_path / "a.json", {"a": 1})
+        figure = plt.figure()
+        with files.replacing(tmp_path / "a.png") as temporary:  # as the pictures are written
+            figure.savefig(temporary)
+        plt.close(figure)
+        out = tmp_path / "out"
+        argv = ["--policy", "zero", "--episodes", "2", "--no-plots", "--out", str(out)]
+        assert evaluate.main(argv) == 0
+    finally:
+        os.umask(previous)
+    capsys.readouterr()
+    written = [tmp_path / "a.json", tmp_path / "a.png", out / "results.json", out / "results.md"]
+    assert [oct(path.stat().st_mode & 0o777) for path in written] == [oct(0o666 & ~umask)] * 4
+    assert files.file_mode() == 0o666 & ~os.umask(previous)  # reading it changed nothing
 
 
 def test_a_cut_last_row_is_tolerated_and_cut_on_append(tmp_path: Path) -> None:
