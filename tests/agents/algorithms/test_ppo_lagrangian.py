@@ -89,7 +89,7 @@ def test_the_hyperparameter_file_has_ppos_defaults_plus_three() -> None:
     ppo = load_hyperparams("ppo", REVERSE)
     lag = load_hyperparams("ppo_lag", REVERSE)
     extra = {key: lag.algo_kwargs.pop(key) for key in ("cost_limit", "lambda_lr", "lambda_init")}
-    assert extra == {"cost_limit": 5.0, "lambda_lr": 0.01, "lambda_init": 0.0}
+    assert extra == {"cost_limit": 1.0, "lambda_lr": 0.05, "lambda_init": 0.0}
     assert lag.algo_kwargs.keys() == ppo.algo_kwargs.keys()
     assert (lag.n_envs, lag.normalize, lag.algo_kwargs["gamma"]) == (64, ppo.normalize, 0.999)
 
