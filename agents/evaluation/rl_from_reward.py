@@ -79,7 +79,7 @@ def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
     """Score one run folder (see the module docstring)."""
     curve = read_run(run_dir)
     steps, values = curve.series("timesteps")
-    _, walls = curve.series("wall_s")
+    walls, _ = curve.series("wall_s")
     flat = final_plateau(steps, values, PLATEAU_WINDOW, PLATEAU_EPS)
     env_id, n, metric = curve.env_id, curve.n_trailers, curve.metric
     best, final = run_dir / BEST_MODEL, run_dir / FINAL_MODEL
