@@ -29,7 +29,7 @@ def shaped_reward(
     """``potential - previous - time_penalty - band_penalty * cost + success_bonus * success
     - fold_penalty * jackknifed - failure_penalty * failed``.
 
-    ``penalties`` is :meth:`trailer_env.core.ShapedCore.shaping_constants`: (time_penalty,
+    ``penalties`` is :attr:`trailer_env.core.ShapedCore.shaping_penalties`: (time_penalty,
     band_penalty, success_bonus, fold_penalty, failure_penalty).
     """
     return (
