@@ -28,7 +28,6 @@ operations), so results do not depend on the batch size or the number of threads
 
 from __future__ import annotations
 
-import os
 from typing import NamedTuple
 
 import numpy as np
@@ -52,12 +51,8 @@ from dynamics.jit import (
     scatter_block,
     sincos_block,
 )
-from trailer_env import actuator, substeps
 from trailer_env.actuator import apply_action_row, clamp_row_to_rail, first_non_finite_row
 from trailer_env.substeps import AUTO_WORK_SUBSTEPS, auto_substeps_row, grew_absurdly_row
-
-#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
-SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 #: Batches at least this large use the parallel kernels (benchmarks/README.md, "Threads").
 PARALLEL_MIN_ROWS = 1024
@@ -75,7 +70,6 @@ DIVERGENCE_BOUND = 1e12
 #: The step kernels' first result when the auto rule's substeps exceed the work budget
 #: (nothing was integrated).
 OVER_BUDGET = -2
-_DEPENDS = (actuator, substeps)
 
 
 class StepConfig(NamedTuple):
@@ -133,7 +127,7 @@ class StepOutputs(NamedTuple):
     hitch_trig: np.ndarray
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def observe_block(
     z: np.ndarray,
     rows: np.ndarray,
@@ -225,7 +219,7 @@ def observe_block(
     return bad
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def _observe_rows(
     z: np.ndarray, act: np.ndarray, rows: np.ndarray, start: int, stop: int, n: int,
     planar: bool, settings: np.ndarray, pv: np.ndarray, outputs: StepOutputs,
@@ -246,7 +240,7 @@ def _observe_rows(
     return bad
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def observe(
     z: np.ndarray,
     act: np.ndarray,
@@ -266,7 +260,7 @@ def observe(
     return _observe_rows(z, act, rows, 0, rows.shape[0], n, planar, settings, pv, named)
 
 
-@cached_njit(depends_on=_DEPENDS, nogil=True)
+@cached_njit(nogil=True)
 def _prepare_rows(
     action: np.ndarray, rows: np.ndarray, start: int, stop: int, config: StepConfig,
     state: StepState,
@@ -300,7 +294,7 @@ def _prepare_rows(
     return over, total
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def _step_chunk(
     action: np.ndarray,
     rows: np.ndarray,
@@ -385,7 +379,7 @@ def _step_chunk(
     return bad, over_tolerance
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def step_serial(
     action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
     outputs: tuple,
@@ -421,7 +415,7 @@ def step_serial(
     return -1, bad, over
 
 
-@cached_njit(depends_on=_DEPENDS, parallel=True)
+@cached_njit(parallel=True)
 def step_parallel(
     action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
     outputs: tuple,
@@ -455,7 +449,7 @@ def step_parallel(
     return -1, bad.sum(), over.sum()
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def prepare_step(
     action: np.ndarray, rows: np.ndarray, config: tuple, state: tuple
 ) -> tuple:  # fmt: skip
@@ -470,7 +464,7 @@ def prepare_step(
     return -1, over
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def clamp_rows_to_rail(act: np.ndarray, rows: np.ndarray, b: float, s_max: float) -> None:
     """:func:`trailer_env.actuator.clamp_row_to_rail` for ``rows``."""
     for i in rows:

@@ -7,7 +7,6 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 
 from dynamics.jit import cached_njit
-from trailer_env import actuator, kernels, substeps
 from trailer_env.scenes.reverse import ReverseCore, ReverseEnv
 
 #: Starting reversing speed range, m/s (the stroke needed is smallest near 1-1.2 m/s).
@@ -32,7 +31,7 @@ class ReverseV1Start(NamedTuple):
     n: int
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def reverse_v1_starts(
     generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
 ) -> None:
