@@ -817,6 +817,22 @@ def block_order(substeps: np.ndarray) -> np.ndarray:
 
 
 @cached_njit(nogil=True)
+def block_end(order: np.ndarray, first: int, stop: int, substeps: np.ndarray) -> int:
+    """End of the block that starts at ``order[first]``: the rows ``order[first:end]``
+    (``end <= stop``) share its substep count, at most :data:`LANES` of them.
+
+    The one grouping rule of every batched RK4 driver (:func:`rk4_ordered_rows`,
+    ``trailer_env.kernels``): blocks of at most :data:`ROW_PATH_MAX_ROWS` rows take the
+    row path, larger ones the block path.
+    """
+    count = substeps[order[first]]
+    end = first + 1
+    while end < stop and end - first < LANES and substeps[order[end]] == count:
+        end += 1
+    return end
+
+
+@cached_njit(nogil=True)
 def rk4_ordered_rows(
     pv: np.ndarray,
     z: np.ndarray,
@@ -838,9 +854,7 @@ def rk4_ordered_rows(
     i = start
     while i < stop:
         count = substeps[order[i]]
-        j = i + 1
-        while j < stop and j - i < LANES and substeps[order[j]] == count:
-            j += 1
+        j = block_end(order, i, stop, substeps)
         if j - i <= ROW_PATH_MAX_ROWS:
             for row in order[i:j]:
                 advance_row(pv, z, act, row, n, with_pose, dt, count, preserve_energy,
@@ -853,9 +867,10 @@ def rk4_ordered_rows(
 
 
 #: Below this many rows the serial loop wins: waking worker threads costs more
-#: than a small batch's arithmetic (see benchmarks/README.md, "Threads").
+#: than a small batch's arithmetic (see benchmarks/README.md, "Threads"). The one
+#: threshold of every batched driver (``dynamics.Stepper``, ``trailer_env.kernels``).
 PARALLEL_MIN_ROWS = 1024
-#: Rows per parallel chunk (a multiple of LANES).
+#: Rows per parallel chunk (a multiple of LANES), for every batched driver.
 ROWS_PER_CHUNK = 4 * LANES
 
 

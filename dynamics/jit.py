@@ -23,10 +23,13 @@ from __future__ import annotations
 from dynamics._cache import cached_njit
 from dynamics._kernel import (
     LANES,
+    PARALLEL_MIN_ROWS,
     ROW_PATH_MAX_ROWS,
+    ROWS_PER_CHUNK,
     advance_block,
     advance_mass_row,
     advance_row,
+    block_end,
     block_order,
     energy_block,
     energy_block_from_trig,
@@ -49,10 +52,13 @@ from dynamics._kernel import (
 
 __all__ = [
     "LANES",
+    "PARALLEL_MIN_ROWS",
+    "ROWS_PER_CHUNK",
     "ROW_PATH_MAX_ROWS",
     "advance_block",
     "advance_mass_row",
     "advance_row",
+    "block_end",
     "block_order",
     "cached_njit",
     "energy_block",

@@ -7,7 +7,7 @@ import pytest
 from numba import njit
 
 from dynamics import ConvoyParams, Stepper, _kernel
-from dynamics.jit import LANES, field_block, new_workspace
+from dynamics.jit import LANES, block_end, field_block, new_workspace
 
 
 @njit  # not cached: a disk cache keyed on this file would miss edits to _kernel
@@ -129,3 +129,15 @@ def test_energy_preserving_rows_step_the_same_alone_and_in_a_block(
         alone_z, alone_act = z[i : i + 1].copy(), act[i : i + 1].copy()
         stepper.step(alone_z, alone_act, 0.05, np.full(1, 3))  # the row path
         np.testing.assert_array_equal(alone_z[0], batch_z[i])
+
+
+def test_blocks_are_runs_of_equal_substeps_of_at_most_lanes_rows() -> None:
+    """The grouping every batched RK4 driver shares (dynamics and trailer_env.kernels)."""
+    substeps = np.array([1] * (LANES + 3) + [2, 2, 5], dtype=np.int64)
+    order = np.arange(substeps.size)
+    ends, first = [], 0
+    while first < substeps.size:
+        first = block_end(order, first, substeps.size, substeps)
+        ends.append(first)
+    assert ends == [LANES, LANES + 3, LANES + 5, LANES + 6]
+    assert block_end(order, 0, 2, substeps) == 2  # never past ``stop``
