@@ -17,19 +17,15 @@ Conventions (private to the package):
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
-from numba import njit, prange, types
+from numba import prange, types
 from numba.extending import overload
 
+from dynamics._cache import cached_njit
 from dynamics.params import ConvoyParams
 
 P_M, P_J0, P_A, P_SMALL_M, P_J, P_L, P_MU = range(7)
-
-#: (mtime, size) of this file when it was imported: the disk caches of jitted code
-#: that inlines these kernels are keyed on it (dynamics.jit.cached_njit).
-SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
 
 def pack_params(params: ConvoyParams) -> np.ndarray:
@@ -144,7 +140,7 @@ _C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015
 _C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def sincos_reduced(x: float) -> tuple:
     """(sin x, cos x) without branches, accurate for |x| <= SINCOS_MAX_ARG."""
     k = (x * _TWO_OVER_PI + _ROUND_MAGIC) - _ROUND_MAGIC
@@ -164,7 +160,7 @@ def sincos_reduced(x: float) -> tuple:
     return sin_x, cos_x
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def sincos(x: float) -> tuple:
     """(sin x, cos x): :func:`sincos_reduced`, or libm beyond its range (same values as blocks)."""
     if abs(x) > SINCOS_MAX_ARG:
@@ -186,7 +182,7 @@ def sincos(x: float) -> tuple:
 N_HITCH = 11
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _hitch_step(k: int, s: float, c: float, l: float, acc: tuple) -> tuple:
     """One step of the forward pass over the hitches: (A_k, new accumulators).
 
@@ -220,12 +216,12 @@ def _hitch_step(k: int, s: float, c: float, l: float, acc: tuple) -> tuple:
                  tail_c2, sum_tail_c2, c, s, c1s1)  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _hitch_start() -> tuple:
     return (1.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _hitch_totals(pv: np.ndarray, lane: int, acc: tuple) -> tuple:
     """(R(alpha) - M, dR/dalpha_1, sum_k A_k dR/dalpha_k) from the final accumulators
     (the parameters of ``lane``: :func:`lane_value`)."""
@@ -238,7 +234,7 @@ def _hitch_totals(pv: np.ndarray, lane: int, acc: tuple) -> tuple:
     return r_trailers, dr_dalpha1, sum_a_dr
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _accelerations(
     pv: np.ndarray, lane: int, r_trailers: float, dr_dalpha1: float, sum_a_dr: float, u: float,
     w: float, xi: float, eta: float, xi_dot: float, eta_dot: float, xi_ddot: float, eta_ddot: float,
@@ -265,7 +261,7 @@ def _accelerations(
     return (m11 * b0 - m01 * b1) / det, (m00 * b1 - m01 * b0) / det
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _energy(
     pv: np.ndarray, lane: int, r_trailers: float, u: float, w: float, eta: float, xi_dot: float,
     eta_dot: float, xi: float,
@@ -284,7 +280,7 @@ def _energy(
 # Row kernels (single states, DOPRI5, rhs and energy of arbitrary rows).
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _hitch_terms(pv: np.ndarray, row: np.ndarray, n: int, A: np.ndarray) -> tuple:
     """R(alpha) - M, dR/dalpha_1 and sum_k A_k dR/dalpha_k of one row in one O(n) pass.
 
@@ -298,7 +294,7 @@ def _hitch_terms(pv: np.ndarray, row: np.ndarray, n: int, A: np.ndarray) -> tupl
     return _hitch_totals(pv, 0, acc)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def field_row(
     pv: np.ndarray,
     row: np.ndarray,
@@ -330,7 +326,7 @@ def field_row(
         out[n + 4] = w
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def energy_row(
     pv: np.ndarray, row: np.ndarray, n: int, act: np.ndarray, scratch: np.ndarray
 ) -> float:
@@ -339,7 +335,7 @@ def energy_row(
     return _energy(pv, 0, r_trailers, row[0], row[1], act[1], act[2], act[3], act[0])
 
 
-@njit(cache=True)
+@cached_njit()
 def rhs_batch(
     pv: np.ndarray, z: np.ndarray, act: np.ndarray, n: int, with_pose: bool
 ) -> np.ndarray:
@@ -353,7 +349,7 @@ def rhs_batch(
     return out
 
 
-@njit(cache=True)
+@cached_njit()
 def energy_batch(pv: np.ndarray, z: np.ndarray, act: np.ndarray, n: int) -> np.ndarray:
     """Energy of every row (physics.md section 9)."""
     out = np.empty(z.shape[0])
@@ -375,7 +371,7 @@ _W_COS = N_HITCH + 1
 _W_ROWS = N_HITCH + 2
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def sincos_block(x: np.ndarray, sin_out: np.ndarray, cos_out: np.ndarray, nb: int) -> None:
     """sin and cos of ``x[:nb]``: the branch-free loop, then libm for any huge argument."""
     huge = False
@@ -391,14 +387,14 @@ def sincos_block(x: np.ndarray, sin_out: np.ndarray, cos_out: np.ndarray, nb: in
                 cos_out[lane] = math.cos(x[lane])
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _accumulators(work: np.ndarray, lane: int) -> tuple:
     return (work[0, lane], work[1, lane], work[2, lane], work[3, lane], work[4, lane],
             work[5, lane], work[6, lane], work[7, lane], work[8, lane], work[9, lane],
             work[10, lane])  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _hitch_start_block(work: np.ndarray, nb: int) -> None:
     start = _hitch_start()
     for j in range(N_HITCH):
@@ -406,7 +402,7 @@ def _hitch_start_block(work: np.ndarray, nb: int) -> None:
             work[j, lane] = start[j]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _hitch_accumulate(pv: np.ndarray, k: int, sin_k: np.ndarray, cos_k: np.ndarray,
                       deriv: np.ndarray, work: np.ndarray, nb: int) -> None:  # fmt: skip
     """Hitch k of every lane (:func:`_hitch_step` on ``work``); A_k into ``deriv[2 + k]``."""
@@ -419,7 +415,7 @@ def _hitch_accumulate(pv: np.ndarray, k: int, sin_k: np.ndarray, cos_k: np.ndarr
             work[j, lane] = acc[j]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _hitch_block(pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work: np.ndarray,
                  nb: int) -> None:  # fmt: skip
     """Hitch accumulators of every lane into ``work[:N_HITCH]``; A_k into ``deriv[2 + k]``."""
@@ -431,7 +427,7 @@ def _hitch_block(pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work:
         _hitch_accumulate(pv, k, sin_k, cos_k, deriv, work, nb)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def field_block(
     pv: np.ndarray,
     y: np.ndarray,
@@ -482,7 +478,7 @@ def field_block(
             deriv[n + 4, lane] = y[1, lane]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def energy_block(
     pv: np.ndarray, y: np.ndarray, n: int, mass0: np.ndarray, deriv: np.ndarray,
     work: np.ndarray, out: np.ndarray, nb: int,
@@ -495,7 +491,7 @@ def energy_block(
                             mass0[2, lane], mass0[3, lane], mass0[0, lane])  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def energy_block_from_trig(
     pv: np.ndarray, y: np.ndarray, n: int, mass0: np.ndarray, trig: np.ndarray,
     deriv: np.ndarray, work: np.ndarray, out: np.ndarray, nb: int,
@@ -514,12 +510,12 @@ def energy_block_from_trig(
 _ALIGN = 64
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _carve(buffer: np.ndarray, start: int, rows: int, cols: int) -> np.ndarray:
     return buffer[start : start + rows * cols].reshape((rows, cols))
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def new_workspace(width: int) -> tuple:
     """Scratch of one thread for the block kernels: state, stage, two derivative buffers,
     mass state, hitch workspace, per-lane scalars (energy targets, energies, flags) and
@@ -560,12 +556,12 @@ def new_workspace(width: int) -> tuple:
 _FOLD_MARGIN = 1e-12
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _wrapped_folded(alpha: float, fold_angle: float) -> bool:
     return abs(math.atan2(math.sin(alpha), math.cos(alpha))) >= fold_angle
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def gather_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int,
                  workspace: tuple) -> None:  # fmt: skip
     """Copy rows ``rows[:nb]`` of ``z`` and ``act`` into the workspace (structure of arrays)."""
@@ -579,7 +575,7 @@ def gather_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int,
             mass0[j, lane] = act[rows[lane], j]
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def scatter_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int, dt: float,
                   workspace: tuple) -> None:  # fmt: skip
     """Write the block back into ``z``; advance the mass state in ``act`` by ``dt`` exactly."""
@@ -591,7 +587,7 @@ def scatter_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int, dt:
         advance_mass_row(act, rows[lane], dt)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def advance_mass_row(act: np.ndarray, i: int, dt: float) -> None:
     """The mass state of row ``i`` after ``dt`` under its held acceleration (exact)."""
     xi_ddot = act[i, 4]
@@ -610,7 +606,7 @@ def advance_mass_row(act: np.ndarray, i: int, dt: float) -> None:
 ROW_PATH_MAX_ROWS = 4
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _field_at(pv: np.ndarray, row: np.ndarray, n: int, with_pose: bool, act: np.ndarray,
               i: int, tau: float, out: np.ndarray) -> None:  # fmt: skip
     """:func:`field_row` at time ``tau`` into the call (the mass's exact quadratic motion)."""
@@ -628,7 +624,7 @@ def _field_at(pv: np.ndarray, row: np.ndarray, n: int, with_pose: bool, act: np.
     )  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def advance_row(
     pv: np.ndarray,
     z: np.ndarray,
@@ -698,7 +694,7 @@ def advance_row(
                         folded[i] = True
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def advance_block(
     pv: np.ndarray,
     rows: np.ndarray,
@@ -781,7 +777,7 @@ def advance_block(
                             folded[rows[lane]] = True
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def rk4_block(
     pv: np.ndarray,
     z: np.ndarray,
@@ -806,7 +802,7 @@ def rk4_block(
     scatter_block(z, act, rows, nb, dt, workspace)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def block_order(substeps: np.ndarray) -> np.ndarray:
     """Row order in which runs of equal substep counts are contiguous (identity if all equal)."""
     count = substeps.shape[0]
@@ -820,7 +816,23 @@ def block_order(substeps: np.ndarray) -> np.ndarray:
     return np.argsort(substeps, kind="mergesort")
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
+def block_end(order: np.ndarray, first: int, stop: int, substeps: np.ndarray) -> int:
+    """End of the block that starts at ``order[first]``: the rows ``order[first:end]``
+    (``end <= stop``) share its substep count, at most :data:`LANES` of them.
+
+    The one grouping rule of every batched RK4 driver (:func:`rk4_ordered_rows`,
+    ``trailer_env.kernels``): blocks of at most :data:`ROW_PATH_MAX_ROWS` rows take the
+    row path, larger ones the block path.
+    """
+    count = substeps[order[first]]
+    end = first + 1
+    while end < stop and end - first < LANES and substeps[order[end]] == count:
+        end += 1
+    return end
+
+
+@cached_njit(nogil=True)
 def rk4_ordered_rows(
     pv: np.ndarray,
     z: np.ndarray,
@@ -842,9 +854,7 @@ def rk4_ordered_rows(
     i = start
     while i < stop:
         count = substeps[order[i]]
-        j = i + 1
-        while j < stop and j - i < LANES and substeps[order[j]] == count:
-            j += 1
+        j = block_end(order, i, stop, substeps)
         if j - i <= ROW_PATH_MAX_ROWS:
             for row in order[i:j]:
                 advance_row(pv, z, act, row, n, with_pose, dt, count, preserve_energy,
@@ -857,13 +867,14 @@ def rk4_ordered_rows(
 
 
 #: Below this many rows the serial loop wins: waking worker threads costs more
-#: than a small batch's arithmetic (see benchmarks/README.md, "Threads").
+#: than a small batch's arithmetic (see benchmarks/README.md, "Threads"). The one
+#: threshold of every batched driver (``dynamics.Stepper``, ``trailer_env.kernels``).
 PARALLEL_MIN_ROWS = 1024
-#: Rows per parallel chunk (a multiple of LANES).
+#: Rows per parallel chunk (a multiple of LANES), for every batched driver.
 ROWS_PER_CHUNK = 4 * LANES
 
 
-@njit(cache=True)
+@cached_njit()
 def rk4_batch_serial(
     pv: np.ndarray,
     z: np.ndarray,
@@ -883,7 +894,7 @@ def rk4_batch_serial(
                      new_workspace(z.shape[1]))  # fmt: skip
 
 
-@njit(cache=True, parallel=True)
+@cached_njit(parallel=True)
 def rk4_batch(
     pv: np.ndarray,
     z: np.ndarray,
@@ -915,7 +926,7 @@ def rk4_batch(
                          new_workspace(z.shape[1]))  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def singular_margin_row(row: np.ndarray, offset: int, n: int) -> float:
     """min over k < n of |cos(alpha_k)| for the angles ``row[offset:offset + n]`` (1 if n <= 1)."""
     margin = 1.0
@@ -924,7 +935,7 @@ def singular_margin_row(row: np.ndarray, offset: int, n: int) -> float:
     return margin
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def is_folded_row(row: np.ndarray, offset: int, n: int, fold_angle: float) -> bool:
     """Whether any wrapped |alpha_k|, the last included, reaches ``fold_angle``."""
     # Fast path: when every raw |alpha_k| is inside the fold angle, so is every wrapped one,
@@ -941,7 +952,7 @@ def is_folded_row(row: np.ndarray, offset: int, n: int, fold_angle: float) -> bo
     return False
 
 
-@njit(cache=True)
+@cached_njit()
 def singular_batch(
     alpha: np.ndarray, fold_angle: float, margin: np.ndarray, folded: np.ndarray
 ) -> None:

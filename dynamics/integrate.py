@@ -15,10 +15,10 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike
 
 from dynamics import _kernel
+from dynamics.jit import cached_njit
 from dynamics.model import (
     FloatArray,
     check_state,
@@ -65,7 +65,7 @@ def _check_dt(dt: float) -> float:
     return value
 
 
-@njit(cache=True)
+@cached_njit()
 def _first_bad_count(substeps: np.ndarray, high: int) -> int:
     """Index of the first substep count outside [1, high], or -1."""
     for i in range(substeps.shape[0]):

@@ -35,22 +35,19 @@ demand ``A dt^2 <= s_max``.
 from __future__ import annotations
 
 import math
-import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
-from numba import njit
+
+from dynamics.jit import cached_njit
 
 #: The action modes, the keys of :data:`ACTUATORS` in its order.
 ActionMode = Literal["servo", "accel", "planar"]
 
-#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
-SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
 
-
-@njit(cache=True)
+@cached_njit()
 def rail_accel_upper(s: float, v: float, s_max: float, accel_max: float, dt: float) -> float:
     """Largest acceleration in [-A, A] that keeps the mass able to stop before +s_max.
 
@@ -77,7 +74,7 @@ def rail_accel_upper(s: float, v: float, s_max: float, accel_max: float, dt: flo
     return min(-v / dt, accel_max)
 
 
-@njit(cache=True)
+@cached_njit()
 def guard_accel(
     accel: float, s: float, v: float, s_max: float, accel_max: float, dt: float
 ) -> float:
@@ -88,7 +85,7 @@ def guard_accel(
     return max(min(accel, upper), lower)
 
 
-@njit(cache=True)
+@cached_njit()
 def servo_accel(
     target: float, s: float, v: float, s_max: float, accel_max: float, dt: float, frequency: float
 ) -> float:
@@ -116,7 +113,7 @@ def servo_target_for_accel(
 # action on the lateral axis), and an entry in ACTUATORS.
 
 
-@njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def servo_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
               accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
     """ "servo": the action is the target position ``a s_max`` on the rail."""
@@ -125,7 +122,7 @@ def servo_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: floa
                             frequency)  # fmt: skip
 
 
-@njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def accel_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
               accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
     """ "accel": the action is the rail acceleration ``a A``, through the guard."""
@@ -133,7 +130,7 @@ def accel_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: floa
     act[i, 5] = guard_accel(command * accel_max, act[i, 1], act[i, 3], s_max, accel_max, dt)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def planar_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
                accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
     """ "planar": axis 0 is a target ``xi - b = a_0 s_max``, axis 1 ``eta = a_1 s_max``."""
@@ -200,7 +197,7 @@ _ACCEL = ACTUATORS["accel"].code
 _PLANAR = ACTUATORS["planar"].code
 
 
-@njit(cache=True, nogil=True, inline="always")
+@cached_njit(nogil=True, inline="always")
 def apply_action_row(
     action: np.ndarray,
     i: int,
@@ -221,7 +218,7 @@ def apply_action_row(
         planar_row(action, i, act, b, s_max, accel_max, dt, frequency)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def first_non_finite_row(action: np.ndarray, rows: np.ndarray) -> int:
     """The first of ``rows`` whose action holds NaN or inf, or -1."""
     for i in rows:
@@ -231,7 +228,7 @@ def first_non_finite_row(action: np.ndarray, rows: np.ndarray) -> int:
     return -1
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def clamp_row_to_rail(act: np.ndarray, i: int, b: float, s_max: float) -> None:
     """Remove rounding-level excursions past the rail's ends (the guard keeps them below 1e-15)."""
     act[i, 1] = min(max(act[i, 1], -s_max), s_max)

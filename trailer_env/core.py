@@ -171,7 +171,8 @@ class ConvoyCore:
     version: ClassVar[int] = 0
     #: Truncation length registered for the scene (steps).
     max_episode_steps: ClassVar[int] = 400
-    #: The rate the agents report first for this scene (a key of ``agents.metrics``).
+    #: The rate the agents report first for this scene (a key of
+    #: :func:`trailer_env.benchmark.summarize`'s summary).
     headline_metric: ClassVar[str] = "success_rate"
     #: Names of the ``agents`` baselines that apply to this scene (evaluated by default).
     baselines: ClassVar[tuple[str, ...]] = ("zero", "random", "lqr")

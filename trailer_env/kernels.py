@@ -21,14 +21,15 @@ named tuples or as plain tuples of their fields, ``tuple(config)``, which is wha
 core passes: numba unboxes a plain tuple about 0.7 us faster per argument than a named
 one, and rebuilding the named tuple inside compiled code (``StepConfig(*config)``) costs
 nothing. Large batches
-(:data:`PARALLEL_MIN_ROWS` rows or more) use the parallel variant, which splits the rows
-into chunks; every row's arithmetic is the same either way (the blocks share loops, not
+(``PARALLEL_MIN_ROWS`` rows or more, the threshold of :mod:`dynamics.jit` that
+``dynamics.Stepper`` uses too) use the parallel variant, which splits the rows into
+chunks of ``ROWS_PER_CHUNK``, grouped into blocks by ``dynamics.jit.block_end`` as RK4's
+own driver does; every row's arithmetic is the same either way (the blocks share loops, not
 operations), so results do not depend on the batch size or the number of threads.
 """
 
 from __future__ import annotations
 
-import os
 from typing import NamedTuple
 
 import numpy as np
@@ -37,9 +38,11 @@ from numba import prange
 from dynamics.jit import (
     LANES,
     ROW_PATH_MAX_ROWS,
+    ROWS_PER_CHUNK,
     advance_block,
     advance_mass_row,
     advance_row,
+    block_end,
     block_order,
     cached_njit,
     energy_block_from_trig,
@@ -52,17 +55,9 @@ from dynamics.jit import (
     scatter_block,
     sincos_block,
 )
-from trailer_env import actuator, substeps
+from dynamics.jit import PARALLEL_MIN_ROWS as PARALLEL_MIN_ROWS  # read here by the core
 from trailer_env.actuator import apply_action_row, clamp_row_to_rail, first_non_finite_row
 from trailer_env.substeps import AUTO_WORK_SUBSTEPS, auto_substeps_row, grew_absurdly_row
-
-#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
-SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
-
-#: Batches at least this large use the parallel kernels (benchmarks/README.md, "Threads").
-PARALLEL_MIN_ROWS = 1024
-#: Rows per parallel chunk (a multiple of the block size).
-_CHUNK = 4 * LANES
 
 # Indices into the packed observation settings (OBS_BOUND: a row holding a value beyond it
 # in magnitude is flagged as non-finite; infinite for resets, DIVERGENCE_BOUND for steps).
@@ -75,7 +70,6 @@ DIVERGENCE_BOUND = 1e12
 #: The step kernels' first result when the auto rule's substeps exceed the work budget
 #: (nothing was integrated).
 OVER_BUDGET = -2
-_DEPENDS = (actuator, substeps)
 
 
 class StepConfig(NamedTuple):
@@ -133,7 +127,7 @@ class StepOutputs(NamedTuple):
     hitch_trig: np.ndarray
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def observe_block(
     z: np.ndarray,
     rows: np.ndarray,
@@ -225,7 +219,7 @@ def observe_block(
     return bad
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def _observe_rows(
     z: np.ndarray, act: np.ndarray, rows: np.ndarray, start: int, stop: int, n: int,
     planar: bool, settings: np.ndarray, pv: np.ndarray, outputs: StepOutputs,
@@ -246,7 +240,7 @@ def _observe_rows(
     return bad
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def observe(
     z: np.ndarray,
     act: np.ndarray,
@@ -266,7 +260,7 @@ def observe(
     return _observe_rows(z, act, rows, 0, rows.shape[0], n, planar, settings, pv, named)
 
 
-@cached_njit(depends_on=_DEPENDS, nogil=True)
+@cached_njit(nogil=True)
 def _prepare_rows(
     action: np.ndarray, rows: np.ndarray, start: int, stop: int, config: StepConfig,
     state: StepState,
@@ -300,7 +294,7 @@ def _prepare_rows(
     return over, total
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def _step_chunk(
     action: np.ndarray,
     rows: np.ndarray,
@@ -343,9 +337,7 @@ def _step_chunk(
     first = 0
     while first < order.shape[0]:
         count = substeps[order[first]]
-        last = first + 1
-        while last < order.shape[0] and last - first < LANES and substeps[order[last]] == count:
-            last += 1
+        last = block_end(order, first, order.shape[0], substeps)
         block = order[first:last]
         nb = last - first
         lane_pv = gather_params(pv, block, nb, scratch)
@@ -385,7 +377,7 @@ def _step_chunk(
     return bad, over_tolerance
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def step_serial(
     action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
     outputs: tuple,
@@ -421,7 +413,7 @@ def step_serial(
     return -1, bad, over
 
 
-@cached_njit(depends_on=_DEPENDS, parallel=True)
+@cached_njit(parallel=True)
 def step_parallel(
     action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
     outputs: tuple,
@@ -431,7 +423,7 @@ def step_parallel(
     named_state = StepState(*state)
     named_outputs = StepOutputs(*outputs)
     count = rows.shape[0]
-    n_chunks = (count + _CHUNK - 1) // _CHUNK
+    n_chunks = (count + ROWS_PER_CHUNK - 1) // ROWS_PER_CHUNK
     bad = np.zeros(n_chunks, dtype=np.int64)
     over = np.zeros(n_chunks, dtype=np.int64)
     if prepare:
@@ -440,22 +432,29 @@ def step_parallel(
             return bad_action, 0, 0
         total = np.zeros(n_chunks, dtype=np.int64)
         for chunk in prange(n_chunks):
-            stop = min(count, (chunk + 1) * _CHUNK)
+            stop = min(count, (chunk + 1) * ROWS_PER_CHUNK)
             over[chunk], total[chunk] = _prepare_rows(
-                action, rows, chunk * _CHUNK, stop, named_config, named_state
+                action, rows, chunk * ROWS_PER_CHUNK, stop, named_config, named_state
             )
         budget = row_params(named_config.auto_settings, 0)[AUTO_WORK_SUBSTEPS]  # same per row
         if named_config.auto and total.sum() > budget:
             return OVER_BUDGET, 0, over.sum()
     for chunk in prange(n_chunks):
-        stop = min(count, (chunk + 1) * _CHUNK)
+        stop = min(count, (chunk + 1) * ROWS_PER_CHUNK)
         bad[chunk], _ = _step_chunk(
-            action, rows, chunk * _CHUNK, stop, False, named_config, named_state, named_outputs
+            action,
+            rows,
+            chunk * ROWS_PER_CHUNK,
+            stop,
+            False,
+            named_config,
+            named_state,
+            named_outputs,
         )
     return -1, bad.sum(), over.sum()
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def prepare_step(
     action: np.ndarray, rows: np.ndarray, config: tuple, state: tuple
 ) -> tuple:  # fmt: skip
@@ -470,7 +469,7 @@ def prepare_step(
     return -1, over
 
 
-@cached_njit(depends_on=_DEPENDS)
+@cached_njit()
 def clamp_rows_to_rail(act: np.ndarray, rows: np.ndarray, b: float, s_max: float) -> None:
     """:func:`trailer_env.actuator.clamp_row_to_rail` for ``rows``."""
     for i in rows:

@@ -39,7 +39,6 @@ from typing import Any
 import numpy as np
 
 from dynamics.jit import cached_njit
-from trailer_env import substeps
 from trailer_env.substeps import AUTO_LENGTH, AUTO_SPEED_RATE, cart_rate
 
 #: The physical parameters that may be randomised, in the packed order of
@@ -192,7 +191,7 @@ def checked_observe_params(value: object) -> bool:
     return bool(value)
 
 
-@cached_njit(depends_on=(substeps,))
+@cached_njit()
 def draw_factors(
     generators: Any, picks: np.ndarray, rows: np.ndarray, columns: np.ndarray, low: np.ndarray,
     high: np.ndarray, factors: np.ndarray,
@@ -207,7 +206,7 @@ def draw_factors(
             factors[i, c] = rng.uniform(low[c], high[c])
 
 
-@cached_njit(depends_on=(substeps,))
+@cached_njit()
 def apply_factors(
     rows: np.ndarray, factors: np.ndarray, nominal: np.ndarray, pv: np.ndarray,
     nominal_auto: np.ndarray, auto: np.ndarray, b: float, s_max: float, planar: bool,
@@ -225,7 +224,7 @@ def apply_factors(
         z[i, 0] = z[i, 0] * factors[i, count]
 
 
-@cached_njit(depends_on=(substeps,))
+@cached_njit()
 def _row_auto(
     i: int, pv: np.ndarray, nominal_auto: np.ndarray, auto: np.ndarray, b: float,
     s_max: float, planar: bool,
@@ -239,7 +238,7 @@ def _row_auto(
     auto[i, AUTO_LENGTH] = length
 
 
-@cached_njit(depends_on=(substeps,))
+@cached_njit()
 def apply_params(
     rows: np.ndarray, values: np.ndarray, pv: np.ndarray, nominal_auto: np.ndarray,
     auto: np.ndarray, b: float, s_max: float, planar: bool,

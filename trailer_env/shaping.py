@@ -7,16 +7,12 @@ their compiled step (Coast) call it there, and :meth:`ShapedCore._reward` calls 
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
-from numba import njit
 
-#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
-SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
+from dynamics.jit import cached_njit
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def shaped_reward(
     potential: float,
     previous: float,
@@ -29,7 +25,7 @@ def shaped_reward(
     """``potential - previous - time_penalty - band_penalty * cost + success_bonus * success
     - fold_penalty * jackknifed - failure_penalty * failed``.
 
-    ``penalties`` is :meth:`trailer_env.core.ShapedCore.shaping_constants`: (time_penalty,
+    ``penalties`` is :attr:`trailer_env.core.ShapedCore.shaping_penalties`: (time_penalty,
     band_penalty, success_bonus, fold_penalty, failure_penalty).
     """
     return (
@@ -43,7 +39,7 @@ def shaped_reward(
     )
 
 
-@njit(cache=True)
+@cached_njit()
 def shaped_rewards(
     potential: np.ndarray,
     previous: np.ndarray,

@@ -59,15 +59,11 @@ speed and the budget before anything is integrated, instead of running for minut
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
-from numba import njit
 
 from dynamics import ConvoyParams
-
-#: (mtime, size) of this file when it was imported (see dynamics.jit.cached_njit).
-SOURCE_STAMP = (os.stat(__file__).st_mtime, os.stat(__file__).st_size)
+from dynamics.jit import cached_njit
 
 #: RK4's usable stability limit of ``dt r`` by number of trailers (linear interpolation
 #: between entries, the last value beyond): the smaller of the default convoy's and a
@@ -160,12 +156,12 @@ def cart_rate_coefficient(params: ConvoyParams, planar: bool) -> float:
     return max(coefficient(xi) for xi in candidates)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def _rate_at(moment: float, inertia: float, mu: float, xi: float) -> float:
     return abs(moment + mu * xi) / (inertia + mu * xi * xi)
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def cart_rate(
     M: float, J0: float, a: float, mu: float, b: float, s_max: float, planar: bool
 ) -> float:
@@ -223,7 +219,7 @@ def auto_settings(
     return settings
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def auto_substeps_row(z: np.ndarray, act: np.ndarray, settings: np.ndarray, i: int) -> tuple:
     """The auto rule of the module docstring for row ``i``: (substeps, within tolerance).
 
@@ -250,7 +246,7 @@ def auto_substeps_row(z: np.ndarray, act: np.ndarray, settings: np.ndarray, i: i
     return int(chosen), chosen >= wanted
 
 
-@njit(cache=True, nogil=True)
+@cached_njit(nogil=True)
 def grew_absurdly_row(z: np.ndarray, start: np.ndarray, settings: np.ndarray, i: int) -> bool:
     """Whether row ``i``'s speed scale grew more than :data:`GROWTH_LIMIT`-fold from
     ``start[i]`` (the step's start) to ``z[i]``, over the mass's speed scale."""
@@ -260,7 +256,7 @@ def grew_absurdly_row(z: np.ndarray, start: np.ndarray, settings: np.ndarray, i:
     return after > GROWTH_LIMIT * before
 
 
-@njit(cache=True)
+@cached_njit()
 def auto_substeps(z: np.ndarray, act: np.ndarray, settings: np.ndarray, out: np.ndarray) -> None:
     """The auto rule of the module docstring for every row: substep counts into ``out``.
 

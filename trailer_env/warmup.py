@@ -1,7 +1,7 @@
 """Compiling the kernels ahead of the first run (numba's disk cache).
 
 The compiled kernels are cached on disk beside their modules the first time they run
-(numba's ``cache=True``), which makes the very first step of a fresh install take many
+(:func:`dynamics.jit.cached_njit`), which makes the very first step of a fresh install take many
 seconds. :func:`compile_kernels` runs every scene's step once for each variant the
 commands use (without and with the plane pose; the serial and the parallel batch
 kernel) so that the set-up command pays for it once; ``python -m trailer_env

@@ -98,7 +98,7 @@ def build_parser() -> argparse.ArgumentParser:
         choices=("sb3", "rllib"),
         default="sb3",
         help="sb3: stable-baselines3 on this machine (default); rllib: Ray RLlib PPO, "
-        "local Ray or a cluster (--address), see agents.rllib_backend",
+        "local Ray or a cluster (--address), see agents.training.rllib",
     )
     cli.add_env(parser)
     parser.add_argument(

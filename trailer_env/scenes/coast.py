@@ -7,7 +7,6 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from dynamics.jit import cached_njit
-from trailer_env import actuator, kernels, shaping, substeps
 from trailer_env.core import ShapedCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.kernels import StepOutputs, step_serial
@@ -28,7 +27,7 @@ ANGLE_WEIGHT = 10.0
 OMEGA_WEIGHT = 1.0
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def coast_potential(z: np.ndarray, hitch_trig: np.ndarray, i: int, n: int) -> float:
     """Potential of row ``i``: -10 mean_k (1 - cos alpha_k) - min(|omega|, 1).
 
@@ -44,14 +43,14 @@ def coast_potential(z: np.ndarray, hitch_trig: np.ndarray, i: int, n: int) -> fl
     return -ANGLE_WEIGHT * (total / n) - omega_term
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def coast_potentials(z: np.ndarray, hitch_trig: np.ndarray, n: int, out: np.ndarray) -> None:
     """:func:`coast_potential` of every row into ``out``."""
     for i in range(z.shape[0]):
         out[i] = coast_potential(z, hitch_trig, i, n)
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def coast_is_straight(z: np.ndarray, i: int, n: int) -> bool:
     """Every |alpha_k| below SUCCESS_ANGLE and |omega| below SUCCESS_OMEGA."""
     if not abs(z[i, 1]) < SUCCESS_OMEGA:
@@ -62,7 +61,7 @@ def coast_is_straight(z: np.ndarray, i: int, n: int) -> bool:
     return True
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def coast_straight_rows(z: np.ndarray, n: int, out: np.ndarray) -> None:
     """:func:`coast_is_straight` of every row into ``out``."""
     for i in range(z.shape[0]):
@@ -83,7 +82,7 @@ class CoastScene(NamedTuple):
     penalties: np.ndarray
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels, shaping))
+@cached_njit()
 def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
     """ShapedCore's reward (:func:`trailer_env.shaping.shaped_reward`), termination and
     success of ``rows`` after a step.
@@ -110,7 +109,7 @@ def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
         task.previous[i] = potential
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels, shaping))
+@cached_njit()
 def coast_step(
     action: np.ndarray,
     rows: np.ndarray,
@@ -129,7 +128,7 @@ def coast_step(
     return result
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def coast_starts(
     generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
 ) -> None:

@@ -7,7 +7,6 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 
 from dynamics.jit import cached_njit
-from trailer_env import actuator, kernels, substeps
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.kernels import StepOutputs, step_serial
@@ -19,13 +18,13 @@ OMEGA_NOISE = 0.05
 TURN_WEIGHT = 0.1
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def reverse_failed(z: np.ndarray, jackknifed: np.ndarray, i: int, min_reverse_speed: float) -> bool:
     """Row ``i`` failed: jackknifed, or stopped reversing (``u >= -min_reverse_speed``)."""
     return jackknifed[i] or z[i, 0] >= -min_reverse_speed
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def reverse_failed_rows(
     z: np.ndarray, jackknifed: np.ndarray, rows: np.ndarray, min_reverse_speed: float,
     out: np.ndarray,
@@ -35,7 +34,7 @@ def reverse_failed_rows(
         out[j] = reverse_failed(z, jackknifed, rows[j], min_reverse_speed)
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def reverse_rows(
     z: np.ndarray,
     hitch_trig: np.ndarray,
@@ -85,7 +84,7 @@ class ReverseScene(NamedTuple):
     success: np.ndarray
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
     """Reward, termination and success of ``rows`` after a step (:func:`reverse_rows`).
 
@@ -100,7 +99,7 @@ def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
                  task.terminated, task.success)  # fmt: skip
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def reverse_step(
     action: np.ndarray,
     rows: np.ndarray,
@@ -126,7 +125,7 @@ class ReverseStart(NamedTuple):
     span: np.ndarray
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def reverse_starts(
     generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
 ) -> None:

@@ -7,7 +7,6 @@ from typing import Any, ClassVar, NamedTuple
 import numpy as np
 
 from dynamics.jit import cached_njit
-from trailer_env import actuator, kernels, substeps
 from trailer_env.scenes.reverse import ReverseCore, ReverseEnv
 
 #: Starting reversing speed range, m/s (the stroke needed is smallest near 1-1.2 m/s).
@@ -15,7 +14,7 @@ SPEED_RANGE = (0.9, 1.2)
 #: Size of the starting perturbation (omega in rad/s, alpha_k in rad): the vector
 #: (omega, alpha_1..alpha_n) is drawn uniformly on the sphere of radius
 #: PERTURBATION_RADII[n], sized per n on tuning seeds 2000-2199 so that the hardest start
-#: needs about 80 % of the rail's stroke (agents.screen). Beyond the sized counts the
+#: needs about 80 % of the rail's stroke (agents.oracles.screen). Beyond the sized counts the
 #: radius continues as n**-PERTURBATION_EXPONENT from the last one (not certified).
 PERTURBATION_RADII = {1: 0.064, 2: 0.0365, 3: 0.0229}
 PERTURBATION_EXPONENT = 1.1
@@ -32,7 +31,7 @@ class ReverseV1Start(NamedTuple):
     n: int
 
 
-@cached_njit(depends_on=(actuator, substeps, kernels))
+@cached_njit()
 def reverse_v1_starts(
     generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
 ) -> None:
@@ -92,13 +91,13 @@ class ReverseV1Env(ReverseEnv):
     `ReverseEnv`); v1 changes the start distribution and adds a minimum reversing
     speed, so that the task has a known ceiling: every test start is recoverable by
     some controller with margin on the rail's stroke, and a planner that knows the
-    model (`agents.planner`, baseline `mpc`) certifies it (`python -m agents.certify`).
+    model (`agents.oracles.planner`, baseline `mpc`) certifies it (`python -m agents.certify`).
     Reverse-v0 stays registered unchanged; a part of its starts cannot be recovered at
     all, which caps its score (the measured shares: docs/physics.md section 14).
 
     ## What sets the basin
 
-    Linearised about the straight reversing convoy (`agents.screen`), the mass acts
+    Linearised about the straight reversing convoy (`agents.oracles.screen`), the mass acts
     only through its acceleration: `omega_dot = ... - k s_ddot` with
     `k = mu b / (I0 + mu b^2)`, and not through its position: a full stroke `2 s_max`
     turns the cart by `2 k s_max` while the mass moves. The convoy has n + 1 unstable
