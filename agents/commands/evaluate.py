@@ -53,7 +53,7 @@ from agents.evaluation.results import (
     evaluate_policies,
     results_document,
 )
-from agents.evaluation.tables import markdown_table
+from agents.evaluation.tables import markdown_table, table_legend
 from agents.policies.baselines import BASELINES
 from agents.policies.registry import is_model_spec, model_card
 from agents.policies.sb3 import limit_torch_threads
@@ -215,9 +215,10 @@ def main(argv: list[str] | None = None) -> int:
     files.atomic_write_text(
         args.out / "results.md",
         f"{env_id}, n = {args.n_trailers}: {plural(args.episodes, 'episode')}, seeds "
-        f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}",
+        f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}\n{table_legend()}\n",
     )
-    print(table, end="")
+    print(table)
+    print(table_legend())
     elapsed = time.perf_counter() - started
     print(f"evaluated {plural(len(specs), 'policy', 'policies')} in {elapsed:.1f} s")
     if not args.no_plots:

@@ -45,7 +45,7 @@ from agents.evaluation.results import (
     evaluate_policies,
     results_document,
 )
-from agents.evaluation.tables import markdown_table
+from agents.evaluation.tables import markdown_table, table_legend
 from agents.oracles.certify import ceiling_note
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import duration, plural
@@ -204,9 +204,10 @@ def main(argv: list[str] | None = None) -> int:
         f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "
         "(margin < 0.3), never folded, never slowed to 0.3 m/s\n"
     )
-    files.atomic_write_text(args.out / "results.md", f"{table}\n{ceiling}\n")
+    files.atomic_write_text(args.out / "results.md", f"{table}\n{ceiling}\n\n{table_legend()}\n")
     print(table)
     print(ceiling + "\n")
+    print(table_legend() + "\n")
     for path in write_pictures(evaluations, ENV_ID, env_kwargs, args.out, TEST_SEED):
         print(f"wrote {path}")
     print(f"main job done in {duration(time.perf_counter() - started)}; results in {args.out}")

@@ -35,20 +35,25 @@ from typing import Any
 from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
-from agents.envs import scene_baselines, scene_title
+from agents.envs import scene_baselines
 from agents.evaluation import leaderboard, plots
 from agents.evaluation.pictures import write_pictures
-from agents.evaluation.report import HEADLINE, SCENARIOS, authority_table, curve_panel
+from agents.evaluation.report import (
+    HEADLINE,
+    SCENARIOS,
+    authority_table,
+    curve_panel,
+    report_order,
+    scenario_section,
+    tables_document,
+)
 from agents.evaluation.results import (
-    curve_metric,
     default_baselines,
     evaluate_policies,
     results_document,
 )
-from agents.evaluation.tables import markdown_table
-from agents.oracles.certify import ceiling_note
 from agents.policies.sb3 import limit_torch_threads
-from agents.progress import Progress, duration, plural
+from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
 
 #: The pictures the report writes (under ``<out>/img`` or ``<docs>/img``).
@@ -126,8 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     img.mkdir(parents=True, exist_ok=True)
     sections, documents, panels = [], [], []
     with Progress(len(SCENARIOS) + 1, "report") as bar:
-        # The headline scene first (the stable sort keeps the scene table's order after it).
-        for env_id, n in sorted(SCENARIOS, key=lambda scenario: scenario[0] != HEADLINE[0]):
+        for env_id, n in report_order(SCENARIOS):
             env_kwargs = {"n_trailers": n}
             oracles = [] if args.no_planner else list(scene_baselines(env_id, oracles=True))
             oracles = [name for name in oracles if name not in default_baselines(env_id)]
@@ -136,16 +140,7 @@ def main(argv: list[str] | None = None) -> int:
             evaluations = evaluate_policies(
                 specs, env_id, env_kwargs, args.episodes, TEST_SEED, progress=False
             )
-            # The heading names the scenario only: the table of contents lists it.
-            episodes = (
-                f"`{env_id}`, {plural(args.episodes, 'episode')}, seeds "
-                f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}"
-            )
-            ceiling = ceiling_note(env_id, n, args.episodes, TEST_SEED)
-            table = markdown_table(evaluations, curve_metric(env_id))
-            sections.append(
-                f"#### {scene_title(env_id)}, n = {n}\n\n{episodes}\n\n{table}\n{ceiling}\n"
-            )
+            sections.append(scenario_section(env_id, n, evaluations, args.episodes))
             documents.append(
                 results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
             )
@@ -171,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wrote {grid}")
     for path in write_leaderboards(documents, img):
         print(f"wrote {path}")
-    tables = "\n".join(sections)
+    tables = tables_document(sections)
     files.atomic_write_text(args.out / "tables.md", tables)
     files.write_json(args.out / "results.json", documents)
     print(f"wrote {args.out / 'tables.md'} and results.json")

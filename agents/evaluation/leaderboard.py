@@ -25,6 +25,11 @@ KIND_COLOURS = {"learned": "#d95f02", "oracle": "#7570b3", "lqr": "#1f78b4", "ot
 #: Where the rates are written (the x axis is in %).
 RATE_COLUMN = 106.0
 
+#: The leaderboard's text size in points at :data:`agents.evaluation.plots.PAGE_DPI` (the
+#: rates beside the dots and the axis one point less, the small picture's one point less
+#: again): the picture is as wide as the site's column, so the page shows it at 100 %.
+LEADERBOARD_FONT_PT = 10
+
 #: Oracles: they read the exact state (not comparable to a policy, shown for the ceiling).
 ORACLES = frozenset({"mpc", "mpc-replay", "ilqr"})
 
@@ -100,7 +105,7 @@ def ordered(panels: Sequence[Panel], headline_env: str) -> list[Panel]:
 def _draw_panel(axis: Any, panel: Panel, *, small: bool = False) -> None:
     names = [standing.name for standing in panel.standings]
     rows = range(len(names))
-    font = 8 if small else 9
+    font = LEADERBOARD_FONT_PT - (1 if small else 0)
     if panel.ceiling is not None:
         axis.axvline(100 * panel.ceiling, color="#1b9e77", lw=2, ls="--")
         axis.text(
@@ -132,19 +137,23 @@ def _draw_panel(axis: Any, panel: Panel, *, small: bool = False) -> None:
     axis.tick_params(axis="x", labelsize=font - 1)
     axis.grid(axis="x", alpha=0.3)
     what = "safe" if panel.metric == "safe_rate" else "successful"
-    axis.set_title(f"{panel.title}: {what} episodes (%)", fontsize=font + 1, loc="left")
+    axis.set_title(f"{panel.title}: {what} %", fontsize=font + 1)
 
 
 def plot_leaderboard(
-    panels: Sequence[Panel], out: Path, *, columns: int = 3, title: str = "", small: bool = False
+    panels: Sequence[Panel], out: Path, *, columns: int = 2, title: str = "", small: bool = False
 ) -> Path:
     """Draw ``panels`` (in their order) in a grid of ``columns``; write ``out`` atomically.
+
+    The picture is :data:`agents.evaluation.plots.PAGE_WIDTH_PX` wide whatever
+    ``columns`` (the site shows it at 100 %: no text under 8 pt, 11 px); more columns
+    make narrower panels.
 
     Raises:
         ValueError: If there are no panels or ``columns`` < 1.
     """
     from agents.artifacts import files
-    from agents.evaluation.plots import _pyplot
+    from agents.evaluation.plots import PAGE_DPI, PAGE_WIDTH_PX, _pyplot
 
     if not panels:
         raise ValueError("no panels to draw")
@@ -154,10 +163,9 @@ def plot_leaderboard(
     columns = min(columns, len(panels))
     count = -(-len(panels) // columns)
     tallest = max(len(panel.standings) for panel in panels)
-    width = 4.2 if small else 4.8
-    height = 0.6 + 0.28 * tallest
-    fig, axes = plt.subplots(count, columns, figsize=(width * columns, height * count),
-                             squeeze=False)  # fmt: skip
+    height = 0.7 + 0.3 * tallest
+    fig, axes = plt.subplots(count, columns, figsize=(PAGE_WIDTH_PX / PAGE_DPI, height * count),
+                             squeeze=False, layout="constrained")  # fmt: skip
     for index, axis in enumerate(axes.flat):
         if index < len(panels):
             _draw_panel(axis, panels[index], small=small)
@@ -180,11 +188,11 @@ def plot_leaderboard(
             label="baseline, 95% interval",
         ),
     ]
-    fig.legend(handles=handles, loc="lower center", ncol=len(handles), frameon=False,
-               fontsize=8 if small else 9)  # fmt: skip
+    font = LEADERBOARD_FONT_PT - (1 if small else 0)
+    # Five entries do not fit one line of the column at this size: three, then two.
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, frameon=False, fontsize=font)
     if title:
-        fig.suptitle(title, fontsize=11 if small else 12)
-    fig.tight_layout(rect=(0, 0.05 if count > 1 else 0.09, 1, 1))
+        fig.suptitle(title, fontsize=font + 2)
     out.parent.mkdir(parents=True, exist_ok=True)
     with files.replacing(out) as temporary:
         fig.savefig(temporary, dpi=100)

@@ -66,7 +66,7 @@ def write_pictures(
         rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
     if rows:
         frames_title = (
-            f"{env_id}, n = {n}, episode seed {seed}; green: outside the singular band, red: in it"
+            f"{env_id}, n = {n}, episode seed {seed}\ngreen: outside the singular band, red: in it"
         )
         written.append(plots.plot_frames(rows, out / f"{prefix}frames.png", frames_title))
     curves = {e.label: curve for e in evaluations if (curve := learning_curve(e)) is not None}

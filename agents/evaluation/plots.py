@@ -206,38 +206,59 @@ def frame_crop(frames: Sequence[np.ndarray], pad: int = 12) -> tuple[slice, slic
     )
 
 
+#: The widest picture the site shows at 100 %: its content column at a 1280 px window
+#: (938 px on the results page, less a margin). A wider one is scaled down to fit, and its
+#: text with it (the frames picture was 1500 px: its 10 pt captions showed at 6 pt).
+PAGE_WIDTH_PX = 930
+#: Resolution of the site's pictures: 1 pt of text is 100 / 72 px, so 10 pt is 14 px.
+PAGE_DPI = 100
+#: The smallest text of :func:`plot_frames`, in points at :data:`PAGE_DPI`.
+FRAME_FONT_PT = 10
+
+
 def plot_frames(
     rows: Mapping[str, tuple[list[np.ndarray], list[str]]], out: Path, title: str = ""
 ) -> Path:
     """A grid of rendered frames: one row per policy (label -> frames, captions), each
-    frame cropped to the box of :func:`frame_crop` over all of them, the text at 100 %
-    readable (10 pt at 100 dpi)."""
+    frame cropped to the box of :func:`frame_crop` over all of them.
+
+    The picture is :data:`PAGE_WIDTH_PX` wide at :data:`PAGE_DPI`, so that the site shows
+    it at 100 % and no text is smaller than :data:`FRAME_FONT_PT` (14 px) on the page: the
+    policy's name stands above its row rather than beside it, leaving the width to the
+    frames. A newline in ``title`` breaks it.
+
+    Raises:
+        ValueError: If ``rows`` is empty.
+    """
+    if not rows:
+        raise ValueError("no rows of frames to draw")
     plt = _pyplot()
     columns = max(len(frames) for frames, _ in rows.values())
     box_rows, box_columns = frame_crop([frame for frames, _ in rows.values() for frame in frames])
     aspect = (box_rows.stop - box_rows.start) / (box_columns.stop - box_columns.start)
-    width = 2.3
-    fig, axes = plt.subplots(
-        len(rows), columns, figsize=(width * columns + 1.2, (width * aspect + 0.75) * len(rows)),
-        squeeze=False,
-    )  # fmt: skip
-    for row, (label, (frames, captions)) in enumerate(rows.items()):
-        for column in range(columns):
-            axis = axes[row][column]
+    width = PAGE_WIDTH_PX / PAGE_DPI
+    # A frame's height plus two caption lines and the row's name (inches).
+    row_height = 0.93 * width / columns * aspect + 0.8
+    title_height = 0.3 * (title.count("\n") + 1) if title else 0.0
+    fig = plt.figure(figsize=(width, row_height * len(rows) + title_height), layout="constrained")
+    for subfigure, (label, (frames, captions)) in zip(
+        fig.subfigures(len(rows), 1, squeeze=False)[:, 0], rows.items(), strict=True
+    ):
+        subfigure.suptitle(label, x=0.01, ha="left", fontsize=FRAME_FONT_PT + 1, fontweight="bold")
+        for column, axis in enumerate(subfigure.subplots(1, columns, squeeze=False)[0]):
             axis.set_xticks([])
             axis.set_yticks([])
+            axis.set_anchor("N")  # under its name; spare height goes below the captions
             if column < len(frames):
                 axis.imshow(frames[column][box_rows, box_columns])
-                axis.set_title(captions[column], fontsize=10)
+                axis.set_xlabel(captions[column], fontsize=FRAME_FONT_PT, labelpad=2)
             else:
                 axis.axis("off")
-        axes[row][0].set_ylabel(label, fontsize=11, rotation=0, ha="right", va="center")
     if title:
-        fig.suptitle(title, fontsize=12)
-    fig.tight_layout()
+        fig.suptitle(title, fontsize=FRAME_FONT_PT + 2)
     out.parent.mkdir(parents=True, exist_ok=True)
     with files.replacing(out) as temporary:
-        fig.savefig(temporary, dpi=100)
+        fig.savefig(temporary, dpi=PAGE_DPI)
     plt.close(fig)
     return out
 

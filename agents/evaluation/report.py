@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from agents.artifacts.cards import read_card
@@ -13,6 +14,9 @@ from agents.evaluation.results import (
     curve_metric,
     evaluate_policies,
 )
+from agents.evaluation.tables import markdown_table, table_legend
+from agents.oracles.certify import ceiling_note
+from agents.progress import plural
 from agents.seeds import TEST_SEED
 
 
@@ -32,8 +36,35 @@ def committed_scenarios(directory: Path = MODELS_DIR) -> tuple[tuple[str, int], 
 SCENARIOS: tuple[tuple[str, int], ...] = committed_scenarios()
 
 
-#: The scenario whose margins and frames are drawn.
+#: The scenario whose margins and frames are drawn, and whose table comes first.
 HEADLINE = ("trailer_env/Reverse-v1", 2)
+
+
+def report_order(scenarios: Sequence[tuple[str, int]]) -> list[tuple[str, int]]:
+    """``scenarios`` in the order of the results page: the headline scenario, the rest
+    of its scene, then the other scenes in the given order."""
+    return sorted(
+        scenarios, key=lambda scenario: (scenario[0] != HEADLINE[0], scenario != HEADLINE)
+    )
+
+
+def scenario_section(
+    env_id: str, n: int, evaluations: Sequence[Evaluation], episodes: int, seed: int = TEST_SEED
+) -> str:
+    """One scenario's part of the results tables: a heading that names the scenario only
+    (the page's table of contents lists the headings, so the episodes, the same in every
+    section, are a line under it), the table (:func:`markdown_table`, with its training
+    line) and the ceiling line (:func:`agents.oracles.certify.ceiling_note`)."""
+    where = f"`{env_id}`, {plural(episodes, 'episode')}, seeds {seed}..{seed + episodes - 1}"
+    table = markdown_table(evaluations, curve_metric(env_id))
+    ceiling = ceiling_note(env_id, n, episodes, seed)
+    return f"#### {scene_title(env_id)}, n = {n}\n\n{where}\n\n{table}\n{ceiling}\n"
+
+
+def tables_document(sections: Sequence[str]) -> str:
+    """The results tables' Markdown: what the columns mean (:func:`table_legend`, once),
+    then the sections."""
+    return "\n".join([f"{table_legend()}\n", *sections])
 
 
 #: Actuator settings of the authority sweep (ConvoyParams / EnvSettings overrides).

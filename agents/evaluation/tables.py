@@ -1,4 +1,10 @@
-"""The Markdown comparison table and its notes (training, oracle, spread over seeds)."""
+"""The Markdown comparison table and its notes (training, oracle, spread over seeds).
+
+The table is sized for the site's content column (938 px on the results page at 1280
+px): short headers, :func:`table_legend` saying once what they mean, and a short
+training label in the cell (:func:`training_label`), the whole description in a
+footnote line under the table (:func:`training_footnote`).
+"""
 
 from __future__ import annotations
 
@@ -7,32 +13,35 @@ from typing import Any
 
 from agents.evaluation.results import Evaluation
 
+#: No-break space: a return such as "394.8 ± 31.4" stays on one line of its cell.
+NBSP = "\u00a0"
+
 
 def oracle_note(label: str, episode_steps: int = 400) -> str:
-    """What the table says in the training column of a baseline ("-" unless an oracle)."""
+    """What the training footnote says of a baseline ("-" unless an oracle)."""
     if label == "mpc-replay":
-        return "oracle: the certified planner's committed records, replayed open-loop"
+        return "oracle (the certified planner's committed records, replayed open-loop)"
     if label == "ilqr":
-        return "oracle: exact model and state, deterministic iLQR (agents.oracles.ilqr)"
+        return "oracle (exact model and state), deterministic iLQR (agents.oracles.ilqr)"
     if label != "mpc":
         return "-"
     from agents.oracles.planner import PlannerConfig
 
     per_episode = PlannerConfig().steps_per_decision * episode_steps
-    return f"oracle: exact model and state, {per_episode / 1000:.0f}k simulated steps per episode"
+    return f"oracle (exact model and state), {per_episode / 1000:.0f}k simulated steps per episode"
+
+
+def _steps_text(steps: float) -> str:
+    return f"{steps / 1e6:.3g}M" if steps >= 100_000 else f"{steps / 1e3:.3g}k"
 
 
 def training_note(card: dict[str, Any], label: str = "") -> str:
-    """ "PPO, seed 0, 2.0M steps, 95 s" from a model card ("-" for baselines)."""
+    """ "PPO, seed 0, 2.0M steps, 95 s" from a model card (a baseline: :func:`oracle_note`)."""
     if not card:
         return oracle_note(label)
-
-    def steps_text(steps: float) -> str:
-        return f"{steps / 1e6:.3g}M" if steps >= 100_000 else f"{steps / 1e3:.3g}k"
-
     steps = card.get("timesteps", card.get("budget", 0))
     selected = card.get("selected_at_timesteps")
-    chosen = f" (kept {steps_text(selected)})" if selected not in (None, steps) else ""
+    chosen = f" (kept {_steps_text(selected)})" if selected not in (None, steps) else ""
     wall = card.get("wall_time_s")
     wall_text = f", {wall:.0f} s" if isinstance(wall, (int, float)) else ""
     algo = str(card.get("algo", "?")).upper()
@@ -41,48 +50,94 @@ def training_note(card: dict[str, Any], label: str = "") -> str:
         kept = f" (kept iteration {iteration})" if iteration is not None else ""
         return (
             f"{algo} policy by DAgger from mpc, seed {card.get('seed')}, "
-            f"{steps_text(steps)} labels{kept}{wall_text}"
+            f"{_steps_text(steps)} labels{kept}{wall_text}"
         )
-    return f"{algo}, seed {card.get('seed')}, {steps_text(steps)} steps{chosen}{wall_text}"
+    return f"{algo}, seed {card.get('seed')}, {_steps_text(steps)} steps{chosen}{wall_text}"
+
+
+def training_label(card: dict[str, Any], label: str = "") -> str:
+    """The table cell's short form of :func:`training_note`: "DAgger, 0.614M labels",
+    "PPO, 2M steps", "oracle" for an oracle baseline, "-" for the other baselines."""
+    if not card:
+        return "oracle" if oracle_note(label) != "-" else "-"
+    steps = _steps_text(card.get("timesteps", card.get("budget", 0)))
+    if card.get("recipe") == "dagger":
+        return f"DAgger, {steps} labels"
+    return f"{str(card.get('algo', '?')).upper()}, {steps} steps"
+
+
+def training_footnote(evaluations: Sequence[Evaluation]) -> str:
+    """The line under a table that spells out each training label: "training: **mpc**:
+    oracle (exact model and state), ...; **dagger_reverse_v1_n2**: PPO policy by DAgger
+    from mpc, seed 0, ...", or "" when no row has one (baselines only)."""
+    notes = [
+        f"**{evaluation.label}**: {note}"
+        for evaluation in evaluations
+        if (note := training_note(evaluation.card, evaluation.label)) != "-"
+    ]
+    return f"training: {'; '.join(notes)}" if notes else ""
 
 
 def seeds_note(evaluation: Evaluation, metric: str = "safe_rate") -> str:
-    """ "96 ± 2% (94-98, 3 seeds)": ``metric`` over the training seeds, or "-"."""
+    """ "96 ± 2 (94-98, 3 seeds)": ``metric`` in % over the training seeds, or "-"."""
     spread = evaluation.seed_spread(metric)
     if spread is None:
         return "-"
     mean, sd, low, high = (100 * value for value in spread)
     count = len(evaluation.seed_summaries or [])
-    return f"{mean:.0f} ± {sd:.0f}% ({low:.0f}-{high:.0f}, {count} seeds)"
+    return f"{mean:.0f} ± {sd:.0f} ({low:.0f}-{high:.0f}, {count} seeds)"
+
+
+def _metric_name(metric: str) -> str:
+    return metric.removesuffix("_rate")
+
+
+def table_header(metric: str = "safe_rate") -> str:
+    """The header row and rule of :func:`markdown_table` (ten columns)."""
+    return (
+        "| policy | training | return | safe % [95% CI] | fold % | band % "
+        f"| min margin | success % | stop % | {_metric_name(metric)} % over seeds |\n"
+        "|---|---|---|---|---|---|---|---|---|---|\n"
+    )
+
+
+def table_legend() -> str:
+    """What the columns of :func:`markdown_table` hold, in one paragraph (written once
+    per page of tables; the metrics are defined in docs/agents.md, Metrics)."""
+    return (
+        "Columns: **return** mean ± sd; **safe %** safe episodes with their 95 % Wilson "
+        "interval; **fold %** episodes ended by a jackknife; **band %** share of the steps "
+        "in the singular band; **min margin** the episode's smallest singular margin, "
+        "mean / worst over the episodes; **success %** the env's `is_success`; **stop %** "
+        "failures without a fold (Reverse: the convoy stopped reversing; Dock: a miss); "
+        "**% over seeds** the scene's headline rate (safe on Reverse, success elsewhere) of each "
+        "training seed's model on the same episodes, mean ± sd (min-max, seeds); "
+        "**training** is short for the line under the table."
+    )
 
 
 def markdown_table(evaluations: Sequence[Evaluation], metric: str = "safe_rate") -> str:
-    """The comparison table in Markdown (rates in %, margins in [0, 1]).
+    """The comparison table in Markdown (rates in %, margins in [0, 1]) followed, after
+    a blank line, by :func:`training_footnote` when there is one.
 
     The last column gives ``metric`` (the scene's headline rate) over a committed
-    model's training seeds.
-
-    "stopped reversing" counts the failures that are not folds: on Reverse-v0 the
-    episodes ended because the cart's speed reached u >= 0 (other scenes have none).
+    model's training seeds. "stop %" counts the failures that are not folds (on
+    Reverse the cart stopped reversing). :func:`table_legend` explains the headers.
     """
-    header = (
-        "| policy | training | return (mean ± sd) | safe episodes [95% CI] | jackknife "
-        "| time in band | min margin (mean / worst) | success | stopped reversing "
-        f"| {metric.removesuffix('_rate')} over training seeds |\n"
-        "|---|---|---|---|---|---|---|---|---|---|\n"
-    )
     lines = []
     for evaluation in evaluations:
         s = evaluation.summary
         stopped = s["failure_rate"] - s["jackknife_rate"]
         low, high = s["safe_rate_ci"]
         lines.append(
-            f"| {evaluation.label} | {training_note(evaluation.card, evaluation.label)} "
-            f"| {s['mean_return']:.1f} ± {s['std_return']:.1f} "
-            f"| {100 * s['safe_rate']:.0f}% [{100 * low:.0f}, {100 * high:.0f}] "
-            f"| {100 * s['jackknife_rate']:.0f}% | {100 * s['band_time_fraction']:.1f}% "
+            f"| {evaluation.label} | {training_label(evaluation.card, evaluation.label)} "
+            f"| {s['mean_return']:.1f}{NBSP}±{NBSP}{s['std_return']:.1f} "
+            f"| {100 * s['safe_rate']:.0f} [{100 * low:.0f}, {100 * high:.0f}] "
+            f"| {100 * s['jackknife_rate']:.0f} | {100 * s['band_time_fraction']:.1f} "
             f"| {s['min_margin_mean']:.2f} / {s['min_margin_worst']:.2f} "
-            f"| {100 * s['success_rate']:.0f}% | {100 * stopped:.0f}% "
+            f"| {100 * s['success_rate']:.0f} | {100 * stopped:.0f} "
             f"| {seeds_note(evaluation, metric)} |"
         )
-    return header + "\n".join(lines) + "\n"
+    footnote = training_footnote(evaluations)
+    table = table_header(metric) + "\n".join(lines) + "\n"
+    return table + (f"\n{footnote}\n" if footnote else "")

@@ -5,9 +5,13 @@ The site is built (``mkdocs build --strict``) into a temporary folder, served on
 ``chromium`` and ``chromium-driver``, driven by selenium). On every page: no console
 message of level SEVERE, every ``<img>`` loaded (``naturalWidth > 0``, the GIFs
 included), and every link to the same origin resolves: its page or file is served and,
-when it has an ``#anchor``, an element with that id exists on the target page; and no
-table overflows its content column at the browser's 1280 px (its right edge stays
-inside the column and it needs no horizontal scrolling).
+when it has an ``#anchor``, an element with that id exists on the target page.
+
+Tables (issue 32), the contract: at the browser's 1280 px no table on any page overflows
+its content column, its right edge stays inside the column and it needs no horizontal
+scrolling (a scroll wrapper does not excuse it); in a narrower window a table may be
+wider than the column, and then its wrapper scrolls with a scroll bar drawn (it takes
+height in the layout), so that no column is cut off unseen.
 
 ``scripts/test.sh`` installs mkdocs, selenium and Chromium, so in CI this runs; elsewhere
 it is skipped, naming what is missing.
@@ -258,11 +262,6 @@ def test_every_page_loads_without_errors_and_every_link_resolves(
         assert len(gifs) == 2, f"{page.url} shows the agent's and the zero action's GIFs: {gifs}"
 
 
-@pytest.mark.xfail(
-    reason="issue 32: the results tables (10 columns) are still about 48 px wider than the "
-    "column at 1280 px, and one table on the agents page; the check stays to show it",
-    strict=False,
-)
 def test_no_table_overflows_its_column(site: tuple[Path, str], browser: object) -> None:
     out, base = site
     overflowing = [
@@ -271,3 +270,30 @@ def test_no_table_overflows_its_column(site: tuple[Path, str], browser: object) 
         for table in visit(browser, url).overflowing_tables
     ]
     assert not overflowing, "\n".join(overflowing)
+
+
+_SCROLL_BARS = """
+return Array.from(document.querySelectorAll('.md-content__inner table')).map(table => {
+    const wrap = table.closest('.md-typeset__scrollwrap');
+    if (!wrap) return [false, 0, 0, ''];
+    return [true, wrap.scrollWidth - wrap.clientWidth, wrap.offsetHeight - wrap.clientHeight,
+            getComputedStyle(wrap).overflowX];
+});
+"""
+
+
+def test_in_a_narrow_window_a_wide_table_scrolls_with_a_drawn_scroll_bar(
+    site: tuple[Path, str], browser: object
+) -> None:
+    _, base = site
+    browser.set_window_size(480, 900)  # type: ignore[attr-defined]
+    try:
+        browser.get(f"{base}results/")  # type: ignore[attr-defined]
+        tables = browser.execute_script(_SCROLL_BARS)  # type: ignore[attr-defined]
+    finally:
+        browser.set_window_size(1280, 900)  # type: ignore[attr-defined]
+    assert all(wrapped for wrapped, *_ in tables), "every table is in Material's scroll wrapper"
+    wide = [(hidden, bar, overflow) for _, hidden, bar, overflow in tables if hidden > 1]
+    # The ten-column results tables cannot fit 480 px: they are the case in point.
+    assert len(wide) >= 11, tables
+    assert all(overflow == "auto" and bar >= 8 for _, bar, overflow in wide), wide

@@ -56,7 +56,7 @@ def test_seeds_note_reports_mean_sd_and_range() -> None:
     mean, sd, low, high = evaluation.seed_spread() or (0, 0, 0, 0)
     assert mean == pytest.approx(0.96) and sd == pytest.approx(np.std([0.94, 0.96, 0.98]))
     assert (low, high) == (0.94, 0.98)
-    assert seeds_note(evaluation) == "96 ± 2% (94-98, 3 seeds)"
+    assert seeds_note(evaluation) == "96 ± 2 (94-98, 3 seeds)"
     assert seeds_note(Evaluation("lqr", "lqr", {}, _results([True]))) == "-"
     assert training_note({}, "mpc").startswith("oracle")
     card = {"algo": "ppo", "recipe": "dagger", "seed": 1, "timesteps": 614_400,

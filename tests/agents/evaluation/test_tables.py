@@ -1,0 +1,128 @@
+"""The results tables as the site shows them: short headers and cells, the training
+spelled out under the table, the legend once, the headline scenario first."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from agents.evaluation.metrics import EpisodeResults
+from agents.evaluation.report import (
+    HEADLINE,
+    report_order,
+    scenario_section,
+    tables_document,
+)
+from agents.evaluation.results import Evaluation
+from agents.evaluation.tables import (
+    markdown_table,
+    table_header,
+    table_legend,
+    training_footnote,
+    training_label,
+)
+
+DAGGER_CARD = {"algo": "ppo", "recipe": "dagger", "seed": 1, "timesteps": 614_400,
+               "selected_at_iteration": 3, "wall_time_s": 500}  # fmt: skip
+PPO_CARD = {"algo": "ppo", "seed": 0, "timesteps": 2_000_000, "selected_at_timesteps": 1_500_000}
+
+
+def _results() -> EpisodeResults:
+    """Four episodes: two safe, one folded, one that entered the band (10 % of its steps)."""
+    return EpisodeResults(
+        seeds=np.arange(4),
+        returns=np.array([100.0, 200.0, 300.0, 400.0]),
+        lengths=np.array([400, 400, 120, 400]),
+        jackknifed=np.array([False, False, True, False]),
+        success=np.array([True, True, False, True]),
+        failed=np.array([False, False, True, False]),
+        band_steps=np.array([0, 0, 0, 40]),
+        min_margin=np.array([1.0, 1.0, 0.2, 0.25]),
+        actuator_work=np.zeros(4),
+        margins=np.ones(4),
+    )
+
+
+def _evaluations() -> list[Evaluation]:
+    spread = [(seed, {"safe_rate": rate}) for seed, rate in ((0, 0.4), (1, 0.5), (2, 0.6))]
+    return [
+        Evaluation("lqr", "lqr", {}, _results()),
+        Evaluation("mpc", "mpc", {}, _results()),
+        Evaluation("dagger_x", "dagger_x.zip", DAGGER_CARD, _results(), None, spread),
+    ]
+
+
+def test_training_labels_are_short_and_the_notes_go_under_the_table() -> None:
+    assert training_label(DAGGER_CARD) == "DAgger, 0.614M labels"
+    assert training_label(PPO_CARD) == "PPO, 2M steps"
+    assert training_label({"algo": "sac", "timesteps": 90_000}) == "SAC, 90k steps"
+    assert training_label({}, "mpc") == "oracle"
+    assert training_label({}, "mpc-replay") == "oracle"
+    assert training_label({}, "lqr") == "-"
+    assert training_footnote(_evaluations()) == (
+        "training: **mpc**: oracle (exact model and state), 768k simulated steps per "
+        "episode; **dagger_x**: PPO policy by DAgger from mpc, seed 1, 0.614M labels "
+        "(kept iteration 3), 500 s"
+    )
+    assert training_footnote(_evaluations()[:1]) == ""
+
+
+def test_markdown_table_rows_and_footnote() -> None:
+    evaluations = _evaluations()
+    table = markdown_table(evaluations)
+    lines = table.splitlines()
+    assert lines[0] == (
+        "| policy | training | return | safe % [95% CI] | fold % | band % | min margin "
+        "| success % | stop % | safe % over seeds |"
+    )
+    assert lines[1] == "|---|---|---|---|---|---|---|---|---|---|"
+    # Returns 100-400: mean 250, sd 111.8 (joined by no-break spaces); safe 2 of 4 (Wilson
+    # 15-85 %); one fold.
+    assert lines[2] == (
+        "| lqr | - | 250.0\u00a0±\u00a0111.8 | 50 [15, 85] | 25 | 2.5 | 0.61 / 0.20 | 75 | 0 | - |"
+    )
+    assert lines[3].startswith("| mpc | oracle | 250.0\u00a0±\u00a0111.8 |")
+    assert lines[4] == (
+        "| dagger_x | DAgger, 0.614M labels | 250.0\u00a0±\u00a0111.8 | 50 [15, 85] | 25 | 2.5 "
+        "| 0.61 / 0.20 | 75 | 0 | 50 ± 8 (40-60, 3 seeds) |"
+    )
+    assert lines[5] == ""
+    assert lines[6] == training_footnote(evaluations)
+    assert len(lines) == 7
+    # Ten cells in every row, as in the header.
+    assert all(line.count("|") == 11 for line in lines[:5])
+    # Baselines alone: no footnote line.
+    assert markdown_table(evaluations[:1]) == table_header() + lines[2] + "\n"
+    assert table_header("success_rate").splitlines()[0].endswith("| success % over seeds |")
+
+
+def test_section_heading_names_the_scenario_only_and_the_legend_comes_once() -> None:
+    section = scenario_section("trailer_env/Reverse-v1", 2, _evaluations(), 4)
+    lines = section.splitlines()
+    assert lines[0] == "#### Reverse-v1, n = 2"
+    assert lines[2] == "`trailer_env/Reverse-v1`, 4 episodes, seeds 1000..1003"
+    assert lines[4].startswith("| policy | training |")
+    assert lines[-1].startswith("ceiling: ")
+    headings = [line for line in section.splitlines() if line.startswith("#")]
+    assert headings == ["#### Reverse-v1, n = 2"]
+    document = tables_document([section, section.replace("n = 2", "n = 3")])
+    assert document.startswith(table_legend() + "\n\n#### Reverse-v1, n = 2\n")
+    assert document.count("Columns:") == 1
+    assert document.count("#### ") == 2
+
+
+def test_the_headline_scenario_comes_first() -> None:
+    scenarios = [
+        ("trailer_env/Reverse-v0", 1),
+        ("trailer_env/Reverse-v1", 1),
+        ("trailer_env/Reverse-v1", 2),
+        ("trailer_env/Coast-v0", 1),
+        ("trailer_env/Reverse-v1", 3),
+    ]
+    assert HEADLINE == ("trailer_env/Reverse-v1", 2)
+    assert report_order(scenarios) == [
+        ("trailer_env/Reverse-v1", 2),
+        ("trailer_env/Reverse-v1", 1),
+        ("trailer_env/Reverse-v1", 3),
+        ("trailer_env/Reverse-v0", 1),
+        ("trailer_env/Coast-v0", 1),
+    ]
