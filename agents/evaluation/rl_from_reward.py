@@ -19,6 +19,12 @@ training seeds are summarised as mean ± sd.
 Writes ``rl_from_reward.md`` (one table per (scene, n), one row per run and per
 group) and ``rl_from_reward.json`` (every figure), atomically; existing files are
 replaced only with ``--overwrite``.
+
+``--export agents/models/NAME.zip`` (all RUNs of one scene, n and algorithm) commits
+the runs as the project commits a learned agent: each run's kept model goes to
+``agents/models/seeds/NAME_s<seed>.zip`` and the one with the best headline rate on the
+selection episodes (200 from seed 60,000, which no table uses; ties to the lower seed)
+to ``NAME.zip``, its card recording the selection.
 """
 
 from __future__ import annotations
@@ -32,18 +38,20 @@ from pathlib import Path
 from typing import Any
 
 from agents.artifacts import files
-from agents.artifacts.cards import read_card
-from agents.artifacts.run_folder import BEST_MODEL, CONFIG_FILE, FINAL_MODEL
+from agents.artifacts.cards import read_card, write_card
+from agents.artifacts.run_folder import BEST_MODEL, CONFIG_FILE, FINAL_MODEL, export_model
+from agents.artifacts.shipped import SEEDS_DIR
 from agents.evaluation.learning_curves import final_plateau, group_runs, read_run
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.registry import load_policy
-from agents.seeds import TEST_SEED
+from agents.seeds import SELECTION_SEED, TEST_SEED
 
 TABLE = "rl_from_reward.md"
 DOCUMENT = "rl_from_reward.json"
 #: The plateau rule of the table (evaluations, band).
 PLATEAU_WINDOW, PLATEAU_EPS = 5, 0.05
 TEST_EPISODES = 100
+SELECTION_EPISODES = 200
 
 
 @dataclass(frozen=True)
@@ -103,6 +111,32 @@ def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
         final_test=_rate(final, env_id, n, TEST_SEED, TEST_EPISODES, metric),
         final_fresh=_rate(final, env_id, n, fresh_seed, fresh_episodes, metric),
     )
+
+
+def export_selected(scores: Sequence[RunScore], folders: Sequence[Path], destination: Path) -> int:
+    """Export every run's kept model as a seed sibling and the best on the selection
+    episodes as ``destination``; returns the chosen training seed (see the module)."""
+    env_id, n, metric = scores[0].env_id, scores[0].n_trailers, scores[0].metric
+    rates = {
+        score.seed: _rate(
+            folder / BEST_MODEL, env_id, n, SELECTION_SEED, SELECTION_EPISODES, metric
+        )
+        for score, folder in zip(scores, folders, strict=True)
+    }
+    chosen = max(sorted(rates), key=lambda seed: rates[seed])
+    selection = {
+        "chosen_seed": chosen,
+        f"{metric}_per_training_seed": {str(seed): rate for seed, rate in sorted(rates.items())},
+        "seeds": [SELECTION_SEED, SELECTION_SEED + SELECTION_EPISODES - 1],
+    }
+    seeds_dir = destination.parent / SEEDS_DIR.name
+    for score, folder in zip(scores, folders, strict=True):
+        export_model(folder, seeds_dir / f"{destination.stem}_s{score.seed}.zip", overwrite=True)
+    path = export_model(folders[[s.seed for s in scores].index(chosen)], destination, True)
+    card = read_card(path)
+    card["selection"] = selection
+    write_card(path, card)
+    return chosen
 
 
 def _pct(value: float) -> str:
@@ -187,6 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, default=Path("out") / "rl_from_reward")
     parser.add_argument("--fresh-seed", type=int, default=7000)
     parser.add_argument("--fresh-episodes", type=int, default=200)
+    parser.add_argument("--export", type=Path, default=None, metavar="PATH.zip")
     parser.add_argument("--overwrite", action="store_true")
     return parser
 
@@ -207,7 +242,16 @@ def main(argv: list[str] | None = None) -> int:
     targets = [args.out / TABLE, args.out / DOCUMENT]
     if not args.overwrite and any(path.exists() for path in targets):
         parser.error(f"{args.out} already holds a table: --overwrite replaces it")
-    group_runs([read_run(folder) for folder in folders])  # refuses unreadable runs first
+    groups = group_runs([read_run(folder) for folder in folders])  # refuses unreadable runs
+    if args.export is not None:
+        if len(groups) != 1:
+            parser.error(
+                f"--export takes the runs of one scene, n and algorithm, got {len(groups)}"
+            )
+        if args.export.suffix != ".zip":
+            parser.error("--export must name a .zip file")
+        if args.export.exists() and not args.overwrite:
+            parser.error(f"{args.export} exists; pass --overwrite to replace it")
     scores = []
     for index, folder in enumerate(folders, 1):
         print(f"[{index}/{len(folders)}] scoring {folder}", file=sys.stderr, flush=True)
@@ -221,6 +265,9 @@ def main(argv: list[str] | None = None) -> int:
     files.write_json(targets[1], document)
     files.atomic_write_text(targets[0], markdown(scores, args.fresh_seed, args.fresh_episodes))
     print(f"wrote {targets[0]} and {targets[1]}")
+    if args.export is not None:
+        chosen = export_selected(scores, folders, args.export)
+        print(f"exported seed {chosen} to {args.export} (siblings in agents/models/seeds/)")
     return 0
 
 
