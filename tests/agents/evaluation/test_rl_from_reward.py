@@ -55,3 +55,47 @@ def test_refusals_write_nothing(tmp_path: Path) -> None:
     with pytest.raises(SystemExit):
         main([str(tmp_path), "--fresh-episodes", "0"])
     assert not (tmp_path / "out").exists()
+
+
+TINY_PPO = """\
+trailer_env/Coast-v0:
+  n_envs: 8
+  policy: MlpPolicy
+  n_steps: 64
+  batch_size: 256
+  n_epochs: 1
+  policy_kwargs: "dict(net_arch=[8])"
+"""
+
+
+def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path) -> None:
+    import json
+
+    from agents.commands import train
+
+    (tmp_path / "hp").mkdir()
+    (tmp_path / "hp" / "ppo.yml").write_text(TINY_PPO)
+    for seed in (0, 1):
+        assert train.main([
+            "--env", "trailer_env/Coast-v0", "--algo", "ppo", "--n-trailers", "1",
+            "--hyperparams", str(tmp_path / "hp"), "--run-dir", str(tmp_path / f"runs/s{seed}"),
+            "--timesteps", "1024", "--eval-freq", "512", "--eval-episodes", "2",
+            "--seed", str(seed), "--no-progress", "--quiet",
+        ]) == 0  # fmt: skip
+    out, model = tmp_path / "table", tmp_path / "models" / "tiny.zip"
+    argv = [str(tmp_path / "runs"), "--out", str(out), "--fresh-episodes", "3"]
+    assert main([*argv, "--export", str(model)]) == 0
+    document = json.loads((out / "rl_from_reward.json").read_text())
+    assert [run["seed"] for run in document["runs"]] == [0, 1]
+    assert {run["budget"] for run in document["runs"]} == {1024}
+    assert "| **ppo mean ± sd (2 seeds)** |" in (out / "rl_from_reward.md").read_text()
+    card = json.loads(model.with_suffix(".json").read_text())
+    assert card["selection"]["chosen_seed"] in (0, 1)
+    assert card["seed"] == card["selection"]["chosen_seed"]
+    assert sorted(p.name for p in (tmp_path / "models" / "seeds").glob("*.zip")) == [
+        "tiny_s0.zip", "tiny_s1.zip"
+    ]  # fmt: skip
+    before = (out / "rl_from_reward.md").read_bytes()
+    with pytest.raises(SystemExit):  # an existing table without --overwrite
+        main(argv)
+    assert (out / "rl_from_reward.md").read_bytes() == before
