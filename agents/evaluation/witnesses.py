@@ -185,10 +185,12 @@ def add_witnesses(
     missing = [s["seed"] for s in starts if s["status"] == FEASIBLE and s["seed"] not in actions]
     if missing:
         raise ValueError(f"feasible starts without an action record: {missing[:8]}")
-    # Load every witness first: a bad spec is refused before any start is played.
+    # Load every witness first: a bad spec is refused before any start is played (and
+    # none is loaded when no start is left to try).
+    anything_open = any(start["status"] != FEASIBLE for start in starts)
     policies = [
         (spec, policy_label(spec), load_policy(spec, env_id, env_kwargs, trust_pickle=trust_pickle))
-        for spec in specs
+        for spec in (specs if anything_open else [])
     ]
     for start in starts:
         if start["status"] == FEASIBLE:
