@@ -110,6 +110,24 @@ def write_certificate(certificate: dict[str, Any], out: Path, overwrite: bool) -
     files.atomic_write_text(out / CERTIFICATE_JSON, json.dumps(document, indent=2) + "\n")
 
 
+def planner_name(certificate: dict[str, Any]) -> str:
+    """The planner that made a certificate: ``planner.name`` (``ilqr``), else ``mpc`` (the
+    sampling planner's certificates were written before planners had names)."""
+    planner = certificate.get("planner")
+    name = planner.get("name") if isinstance(planner, dict) else None
+    return name if isinstance(name, str) else "mpc"
+
+
+def start_source(certificate: dict[str, Any], start: dict[str, Any]) -> str | None:
+    """Who found a start's record: its ``source`` (a witness's label, or the planner's
+    name), the planner's name for a feasible start of a certificate written before
+    sources were kept, None for a start that is not feasible."""
+    if start.get("status") != FEASIBLE:
+        return None
+    source = start.get("source")
+    return source if isinstance(source, str) else planner_name(certificate)
+
+
 def check_certificate(document: Any, where: str) -> dict[str, Any]:
     """``document`` if it is a certificate (schema, finite numbers, known statuses).
 
@@ -150,12 +168,24 @@ def check_certificate(document: Any, where: str) -> dict[str, Any]:
             raise fail(f"starts[{index}].screen_stroke_fraction must be a finite number or null")
         if "planner_length" in start and not files.is_integer(start["planner_length"], 0):
             raise fail(f"starts[{index}].planner_length must be an integer >= 0")
+        source = start.get("source")
+        if source is not None and (not isinstance(source, str) or status != FEASIBLE):
+            raise fail(f"starts[{index}].source must be a string, and only on a feasible start")
     if document.get("episodes") != len(starts):
         raise fail(f"episodes must be the number of starts ({len(starts)})")
     for key, status in (("feasible", FEASIBLE), ("not_recoverable", NOT_RECOVERABLE),
                         ("open", OPEN)):  # fmt: skip
         if not files.is_integer(document.get(key), 0) or document[key] != counts[status]:
             raise fail(f"{key} must be the number of {status!r} starts ({counts[status]})")
+    sources = document.get("sources")
+    if sources is not None:
+        found: dict[str, int] = {}
+        for start in starts:
+            source = start_source(document, start)
+            if source is not None:
+                found[source] = found.get(source, 0) + 1
+        if sources != found:
+            raise fail(f"sources must count the feasible starts by source ({found})")
     ceiling: Any = document.get("ceiling")
     if not files.is_number(ceiling) or not math.isclose(
         float(ceiling), counts[FEASIBLE] / len(starts), abs_tol=1e-9
@@ -213,17 +243,55 @@ def markdown(certificate: dict[str, Any]) -> str:
         f"{certificate['planner']['restarts']} restarts; "
         f"screen: {_screen_text(certificate)}",
         *_closed_loop_lines(certificate),
+        *_witness_lines(certificate),
         "",
-        "| seed | status | screen stroke / s_max | planner steps |",
-        "|---|---|---|---|",
+        "| seed | status | source | screen stroke / s_max | planner steps |",
+        "|---|---|---|---|---|",
     ]
     for start in certificate["starts"]:
         fraction = start["screen_stroke_fraction"]
         stroke = "inf" if fraction is None else f"{fraction:.2f}"
+        source = start_source(certificate, start) or "-"
         lines.append(
-            f"| {start['seed']} | {start['status']} | {stroke} | {start['planner_length']} |"
+            f"| {start['seed']} | {start['status']} | {source} | {stroke} | "
+            f"{start['planner_length']} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def source_counts(certificate: dict[str, Any]) -> dict[str, int]:
+    """Feasible starts by source (:func:`start_source`), the planner's first, then by count."""
+    counts: dict[str, int] = {}
+    for start in certificate["starts"]:
+        source = start_source(certificate, start)
+        if source is not None:
+            counts[source] = counts.get(source, 0) + 1
+    planner = planner_name(certificate)
+    return dict(sorted(counts.items(), key=lambda item: (item[0] != planner, -item[1], item[0])))
+
+
+def sources_text(certificate: dict[str, Any]) -> str:
+    """ "ilqr 82, ppo_dock_n2 9": the feasible starts by source."""
+    return ", ".join(f"{source} {count}" for source, count in source_counts(certificate).items())
+
+
+def _witness_lines(certificate: dict[str, Any]) -> list[str]:
+    witnesses = certificate.get("witnesses")
+    if not isinstance(witnesses, dict):
+        return []
+    runs = ", ".join(f"{run['source']} {run['solved']}/{run['tried']}" for run in witnesses["runs"])
+    lines = [
+        f"feasible by source: {sources_text(certificate)}",
+        f"witnesses (solved/tried of the starts still open, in order): {runs}",
+    ]
+    closed = witnesses.get("closed_loop")
+    if isinstance(closed, dict):
+        lines.append(
+            f"witnesses closed loop on {closed['integrator']} (rtol = atol = "
+            f"{closed['tolerance']:g}): {closed['success']}/{closed['of']} witnessed starts "
+            "still reached success with the policy re-run"
+        )
+    return lines
 
 
 def _screen_text(certificate: dict[str, Any]) -> str:
@@ -280,6 +348,45 @@ def committed_actions(
     path = actions_path(env_id, n_trailers, directory)
     if not path.is_file():
         return None
+    return read_actions(path)
+
+
+def records_beside(path: Path) -> Path:
+    """Where the action records of the certificate file ``path`` live: ``actions.npz``
+    beside a ``certificate.json`` (what ``agents.certify`` writes), else
+    ``<stem>_actions.npz`` (a committed ``<scene>_n<n>.json``)."""
+    if path.name == CERTIFICATE_JSON:
+        return path.with_name(ACTIONS_ARCHIVE)
+    return path.with_name(path.stem + "_actions.npz")
+
+
+def planner_records(
+    env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR
+) -> dict[int, np.ndarray] | None:
+    """The committed records that the certificate's planner found (:func:`start_source` is
+    its name), without the witnesses' (:mod:`agents.evaluation.witnesses`); None when no
+    records are committed.
+
+    Raises:
+        ValueError: As :func:`committed_actions` and :func:`committed_certificate`.
+    """
+    records = committed_actions(env_id, n_trailers, directory)
+    certificate = committed_certificate(env_id, n_trailers, directory)
+    if records is None or certificate is None:
+        return None
+    planner = planner_name(certificate)
+    kept = {s["seed"] for s in certificate["starts"] if start_source(certificate, s) == planner}
+    return {seed: record for seed, record in records.items() if seed in kept}
+
+
+def read_actions(path: Path) -> dict[int, np.ndarray]:
+    """The action records of an archive that :func:`write_actions` wrote (seed -> (T, d)
+    float64 actions in [-1, 1]), read with ``allow_pickle=False``.
+
+    Raises:
+        ValueError: If the file is missing or holds anything but finite records in
+            [-1, 1] named ``seed_<int>``.
+    """
     records: dict[int, np.ndarray] = {}
     try:
         with np.load(path, allow_pickle=False) as archive:

@@ -15,6 +15,14 @@ argument              bound
 ``--closed-loop``     dopri5 (goal scenes only)
 ====================  ===================================================
 
+``--witnesses SPEC ...`` (default: the scene's baselines and every committed model of
+that env and n) are then tried on the starts the planner leaves open, and a record of
+theirs that replays to success makes the start feasible with that ``source``
+(:mod:`agents.evaluation.witnesses`); ``--no-witnesses`` keeps the planner's records
+only. ``--from-certificate PATH`` skips the planner and adds witnesses to an existing
+certificate (its records beside it). ``--warm-start [SPEC ...]`` (goal scenes) then plans
+the starts still open with iLQR from the states those policies reach.
+
 ``--out`` must be a writable folder; an existing one is written into only with
 ``--overwrite``, which replaces the certificate's own files (certificate.json,
 certificate.md, actions/seed_*.npy) and nothing else; a link among them is refused.
@@ -24,11 +32,26 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 from agents.artifacts import limits
-from agents.artifacts.certificates import markdown, write_certificate, write_problem
+from agents.artifacts.certificates import (
+    FEASIBLE,
+    markdown,
+    read_actions,
+    read_certificate,
+    records_beside,
+    write_certificate,
+    write_problem,
+)
 from agents.commands import options as cli
 from agents.envs import ENV_IDS, check_env_id, env_settings
+from agents.evaluation.witnesses import (
+    add_witnesses,
+    committed_witnesses,
+    default_witnesses,
+    warm_start,
+)
 from agents.oracles.certify import DEFAULT_RESTARTS, certify
 from agents.oracles.certify_goals import (
     CLOSED_LOOP_INTEGRATORS,
@@ -38,7 +61,10 @@ from agents.oracles.certify_goals import (
 )
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
+from agents.policies.registry import load_policy
 
+#: The defaults of --env, --n-trailers and --seeds.
+DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = "trailer_env/Reverse-v1", 2, "1000-1099"
 #: The planners ``--planner`` names: the sampling planner (survival) and iLQR (goals).
 PLANNERS = ("mpc", "ilqr")
 
@@ -101,12 +127,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=cli.program("agents.certify"), description="Certify a scene's ceiling over seeds."
     )
-    parser.add_argument("--env", default="trailer_env/Reverse-v1", choices=ENV_IDS,
+    parser.add_argument("--env", default=DEFAULT_ENV, choices=ENV_IDS,
                         metavar="ENV_ID", help=f"one of {', '.join(ENV_IDS)}")  # fmt: skip
-    cli.add_n_trailers(parser)
+    cli.add_n_trailers(parser, DEFAULT_N)
     parser.add_argument(
         "--seeds",
-        default="1000-1099",
+        default=DEFAULT_SEEDS,
         help=f"e.g. 1000-1099 (default) or 1,4,9; at most {limits.MAX_CERTIFY_SEEDS:,} seeds",
     )
     parser.add_argument("--out", type=Path, required=True, help="output folder")
@@ -140,22 +166,92 @@ def build_parser() -> argparse.ArgumentParser:
         f"{DEFAULT_RESTARTS}) or not at the goal (ilqr: longer horizon, more iterations, "
         f"default {DEFAULT_GOAL_RESTARTS}) again, up to this many times",
     )
+    witnesses = parser.add_argument_group(
+        "witnesses", "other sources of action records (agents.evaluation.witnesses)"
+    )
+    witnesses.add_argument(
+        "--witnesses", nargs="+", metavar="SPEC", default=None,
+        help="policies tried on the starts the planner leaves open (a baseline name, a "
+        "committed model's stem, a model path); default: the scene's baselines and every "
+        "committed model (agents/models, agents/models/seeds) of this env and n",
+    )  # fmt: skip
+    witnesses.add_argument("--no-witnesses", action="store_true",
+                           help="the planner's records only")  # fmt: skip
+    witnesses.add_argument(
+        "--from-certificate", type=Path, default=None, metavar="PATH",
+        help="add witnesses to this certificate (a certificate.json beside its actions.npz, "
+        "or a committed <scene>_n<n>.json beside <scene>_n<n>_actions.npz) instead of "
+        "running the planner; --env, --n-trailers and --seeds are the certificate's",
+    )  # fmt: skip
+    witnesses.add_argument(
+        "--warm-start", nargs="*", metavar="SPEC", default=None,
+        help="goal scenes: then plan the starts still open with iLQR from states these "
+        "policies reach (default when given bare: every committed model of this env and n)",
+    )  # fmt: skip
+    parser.set_defaults(env=None, n_trailers=None, seeds=None)
     return parser
+
+
+def load_certificate(path: Path) -> dict[str, Any]:
+    """A certificate file and its action records (``actions``), checked.
+
+    Raises:
+        ValueError: If either is missing or invalid, the env is unknown, or a feasible
+            start has no record.
+    """
+    certificate = read_certificate(path)
+    check_env_id(certificate["env_id"])
+    records_path = records_beside(path)
+    if not records_path.is_file():
+        raise ValueError(f"{path}: its action records {records_path} are missing")
+    records = read_actions(records_path)
+    missing = [start["seed"] for start in certificate["starts"]
+               if start["status"] == FEASIBLE and start["seed"] not in records]  # fmt: skip
+    if missing:
+        raise ValueError(f"{records_path} has no record of the feasible starts {missing[:8]}")
+    return {**certificate, "actions": records}
 
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    env_id = check_env_id(args.env)
+    base: dict[str, Any] | None = None
+    if args.from_certificate is not None:
+        if args.seeds is not None:
+            parser.error("argument --seeds: not with --from-certificate (its seeds are kept)")
+        try:
+            base = load_certificate(args.from_certificate)
+        except (OSError, ValueError) as error:
+            parser.error(f"argument --from-certificate: {error}")
+        for given, key, value in ((args.env, "--env", base["env_id"]),
+                                  (args.n_trailers, "--n-trailers",
+                                   base["env_kwargs"]["n_trailers"])):  # fmt: skip
+            if given is not None and given != value:
+                parser.error(f"argument {key}: {given} is not the certificate's {value}")
+        args.env, args.n_trailers = base["env_id"], base["env_kwargs"]["n_trailers"]
+    env_id = check_env_id(args.env or DEFAULT_ENV)
+    n_trailers = DEFAULT_N if args.n_trailers is None else args.n_trailers
     try:
-        env_settings({"n_trailers": args.n_trailers})
+        env_settings({"n_trailers": n_trailers})
     except (TypeError, ValueError) as error:
         parser.error(f"argument --n-trailers: {error}")
     try:
-        seeds = parse_seeds(args.seeds)
+        seeds = parse_seeds(args.seeds or DEFAULT_SEEDS)
     except ValueError as error:
         parser.error(f"argument --seeds: {error}")
+    if args.no_witnesses and (args.witnesses is not None or args.warm_start is not None):
+        parser.error("argument --no-witnesses: not with --witnesses or --warm-start")
+    if args.no_witnesses and base is not None:
+        parser.error("argument --no-witnesses: --from-certificate only adds witnesses")
+    if args.warm_start is not None and not is_goal_scene(env_id):
+        parser.error(f"argument --warm-start: goal scenes only (iLQR), not {env_id}")
+    specs = [] if args.no_witnesses else args.witnesses
+    if specs is None:
+        specs = default_witnesses(env_id, n_trailers)
+    warm = args.warm_start
+    if warm == []:
+        warm = [str(path) for path in committed_witnesses(env_id, n_trailers)]
     problem = planner_problem(env_id, args.planner)
     if problem is not None:
         parser.error(f"argument --planner: {problem}")
@@ -177,14 +273,25 @@ def main(argv: list[str] | None = None) -> int:
     problem = write_problem(args.out, args.overwrite)
     if problem is not None:
         parser.error(f"argument --out: {problem}")
-    if goal:
+    for spec in [*specs, *(warm or [])]:
+        try:
+            load_policy(spec, env_id, {"n_trailers": n_trailers})
+        except (OSError, ValueError) as error:
+            parser.error(f"argument --witnesses: {error}")
+    if base is not None:
+        certificate = base
+    elif goal:
         restarts = DEFAULT_GOAL_RESTARTS if args.restarts is None else args.restarts
         certificate = certify_goals(
-            env_id, args.n_trailers, seeds, ilqr_config, restarts, args.closed_loop
+            env_id, n_trailers, seeds, ilqr_config, restarts, args.closed_loop
         )
     else:
         restarts = DEFAULT_RESTARTS if args.restarts is None else args.restarts
-        certificate = certify(env_id, args.n_trailers, seeds, config, restarts=restarts)
+        certificate = certify(env_id, n_trailers, seeds, config, restarts=restarts)
+    if specs:
+        certificate = add_witnesses(certificate, specs)
+    if warm:
+        certificate = warm_start(certificate, warm, config=ilqr_config)
     write_certificate(certificate, args.out, args.overwrite)
     print(markdown(certificate).split("\n\n| seed")[0])
     print(f"wrote {args.out / 'certificate.json'}")

@@ -44,6 +44,8 @@ from agents.artifacts.certificates import (
     NOT_RECOVERABLE,
     OPEN,
     committed_certificate,
+    planner_name,
+    start_source,
 )
 from agents.envs import env_settings
 from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
@@ -221,7 +223,8 @@ def ceiling_fraction(
 def ceiling_note(
     env_id: str, n_trailers: int, episodes: int, seed: int, directory: Path = CERTIFICATES_DIR
 ) -> str:
-    """The ceiling line under a results table: the certified share of the episodes' starts.
+    """The ceiling line under a results table: the certified share of the episodes' starts,
+    and who found their records (the planner, or a witness: :mod:`agents.evaluation.witnesses`).
 
     Only starts the certificate covers are counted; episodes outside it say so.
     """
@@ -239,15 +242,23 @@ def ceiling_note(
         )
     feasible = sum(statuses[episode_seed] == FEASIBLE for episode_seed in wanted)
     unrecoverable = sum(statuses[episode_seed] == NOT_RECOVERABLE for episode_seed in wanted)
-    planner = certificate.get("planner")
-    if isinstance(planner, dict) and planner.get("name") == "ilqr":
+    within = set(wanted)
+    counts: dict[str, int] = {}
+    for start in certificate["starts"]:
+        source = start_source(certificate, start) if start["seed"] in within else None
+        if source is not None:
+            counts[source] = counts.get(source, 0) + 1
+    planner = planner_name(certificate)
+    order = sorted(counts.items(), key=lambda item: (item[0] != planner, -item[1], item[0]))
+    by_source = ", ".join(f"{source} {count}" for source, count in order)
+    if planner == "ilqr":
         return (
-            f"ceiling: {feasible}/{episodes} starts certified feasible (the iLQR planner's "
-            f"actions replayed open-loop to the goal, `python -m agents.certify`); "
-            f"{episodes - feasible - unrecoverable} open (no screen for a goal)"
+            f"ceiling: {feasible}/{episodes} starts certified feasible (action records "
+            f"replayed open-loop to the goal, by source: {by_source}; `python -m "
+            f"agents.certify`); {episodes - feasible - unrecoverable} open (no screen for a goal)"
         )
     return (
-        f"ceiling: {feasible}/{episodes} starts certified feasible (the planner's actions "
-        f"replayed open-loop, `python -m agents.certify`); {unrecoverable} not recoverable "
-        f"(screen), {episodes - feasible - unrecoverable} open"
+        f"ceiling: {feasible}/{episodes} starts certified feasible (action records replayed "
+        f"open-loop, by source: {by_source}; `python -m agents.certify`); {unrecoverable} not "
+        f"recoverable (screen), {episodes - feasible - unrecoverable} open"
     )

@@ -85,16 +85,18 @@ def drive(
     settings: EnvSettings,
     config: ILQRConfig,
     progress: Progress | None = None,
+    steps: int | None = None,
 ) -> tuple[GoalEpisodes, int]:
     """Run the iLQR planner (built on ``settings``) on a reset ``core``, one row per start,
-    for the scene's episode; returns the episodes and the simulated row-steps.
+    for ``steps`` steps (default the scene's episode); returns the episodes and the
+    simulated row-steps.
 
     Ended rows are put back at their start and their warm start forgotten (their result
     is settled), so that a folded convoy is not integrated (nor differentiated) further.
     """
     core_class = type(core)
     count = core.batch_size
-    steps = core_class.max_episode_steps
+    steps = core_class.max_episode_steps if steps is None else steps
     planner = ILQRPlanner(core_class, settings, count, config)
     actions = np.zeros((count, steps))
     lengths = np.full(count, steps, dtype=np.int64)

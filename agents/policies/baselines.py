@@ -23,8 +23,8 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
   control-limited iLQR on the same core, goal-reaching on Dock and Coast (an oracle;
   rail modes only).
 * ``mpc-replay``: :class:`agents.policies.replay.RecordedPolicy`, the committed
-  certificate's records of that planner replayed open-loop (no planning: the seed
-  given is the first episode's; the default settings only).
+  certificate's records of that planner (not its witnesses') replayed open-loop (no
+  planning: the seed given is the first episode's; the default settings only).
 
 The physics of the regulator lives in ``trailer_env.controllers``; this module only
 adapts it to the batched policy interface.
@@ -222,18 +222,20 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
 
 
 def recorded_policy(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
-    """The committed action records of ``env_id`` replayed from episode seed ``seed``.
+    """The committed planner's action records of ``env_id`` (not the witnesses', see
+    :func:`agents.artifacts.certificates.planner_records`) replayed from episode seed ``seed``.
 
     Raises:
         ValueError: Without committed records, or for settings other than the scene's
             defaults with that n (the records are traces of the default physics).
     """
-    from agents.artifacts.certificates import actions_path, committed_actions
+    from agents.artifacts.certificates import actions_path, planner_records
     from agents.policies.replay import RecordedPolicy
     from trailer_env.settings import settings_from_kwargs
 
     n = settings.n_trailers
-    records = committed_actions(env_id, n)
+    # The planner's records only: a witness's record (a learned policy's) is not the oracle.
+    records = planner_records(env_id, n)
     if records is None:
         raise ValueError(
             f"mpc-replay: no committed action records for {env_id} with n = {n} "
