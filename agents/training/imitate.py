@@ -132,8 +132,9 @@ class ImitationConfig:
             about 0.02; ``ilqr``'s default (``reuse=False``) labels a state the same.
         randomize: The env's ``randomize=`` (a preset name of
             :data:`trailer_env.randomize.PRESETS` or a dict of factor ranges; None: the
-            nominal physics). The expert plans with each episode's true parameters; the
-            student does not observe them.
+            nominal physics). The expert (``mpc``; ``ilqr`` refuses randomised
+            parameters) plans with each episode's true parameters; the student does not
+            observe them.
     """
 
     env_id: str
@@ -186,6 +187,8 @@ class ImitationConfig:
         self.settings_by_count()  # a bad number of trailers fails here, named
         if self.expert is None:
             object.__setattr__(self, "expert", default_expert(self.env_id))
+        elif not isinstance(self.expert, str):
+            raise TypeError(f"expert must be a str, got {type(self.expert).__name__}")
         elif self.expert not in EXPERTS:
             raise ValueError(f"expert: unknown {self.expert!r}; experts: {sorted(EXPERTS)}")
         expert = EXPERTS[str(self.expert)]

@@ -64,6 +64,7 @@ def test_the_table_and_the_scene_defaults() -> None:
         ({"randomize": "mismatch20", "expert": "ilqr"}, ValueError, "cannot label randomised "
          "physical parameters"),
         ({"expert": "cem"}, ValueError, "unknown 'cem'"),
+        ({"expert": 1}, TypeError, "expert must be a str, got int"),
         ({"expert": "ilqr", "planner": PlannerConfig()}, TypeError, "the ilqr expert takes "
          "ILQRConfig, got PlannerConfig"),
     ],
