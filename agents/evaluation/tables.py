@@ -40,7 +40,7 @@ def training_note(card: dict[str, Any], label: str = "") -> str:
         iteration = card.get("selected_at_iteration")
         kept = f" (kept iteration {iteration})" if iteration is not None else ""
         return (
-            f"{algo} policy by DAgger from mpc, seed {card.get('seed')}, "
+            f"{algo} policy by DAgger from {card.get('expert', 'mpc')}, seed {card.get('seed')}, "
             f"{steps_text(steps)} labels{kept}{wall_text}"
         )
     return f"{algo}, seed {card.get('seed')}, {steps_text(steps)} steps{chosen}{wall_text}"
