@@ -8,17 +8,28 @@ argument                   bound
 ``--episodes``             1 .. 4,096 convoys (one batch)
 ``--iterations``           1 .. 1,000
 ``--epochs``               1 .. 10,000
-``--planner-samples``      2 .. 1,024
-``--planner-iterations``   1 .. 100
+``--expert``               an expert of :data:`agents.oracles.experts.EXPERTS`
+                           that fits the scene (and the n, and ``--randomize``)
+``--planner-samples``      2 .. 1,024 (``mpc`` only)
+``--planner-iterations``   1 .. 100 (CEM or iLQR iterations)
+``--planner-horizon``      1 .. 200 (``ilqr`` only)
 ``--net-arch``             10,000,000 parameters, 64 layers
 ``--seed``                 training seeds below 2**32
 ``--n-trailers``           one count N, or a range LOW-HIGH (a generalist)
 ``--randomize``            a preset of :data:`trailer_env.randomize.PRESETS`
 =========================  ==========================================
 
-A generalist (``--n-trailers 1-3 --randomize mismatch20``): the env draws each
-episode's n and physics; the expert (one planner per n) plans with the episode's true
-parameters, the student sees the padded observation and the trailer mask only.
+The expert (``--expert``): ``mpc`` (the sampling planner; the default on Reverse) or
+``ilqr`` (the deterministic iLQR planner; the default on Dock and Coast, which ``mpc``
+does not fit). A refused combination (``mpc`` on Dock, ``ilqr`` with a range of n or
+randomised parameters, a planner option the expert does not take) exits with status 2
+before anything is written. A run with another expert than the scene's default gets
+the expert's name at the end of its default run folder (``..._dagger_s0_ilqr``).
+
+A generalist (``--n-trailers 1-3 --randomize mismatch20``, ``mpc`` only): the env
+draws each episode's n and physics; the expert (one planner per n) plans with the
+episode's true parameters, the student sees the padded observation and the trailer
+mask only.
 
 The run folder and ``--export`` are checked as by ``agents.train`` (writable, no
 symbolic link, locked while the run writes it).
@@ -39,10 +50,15 @@ from agents.artifacts.run_folder import (
 )
 from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID
-from agents.oracles.planner import PlannerConfig
+from agents.oracles.experts import EXPERTS, default_expert
 from agents.policies.sb3 import limit_torch_threads
 from agents.training.imitate import ImitationConfig, imitate
 from trailer_env.randomize import PRESETS
+
+#: The longest ``--planner-horizon`` (twice Dock's default): the iLQR's derivative core
+#: holds episodes x (horizon + 1) x (d + 2) rows, at 4,096 convoys and n = 3 9.9M,
+#: 2.4 times the sampling planner's largest core (4,096 x 1,024 samples).
+MAX_ILQR_HORIZON = 200
 
 
 def trailer_counts(text: str) -> int | tuple[int, int]:
@@ -98,16 +114,30 @@ def build_parser() -> argparse.ArgumentParser:
         "--net-arch", type=cli.at_least(1), nargs="+", default=None, help="hidden layer sizes"
     )
     parser.add_argument(
+        "--expert",
+        choices=list(EXPERTS),
+        default=None,
+        help="the planner that labels: "
+        + "; ".join(f"{name}: {expert.summary}" for name, expert in EXPERTS.items())
+        + " (default: the scene's first that fits)",
+    )
+    parser.add_argument(
         "--planner-samples",
         type=cli.at_least(2, 1024),
-        default=PlannerConfig.samples,
-        help=f"the expert's candidates per iteration (default {PlannerConfig.samples})",
+        default=None,
+        help="mpc's candidates per iteration (default 16)",
     )
     parser.add_argument(
         "--planner-iterations",
         type=cli.at_least(1, 100),
-        default=PlannerConfig.iterations,
-        help=f"the expert's CEM iterations (default {PlannerConfig.iterations})",
+        default=None,
+        help="the expert's CEM (mpc, default 2) or iLQR (ilqr, default 3) iterations",
+    )
+    parser.add_argument(
+        "--planner-horizon",
+        type=cli.at_least(1, MAX_ILQR_HORIZON),
+        default=None,
+        help="ilqr's planned steps (default the scene's: 60, Dock 100)",
     )
     parser.add_argument("--run-dir", type=Path, default=None, help="run folder")
     parser.add_argument(
@@ -125,6 +155,18 @@ def main(argv: list[str] | None = None) -> int:
         if problem is not None:
             parser.error(f"argument --net-arch: {problem}")
     try:
+        expert = EXPERTS[args.expert or default_expert(args.env)]
+        problem = expert.problem(args.env, args.n_trailers, args.randomize)
+        if problem is not None:
+            raise ValueError(problem)
+        planner = expert.configure(
+            samples=args.planner_samples,
+            iterations=args.planner_iterations,
+            horizon=args.planner_horizon,
+        )
+    except (TypeError, ValueError) as error:
+        parser.error(f"argument --expert: {error}")
+    try:
         config = ImitationConfig(
             env_id=args.env,
             n_trailers=args.n_trailers,
@@ -134,11 +176,8 @@ def main(argv: list[str] | None = None) -> int:
             episodes=args.episodes,
             epochs=args.epochs,
             net_arch=tuple(args.net_arch) if args.net_arch else None,
-            planner=PlannerConfig(
-                samples=args.planner_samples,
-                iterations=args.planner_iterations,
-                elites=max(1, args.planner_samples // 4),
-            ),
+            planner=planner,
+            expert=expert.name,
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))
@@ -149,6 +188,8 @@ def main(argv: list[str] | None = None) -> int:
     default = default_run_dir(config.env_id, "dagger", config.run_label, config.seed)  # type: ignore[arg-type]
     if config.randomize is not None:
         default = default.with_name(f"{default.name}_{config.randomize}")
+    if config.expert != default_expert(config.env_id):
+        default = default.with_name(f"{default.name}_{config.expert}")
     try:
         with claimed_run_dir(default, args.run_dir, overwrite=args.overwrite) as run_dir:
             limit_torch_threads()

@@ -49,8 +49,8 @@ def training_note(card: dict[str, Any], label: str = "") -> str:
         iteration = card.get("selected_at_iteration")
         kept = f" (kept iteration {iteration})" if iteration is not None else ""
         return (
-            f"{algo} policy by DAgger from mpc, seed {card.get('seed')}, "
-            f"{_steps_text(steps)} labels{kept}{wall_text}"
+            f"{algo} policy by DAgger from {card.get('expert', 'mpc')}, "
+            f"seed {card.get('seed')}, {_steps_text(steps)} labels{kept}{wall_text}"
         )
     return f"{algo}, seed {card.get('seed')}, {_steps_text(steps)} steps{chosen}{wall_text}"
 

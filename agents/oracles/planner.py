@@ -540,6 +540,11 @@ class PrivilegedExpert:
     def simulated_steps(self) -> int:
         return sum(planner.simulated_steps for planner in self.planners.values())
 
+    @property
+    def steps_per_label(self) -> int:
+        """Simulated steps one label costs (per row and control step)."""
+        return self.config.steps_per_decision
+
     def reset(self, rows: np.ndarray | None = None) -> None:
         """Forget the warm starts of ``rows`` (default all) in every planner."""
         for planner in self.planners.values():

@@ -3,7 +3,13 @@
 Usage::
 
     python -m agents.imitate --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \
-        [--iterations 6] [--episodes 256] [--run-dir DIR] [--export PATH] [--overwrite]
+        [--expert {mpc,ilqr}] [--iterations 6] [--episodes 256] [--run-dir DIR] \
+        [--export PATH] [--overwrite]
+
+The expert is a record of :data:`agents.oracles.experts.EXPERTS`: ``mpc``, the sampling
+planner (the Reverse scenes' default), or ``ilqr``, the deterministic iLQR planner
+(Reverse, and the default on Dock and Coast; one n, nominal physics), which labels a
+state with the same action whatever was labelled before.
 
 A generalist: ``--n-trailers 1-3 --randomize mismatch20`` (the env draws each
 episode's n and physics; the expert, :class:`agents.oracles.planner.PrivilegedExpert`,
@@ -40,11 +46,10 @@ their cards and statistics.
 
 from __future__ import annotations
 
-import dataclasses
 import io
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -65,7 +70,8 @@ from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import save_stats
 from agents.envs import check_env_id, env_settings, make_sb3_env
 from agents.evaluation.metrics import rollout, summarize
-from agents.oracles.planner import PlannerConfig, PrivilegedExpert, SamplingPlanner
+from agents.oracles.experts import EXPERTS, ExpertConfig, Labeller, default_expert
+from agents.oracles.planner import SamplingPlanner
 from agents.policies.sb3 import ModelPolicy
 from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
@@ -101,7 +107,8 @@ class ImitationConfig:
     """What :func:`imitate` trains.
 
     Attributes:
-        env_id: The scene (one whose baselines include ``mpc``).
+        env_id: The scene (one that an expert of :data:`agents.oracles.experts.EXPERTS`
+            fits).
         n_trailers: Trailers: one count, or a range ``(low, high)`` (a generalist: the
             env draws each episode's n, the student sees the padded observation and
             its mask, :mod:`trailer_env.mixed`).
@@ -115,13 +122,19 @@ class ImitationConfig:
         learning_rate: Adam's step size.
         net_arch: Hidden layers of the policy (None: the hyperparameter file's).
         validation_episodes: Episodes of each validation.
-        planner: The expert's search settings (its seed is replaced by ``seed``). More
-            samples make its labels less noisy: two default planners label the same
-            states with a mean squared difference of about 0.02.
+        expert: The expert's name in :data:`agents.oracles.experts.EXPERTS`; None: the
+            scene's default (:func:`agents.oracles.experts.default_expert`: ``mpc`` on
+            Reverse, ``ilqr`` on Dock and Coast).
+        planner: The expert's settings, of its ``config_class`` (``PlannerConfig`` for
+            ``mpc``, whose seed is replaced by ``seed``; ``ILQRConfig`` for ``ilqr``);
+            None: its default. More samples make ``mpc``'s labels less noisy: two
+            default planners label the same states with a mean squared difference of
+            about 0.02; ``ilqr``'s default (``reuse=False``) labels a state the same.
         randomize: The env's ``randomize=`` (a preset name of
             :data:`trailer_env.randomize.PRESETS` or a dict of factor ranges; None: the
-            nominal physics). The expert plans with each episode's true parameters; the
-            student does not observe them.
+            nominal physics). The expert (``mpc``; ``ilqr`` refuses randomised
+            parameters) plans with each episode's true parameters; the student does not
+            observe them.
     """
 
     env_id: str
@@ -134,8 +147,9 @@ class ImitationConfig:
     learning_rate: float = 1e-3
     net_arch: tuple[int, ...] | None = None
     validation_episodes: int = 100
-    planner: PlannerConfig = field(default_factory=PlannerConfig)
+    planner: ExpertConfig | None = None
     randomize: str | dict[str, Any] | None = None
+    expert: str | None = None
 
     def __post_init__(self) -> None:
         check_env_id(self.env_id)
@@ -170,9 +184,31 @@ class ImitationConfig:
                 raise ValueError(problem)
         if not (np.isfinite(self.learning_rate) and self.learning_rate > 0.0):
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
-        if "mpc" not in core_class_of(self.env_id).oracle_baselines:
-            raise ValueError(f"{self.env_id} has no planner (mpc) to imitate")
         self.settings_by_count()  # a bad number of trailers fails here, named
+        if self.expert is None:
+            object.__setattr__(self, "expert", default_expert(self.env_id))
+        elif not isinstance(self.expert, str):
+            raise TypeError(f"expert must be a str, got {type(self.expert).__name__}")
+        elif self.expert not in EXPERTS:
+            raise ValueError(f"expert: unknown {self.expert!r}; experts: {sorted(EXPERTS)}")
+        expert = EXPERTS[str(self.expert)]
+        problem = expert.problem(self.env_id, self.n_trailers, self.randomize)
+        if problem is not None:
+            raise ValueError(problem)
+        if self.planner is None:
+            object.__setattr__(self, "planner", expert.default_config())
+        elif not isinstance(self.planner, expert.config_class):
+            raise TypeError(
+                f"planner: the {expert.name} expert takes {expert.config_class.__name__}, "
+                f"got {type(self.planner).__name__}"
+            )
+
+    @property
+    def expert_config(self) -> ExpertConfig:
+        """The expert's settings (resolved: never None after construction)."""
+        if self.planner is None:  # pragma: no cover - __post_init__ sets it
+            raise RuntimeError("ImitationConfig was not validated")
+        return self.planner
 
     @property
     def env_kwargs(self) -> dict[str, Any]:
@@ -197,7 +233,7 @@ class ImitationConfig:
 
 def collect(
     envs: ConvoyVectorEnv,
-    planner: PrivilegedExpert | SamplingPlanner,
+    planner: Labeller | SamplingPlanner,
     policy: Any,
     seed: int,
     progress: Progress | None = None,
@@ -286,14 +322,13 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     envs = ConvoyVectorEnv(
         core_class, config.episodes, autoreset_mode="same_step", **config.env_kwargs
     )
-    planner = PrivilegedExpert(
-        core_class, settings, config.episodes, dataclasses.replace(config.planner, seed=config.seed)
-    )
+    expert = EXPERTS[str(config.expert)]
+    planner = expert.build(core_class, settings, config.episodes, config.expert_config, config.seed)
     rng = np.random.default_rng(config.seed)
     record: dict[str, Any] = {
         "algo": "ppo",
         "recipe": "dagger",
-        "expert": "mpc",
+        "expert": expert.name,
         "command": ["python", "-m", "agents.imitate", *sys.argv[1:]],
         "env_id": config.env_id,
         "env_kwargs": config.env_kwargs,
@@ -301,7 +336,7 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
         "imitation": {
             key: (list(value) if isinstance(value, tuple) else value)
             for key, value in asdict(config).items()
-            if key not in ("env_id", "n_trailers", "seed", "planner", "randomize")
+            if key not in ("env_id", "n_trailers", "seed", "planner", "randomize", "expert")
         },
         "planner": asdict(planner.config),
         "hyperparams": {
@@ -325,7 +360,10 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     for iteration in range(config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
         driver = None if iteration == 0 else ModelPolicy(model, stats)
-        label = f"imitate: iteration {iteration + 1}/{config.iterations}, {config.episodes} convoys"
+        label = (
+            f"imitate: iteration {iteration + 1}/{config.iterations}, {config.episodes} convoys, "
+            f"{expert.name} labels ({planner.steps_per_label:,} simulated steps each)"
+        )
         with Progress(envs.max_episode_steps, label, quiet=not verbose) as bar:
             obs, labels = collect(envs, planner, driver, seed, bar)
         if iteration == 0:

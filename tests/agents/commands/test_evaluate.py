@@ -64,6 +64,9 @@ def test_seeds_note_reports_mean_sd_and_range() -> None:
     assert training_note(card) == (
         "PPO policy by DAgger from mpc, seed 1, 0.614M labels (kept iteration 3), 500 s"
     )
+    assert training_note({**card, "expert": "ilqr"}) == (
+        "PPO policy by DAgger from ilqr, seed 1, 0.614M labels (kept iteration 3), 500 s"
+    )
 
 
 def _certificate(folder: Path, statuses: list[str], env_id: str = V1, n: int = 2) -> None:

@@ -57,7 +57,7 @@ def test_imitation_run_writes_a_loadable_ppo_model(tmp_path: Path) -> None:
 
 def test_bad_configurations_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(ValueError, match="no planner"):
-        ImitationConfig("trailer_env/Dock-v0", 1)
+        ImitationConfig("trailer_env/Heading-v0", 1)
     with pytest.raises(ValueError, match="iterations"):
         ImitationConfig(V1, 1, iterations=0)
     with pytest.raises(ValueError, match="n_trailers"):
