@@ -27,20 +27,23 @@ def test_main_runs_on_reverse_v1_with_the_committed_agent(
     assert main.main(["--out", str(tmp_path), "--episodes", "4"]) == 0
     captured = capsys.readouterr()
     printed = captured.out
-    assert "evaluating on trailer_env/Reverse-v1: done, 8/8" in captured.err  # progress
+    assert "evaluating on trailer_env/Reverse-v1: done, 12/12" in captured.err  # progress
     assert "main job done in" in printed
     assert "trailer_env/Reverse-v1, n = 2" in printed
     assert "| lqr |" in printed and "| dagger_reverse_v1_n2 |" in printed
+    assert "| ppo_reverse_v1_n2 |" in printed  # the agent learned from reward, beside it
     assert "ceiling: 4/4 starts certified feasible" in printed
     for name in ("results.json", "results.md", "margins.png", "frames.png", "curves.png"):
         assert (tmp_path / name).is_file(), name
     document = json.loads((tmp_path / "results.json").read_text())
     names = [policy["name"] for policy in document["policies"]]
-    assert names == ["zero", "random", "lqr", "mpc-replay", "dagger_reverse_v1_n2"]
+    assert names == [
+        "zero", "random", "lqr", "mpc-replay", "dagger_reverse_v1_n2", "ppo_reverse_v1_n2"
+    ]  # fmt: skip
     assert document["policies"][3]["safe_rate"] == 1.0  # the certified records, replayed
-    learned = document["policies"][-1]
-    assert len(learned["training_seeds"]) == 3
-    assert {entry["seed"] for entry in learned["training_seeds"]} == {0, 1, 2}
+    for learned in document["policies"][-2:]:
+        assert len(learned["training_seeds"]) == 3
+        assert {entry["seed"] for entry in learned["training_seeds"]} == {0, 1, 2}
     assert document["env_id"] == "trailer_env/Reverse-v1"
 
 
