@@ -16,9 +16,9 @@ episode's n and physics; the expert, :class:`agents.oracles.planner.PrivilegedEx
 plans each row with its true parameters; the student sees the padded observation and
 the trailer mask, no parameters).
 
-Why: PPO from scratch stays below the LQR's basin (the figures are in the docs, Agents:
-what limits performance), because the states that matter (near the edge of the
-recoverable set, where the rail saturates) are rare under its exploration. The ``mpc``
+Why: PPO from the scene's reward needs millions of steps before the states that matter
+(near the edge of the recoverable set, where the rail saturates) enter its data, and
+with three trailers it may never find them (docs, Agents: what limits performance). The ``mpc``
 planner (:mod:`agents.oracles.planner`) knows how to steer there but simulates
 thousands of steps per decision. DAgger (Ross, Gordon and Bagnell, 2011) trains a cheap
 policy on the planner's decisions at the states the *policy itself* visits, so that its own
