@@ -52,8 +52,10 @@ import numpy as np
 
 from benchmarks._common import RESULTS, machine_note, report_written, write_csv
 
-#: Relative tolerance of an episode's return across targets (see the module docstring).
-RETURN_RTOL = 1e-6
+#: Relative tolerance of an episode's return across targets (see the module docstring):
+#: the largest measured difference is 6.2e-5 (the PPO agent of Reverse-v1, n = 2, whose
+#: closed loop amplifies last-bit differences most), so 1e-3 leaves a margin of 16.
+RETURN_RTOL = 1e-3
 #: Per-episode outcomes that must be identical across targets.
 OUTCOMES = ("safe", "success", "failed", "jackknifed", "lengths")
 #: Environment of each target's subprocess (added to the caller's).
