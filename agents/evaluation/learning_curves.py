@@ -335,7 +335,12 @@ def _chart_png(
                                                    strict=True)):  # fmt: skip
             ax = axes[row][column]
             band = seed_band(runs, axis)
-            ax.plot(band.x, band.mean, color="C0", label=f"mean of {band.seeds} seeds")
+            ax.plot(
+                band.x,
+                band.mean,
+                color="C0",
+                label=f"mean of {band.seeds} seeds" if band.seeds > 1 else "one seed",
+            )
             if band.seeds > 1:
                 ax.fill_between(band.x, band.low, band.high, color="C0", alpha=0.25,
                                 label="min-max over seeds")  # fmt: skip
