@@ -34,19 +34,28 @@ def run(command: list[str], cwd: Path, timeout: int = 600) -> str:
     return result.stdout
 
 
-@pytest.mark.slow
-def test_the_wheel_works_outside_the_clone(tmp_path: Path) -> None:
+def wheel_venv(tmp_path: Path, extras: str, *, torch: bool) -> tuple[Path, Path, Path]:
+    """The project's wheel installed with ``extras`` in a fresh venv: (venv, its python,
+    an empty working folder outside the clone)."""
     run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), "."], ROOT)
     (wheel,) = tmp_path.glob("trailer_env-*.whl")
     venv = tmp_path / "venv"
     run([sys.executable, "-m", "venv", str(venv)], tmp_path)
     python = venv / "bin" / "python"
     constraints = str(ROOT / "constraints.txt")
-    run([str(python), "-m", "pip", "install", "-q", "-c", constraints, "torch==2.13.0"], tmp_path)
-    extras = f"{wheel}[agents,rendering]"
-    run([str(python), "-m", "pip", "install", "-q", "-c", constraints, extras], tmp_path)
+    if torch:  # the CPU build first: an unpinned torch would fetch the CUDA wheels
+        run([str(python), "-m", "pip", "install", "-q", "-c", constraints, "torch==2.13.0"],
+            tmp_path)  # fmt: skip
+    run([str(python), "-m", "pip", "install", "-q", "-c", constraints, f"{wheel}[{extras}]"],
+        tmp_path)  # fmt: skip
     work = tmp_path / "elsewhere"
     work.mkdir()
+    return venv, python, work
+
+
+@pytest.mark.slow
+def test_the_wheel_works_outside_the_clone(tmp_path: Path) -> None:
+    venv, python, work = wheel_venv(tmp_path, "agents,rendering", torch=True)
     located = run([str(python), "-c", "import agents, trailer_env; print(agents.__file__)"], work)
     assert str(ROOT) not in located and "site-packages" in located
     assert "score 5" in run([str(python), "-c", SNIPPET], work)
@@ -79,18 +88,7 @@ env.close()
 
 @pytest.mark.slow
 def test_record_video_needs_only_the_rendering_extra(tmp_path: Path) -> None:
-    run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), "."], ROOT)
-    (wheel,) = tmp_path.glob("trailer_env-*.whl")
-    venv = tmp_path / "venv"
-    run([sys.executable, "-m", "venv", str(venv)], tmp_path)
-    python = venv / "bin" / "python"
-    constraints = str(ROOT / "constraints.txt")
-    run(
-        [str(python), "-m", "pip", "install", "-q", "-c", constraints, f"{wheel}[rendering]"],
-        tmp_path,
-    )
-    work = tmp_path / "elsewhere"
-    work.mkdir()
+    _, python, work = wheel_venv(tmp_path, "rendering", torch=False)
     run([str(python), "-c", RECORD_VIDEO], work)
     (video,) = (work / "videos").glob("*.mp4")
     assert video.stat().st_size > 1000

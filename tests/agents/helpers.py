@@ -53,3 +53,17 @@ def rewrite_zip(
     with zipfile.ZipFile(path, "w", compression) as archive:
         for name, content in entries.items():
             archive.writestr(name, content)
+
+
+def tiny_ppo_hyperparams(
+    folder: Path, env_id: str, policy_kwargs: str = "dict(net_arch=[8])"
+) -> Path:
+    """A ``ppo.yml`` in ``folder`` for ``env_id``: 8 environments, 64-step rollouts, one
+    epoch, an 8-unit network (training runs of a few thousand steps in seconds)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "ppo.yml"
+    path.write_text(
+        f"{env_id}:\n  n_envs: 8\n  policy: MlpPolicy\n  n_steps: 64\n  batch_size: 256\n"
+        f'  n_epochs: 1\n  policy_kwargs: "{policy_kwargs}"\n'
+    )
+    return path

@@ -8,6 +8,7 @@ import pytest
 
 from agents.evaluation.learning_curves import final_plateau, plateau
 from agents.evaluation.rl_from_reward import RunScore, main, markdown
+from tests.agents.helpers import tiny_ppo_hyperparams
 
 STEPS = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10]
 
@@ -57,24 +58,12 @@ def test_refusals_write_nothing(tmp_path: Path) -> None:
     assert not (tmp_path / "out").exists()
 
 
-TINY_PPO = """\
-trailer_env/Coast-v0:
-  n_envs: 8
-  policy: MlpPolicy
-  n_steps: 64
-  batch_size: 256
-  n_epochs: 1
-  policy_kwargs: "dict(net_arch=[8])"
-"""
-
-
 def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path) -> None:
     import json
 
     from agents.commands import train
 
-    (tmp_path / "hp").mkdir()
-    (tmp_path / "hp" / "ppo.yml").write_text(TINY_PPO)
+    tiny_ppo_hyperparams(tmp_path / "hp", "trailer_env/Coast-v0")
     for seed in (0, 1):
         assert train.main([
             "--env", "trailer_env/Coast-v0", "--algo", "ppo", "--n-trailers", "1",

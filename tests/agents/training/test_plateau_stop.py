@@ -10,16 +10,7 @@ import pytest
 from agents.artifacts.curves import read_curve
 from agents.commands import train
 from agents.training.callbacks import PlateauStop
-
-TINY_PPO = """\
-trailer_env/Reverse-v1:
-  n_envs: 8
-  policy: MlpPolicy
-  n_steps: 64
-  batch_size: 256
-  n_epochs: 1
-  policy_kwargs: "dict(net_arch=[8])"
-"""
+from tests.agents.helpers import tiny_ppo_hyperparams
 
 
 def test_plateau_stop_hook() -> None:
@@ -31,8 +22,7 @@ def test_plateau_stop_hook() -> None:
 
 
 def test_a_flat_curve_stops_the_run(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    (tmp_path / "hp").mkdir()
-    (tmp_path / "hp" / "ppo.yml").write_text(TINY_PPO)
+    tiny_ppo_hyperparams(tmp_path / "hp", "trailer_env/Reverse-v1")
     run = tmp_path / "run"
     # Any two evaluations are within 1.0 of their mean: flat at the second (512 steps).
     code = train.main([

@@ -18,19 +18,11 @@ from agents.training.tune import (
     read_space,
     trial_entry,
 )
+from tests.agents.helpers import tiny_ppo_hyperparams
 
 optuna = pytest.importorskip("optuna")
 
 REVERSE = "trailer_env/Reverse-v1"
-TINY_PPO = """\
-trailer_env/Reverse-v1:
-  n_envs: 8
-  policy: MlpPolicy
-  n_steps: 64
-  batch_size: 256
-  n_epochs: 1
-  policy_kwargs: "dict(net_arch=[8], log_std_init=-1.0)"
-"""
 SPACE = """\
 ppo:
   learning_rate: {log_uniform: [1.0e-4, 1.0e-3]}
@@ -94,8 +86,7 @@ def _snapshot(folder: Path) -> dict[str, bytes]:
 def test_two_trials_write_a_study_and_the_winner(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    (tmp_path / "hp").mkdir()
-    (tmp_path / "hp" / "ppo.yml").write_text(TINY_PPO)
+    tiny_ppo_hyperparams(tmp_path / "hp", REVERSE, "dict(net_arch=[8], log_std_init=-1.0)")
     (tmp_path / "space.yml").write_text(SPACE)
     out = tmp_path / "search"
     assert _tune(tmp_path, out, "--trials", "2") == 0
