@@ -143,6 +143,19 @@ def is_flat(values: Sequence[float] | np.ndarray, window: int, eps: float) -> bo
     return bool(np.max(np.abs(last - last.mean())) <= eps + 1e-12)
 
 
+def _curve(
+    steps: Sequence[float] | np.ndarray, values: Sequence[float] | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``steps`` and ``values`` as float arrays, checked as :func:`plateau` documents."""
+    x = np.asarray(steps, dtype=float)
+    y = np.asarray(values, dtype=float)
+    if x.ndim != 1 or x.shape != y.shape:
+        raise ValueError(f"steps and values must be 1-D of one length, got {x.shape}, {y.shape}")
+    if not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
+        raise ValueError("steps must be finite and strictly increasing")
+    return x, y
+
+
 def plateau(
     steps: Sequence[float] | np.ndarray,
     values: Sequence[float] | np.ndarray,
@@ -163,12 +176,7 @@ def plateau(
             differ, or steps that are not finite and strictly increasing.
     """
     window, eps = _check_window(window, eps)
-    x = np.asarray(steps, dtype=float)
-    y = np.asarray(values, dtype=float)
-    if x.ndim != 1 or x.shape != y.shape:
-        raise ValueError(f"steps and values must be 1-D of one length, got {x.shape}, {y.shape}")
-    if not np.all(np.isfinite(x)) or np.any(np.diff(x) <= 0):
-        raise ValueError("steps must be finite and strictly increasing")
+    x, y = _curve(steps, values)
     for i in range(window - 1, len(y)):
         if is_flat(y[: i + 1], window, eps):
             level = float(y[i - window + 1 : i + 1].mean())
@@ -194,9 +202,8 @@ def final_plateau(
         As :func:`plateau`.
     """
     window, eps = _check_window(window, eps)
-    x = np.asarray(steps, dtype=float)
-    y = np.asarray(values, dtype=float)
-    if plateau(x, y, window, eps) is None or not is_flat(y, window, eps):
+    x, y = _curve(steps, values)
+    if not is_flat(y, window, eps):
         return None
     level = float(y[-window:].mean())
     outside = np.flatnonzero(np.abs(y - level) > eps + 1e-12)
