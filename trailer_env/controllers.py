@@ -66,8 +66,10 @@ def linearise(settings: EnvSettings, speed: float) -> tuple[np.ndarray, np.ndarr
     return a_matrix, b_matrix
 
 
-def regulator_gain(settings: EnvSettings, speed: float) -> np.ndarray:
-    """LQR gain K (n+3,) for ``s_ddot = -K x`` at ``speed``; zeros if the design fails (mu = 0)."""
+def regulator(settings: EnvSettings, speed: float) -> tuple[np.ndarray, np.ndarray]:
+    """LQR gain K (n+3,) for ``s_ddot = -K x`` and the Riccati solution P (n+3, n+3) at
+    ``speed``, so that ``x^T P x`` is the regulator's cost-to-go from ``x``; zeros if the
+    design fails (mu = 0: the actuator has no authority)."""
     n = settings.n_trailers
     a_matrix, b_matrix = linearise(settings, speed)
     q = np.diag([OMEGA_WEIGHT] + [ANGLE_WEIGHT] * n + [RAIL_WEIGHT, RAIL_SPEED_WEIGHT])
@@ -76,8 +78,13 @@ def regulator_gain(settings: EnvSettings, speed: float) -> np.ndarray:
         p = scipy.linalg.solve_continuous_are(a_matrix, b_matrix, q, r)
     except (np.linalg.LinAlgError, ValueError):
         warnings.warn(f"no regulator at speed {speed}: the actuator has no authority", stacklevel=2)
-        return np.zeros(n + 3)
-    return np.linalg.solve(r, b_matrix.T @ p)[0]
+        return np.zeros(n + 3), np.zeros((n + 3, n + 3))
+    return np.linalg.solve(r, b_matrix.T @ p)[0], p
+
+
+def regulator_gain(settings: EnvSettings, speed: float) -> np.ndarray:
+    """LQR gain K (n+3,) for ``s_ddot = -K x`` at ``speed`` (:func:`regulator`)."""
+    return regulator(settings, speed)[0]
 
 
 class LQRController:
@@ -93,8 +100,13 @@ class LQRController:
     def __init__(self, settings: EnvSettings) -> None:
         self.settings = settings
         self.n = settings.n_trailers
-        self.forward_gains = np.stack([regulator_gain(settings, speed) for speed in DESIGN_SPEEDS])
-        self.reverse_gains = np.stack([regulator_gain(settings, -speed) for speed in DESIGN_SPEEDS])
+        forward = [regulator(settings, speed) for speed in DESIGN_SPEEDS]
+        reverse = [regulator(settings, -speed) for speed in DESIGN_SPEEDS]
+        self.forward_gains = np.stack([gain for gain, _ in forward])
+        self.reverse_gains = np.stack([gain for gain, _ in reverse])
+        #: Riccati solutions per design speed (S, n+3, n+3), for :meth:`cost_to_go`.
+        self.forward_costs = np.stack([cost for _, cost in forward])
+        self.reverse_costs = np.stack([cost for _, cost in reverse])
 
     @classmethod
     def from_env(cls, env: Any) -> LQRController:
@@ -103,32 +115,59 @@ class LQRController:
 
     def gains(self, speed: np.ndarray) -> np.ndarray:
         """Interpolated gains (B, n+3) for forward speeds ``speed`` (B,)."""
+        return self._interpolate(speed, self.forward_gains, self.reverse_gains)
+
+    def _interpolate(
+        self, speed: np.ndarray, forward: np.ndarray, reverse: np.ndarray
+    ) -> np.ndarray:
+        """Per-speed tables (S, ...) interpolated entry by entry in ``|speed|`` (B, ...)."""
         magnitude = np.clip(np.abs(speed), DESIGN_SPEEDS[0], DESIGN_SPEEDS[-1])
-        out = np.empty((speed.shape[0], self.n + 3))
-        for column in range(self.n + 3):
-            forward = np.interp(magnitude, DESIGN_SPEEDS, self.forward_gains[:, column])
-            reverse = np.interp(magnitude, DESIGN_SPEEDS, self.reverse_gains[:, column])
-            out[:, column] = np.where(speed >= 0.0, forward, reverse)
-        return out
+        shape = forward.shape[1:]
+        flat_forward = forward.reshape(len(DESIGN_SPEEDS), -1)
+        flat_reverse = reverse.reshape(len(DESIGN_SPEEDS), -1)
+        out = np.empty((speed.shape[0], flat_forward.shape[1]))
+        for column in range(flat_forward.shape[1]):
+            ahead = np.interp(magnitude, DESIGN_SPEEDS, flat_forward[:, column])
+            behind = np.interp(magnitude, DESIGN_SPEEDS, flat_reverse[:, column])
+            out[:, column] = np.where(speed >= 0.0, ahead, behind)
+        return out.reshape((speed.shape[0], *shape))
+
+    def regulator_state(self, obs: np.ndarray) -> np.ndarray:
+        """The design's state ``x = (omega, alpha_1..alpha_n, s, s_dot)`` (B, n+3) of a batch
+        of observations (B, obs_dim): the common part every scene's observation starts with."""
+        settings = self.settings
+        n = self.n
+        batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
+        alpha = np.arctan2(batch[:, 2 : 2 + n], batch[:, 2 + n : 2 + 2 * n])
+        planar = settings.actuator.planar
+        lateral = 2 + 2 * n + (1 if planar else 0)
+        lateral_speed = lateral + (2 if planar else 1)
+        s = batch[:, lateral] * settings.params.s_max
+        s_dot = batch[:, lateral_speed] * settings.rail_speed_max
+        return np.column_stack([batch[:, 1], alpha, s, s_dot])
+
+    def cost_to_go(self, obs: np.ndarray) -> np.ndarray:
+        """``x^T P(u) x`` (B,) of a batch of observations: the regulator's quadratic cost-to-go
+        from each state (the Riccati solution interpolated in ``|u|`` like the gains), large
+        where the unstable modes are far from the straight convoy."""
+        batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
+        state = self.regulator_state(batch)
+        costs = self._interpolate(batch[:, 0], self.forward_costs, self.reverse_costs)
+        return np.einsum("bi,bij,bj->b", state, costs, state)
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         settings = self.settings
         params = settings.params
-        n = self.n
         batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
-        alpha = np.arctan2(batch[:, 2 : 2 + n], batch[:, 2 + n : 2 + 2 * n])
-        actuator = settings.actuator
-        planar = actuator.planar
-        lateral = 2 + 2 * n + (1 if planar else 0)
-        lateral_speed = lateral + (2 if planar else 1)
-        s = batch[:, lateral] * params.s_max
-        s_dot = batch[:, lateral_speed] * settings.rail_speed_max
-        state = np.column_stack([batch[:, 1], alpha, s, s_dot])
+        state = self.regulator_state(batch)
+        s, s_dot = state[:, -2], state[:, -1]
         accel = -np.sum(self.gains(batch[:, 0]) * state, axis=1)
+        actuator = settings.actuator
         command = actuator.command_for_accel(
             accel, s, s_dot, params.s_max, settings.rail_accel_max, settings.servo_frequency
         )
         command = np.clip(command, -1.0, 1.0)
+        planar = actuator.planar
         actions = np.column_stack([np.zeros_like(command), command]) if planar else command[:, None]
         actions = actions.astype(np.float32)
         return actions[0] if np.ndim(obs) == 1 else actions
@@ -152,5 +191,6 @@ __all__ = [
     "LQRController",
     "heading_policy",
     "linearise",
+    "regulator",
     "regulator_gain",
 ]

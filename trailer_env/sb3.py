@@ -33,14 +33,20 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from stable_baselines3.common.monitor import Monitor
-from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+from stable_baselines3.common.vec_env.base_vec_env import (
+    VecEnv,
+    VecEnvIndices,
+    VecEnvStepReturn,
+    VecEnvWrapper,
+)
 
 from dynamics.params import bounded_integer
 from trailer_env.batch_infos import BatchInfos
 from trailer_env.episodes import count_episodes
 from trailer_env.generators import GeneratorBank
-from trailer_env.mixed import build_core
+from trailer_env.mixed import MixedCore, build_core
 from trailer_env.registry import core_class_of
+from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
 from trailer_env.vector import MAX_NUM_ENVS, as_action_batch, as_bank, seed_generators
 
 
@@ -179,3 +185,59 @@ class ConvoySB3VecEnv(VecEnv):
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [None for _ in range(self.num_envs)]
+
+
+class PotentialShapingVecEnv(VecEnvWrapper):
+    """A :class:`ConvoySB3VecEnv` whose rewards carry potential-based shaping,
+    ``gamma Phi(s') - Phi(s)`` (:class:`trailer_env.wrappers.PotentialShaping` for a batch).
+
+    An ending step uses the terminal observation SB3 puts in ``infos[i]``: ``Phi = 0`` when
+    the episode terminated, ``Phi(terminal_observation)`` when the time limit cut it; the
+    next step starts from the new episode's potential. Observations, dones, infos and the
+    episode statistics (``info["episode"]``, recorded by the adapter beneath) are the
+    scene's own; :attr:`unshaped_rewards` holds the last step's unshaped rewards.
+
+    Args:
+        venv: A :class:`ConvoySB3VecEnv` of one count of trailers.
+        potential, gamma, **potential_kwargs: As :class:`trailer_env.wrappers.PotentialShaping`.
+
+    Raises:
+        TypeError, ValueError: Another VecEnv, a mixed count of trailers, an unknown
+            potential or keyword, or a bad value.
+    """
+
+    def __init__(
+        self, venv: ConvoySB3VecEnv, potential: str = "lqr", gamma: float = 0.99,
+        **potential_kwargs: float,
+    ) -> None:  # fmt: skip
+        if not isinstance(venv, ConvoySB3VecEnv):
+            raise TypeError(
+                f"PotentialShapingVecEnv wraps a ConvoySB3VecEnv, got {type(venv).__name__}"
+            )
+        if isinstance(venv.core, MixedCore):
+            raise ValueError("PotentialShapingVecEnv needs one count of trailers, not a mix")
+        self.gamma = check_gamma(gamma)
+        self.potential = make_potential(potential, venv.settings, **potential_kwargs)
+        super().__init__(venv)
+        self._previous = np.zeros(self.num_envs)
+        self.unshaped_rewards = np.zeros(self.num_envs, dtype=np.float32)
+
+    def reset(self) -> np.ndarray:
+        obs = np.asarray(self.venv.reset())
+        self._previous = self.potential(obs)
+        return obs
+
+    def step_wait(self) -> VecEnvStepReturn:
+        batch, rewards, dones, infos = self.venv.step_wait()
+        obs = np.asarray(batch)
+        after = self.potential(obs)
+        terminated = dones.copy()
+        reached = after.copy()
+        for i in np.flatnonzero(dones).tolist():
+            info = infos[i]
+            terminated[i] = not info["TimeLimit.truncated"]
+            reached[i] = self.potential(info["terminal_observation"])[0]
+        shaped = shaped_return_step(rewards, self._previous, reached, terminated, self.gamma)
+        self.unshaped_rewards = rewards
+        self._previous = after
+        return obs, shaped.astype(np.float32), dones, infos

@@ -3,12 +3,14 @@
 * :class:`SafetyStep`: safety-gymnasium's step, ``(obs, reward, cost, terminated,
   truncated, info)``, with the cost that ``info["cost"]`` carries (1 inside the
   singular band, else 0);
+* :class:`PotentialShaping`: the scene's reward plus potential-based shaping
+  (:mod:`trailer_env.shaping`), which keeps the task's optimal policies;
 * :class:`GoalConditioned`: Gymnasium-Robotics' goal-conditioned form for the goal
   scenes (Dock-v0, Heading-v0): ``Dict`` observations with ``observation``,
   ``achieved_goal`` and ``desired_goal``, and a vectorised ``compute_reward`` that
   hindsight relabelling (SB3's ``HerReplayBuffer``) calls on any goal.
 
-Both wrap one environment made from a trailer_env id (``gym.make``; a vector env, another
+Each wraps one environment made from a trailer_env id (``gym.make``; a vector env, another
 library's env or anything else is refused with TypeError or ValueError) and are
 :class:`gymnasium.utils.RecordConstructorArgs`, as Gymnasium's own wrappers: the wrapped
 env's ``spec`` names them, so ``env.spec.make()`` rebuilds the wrapped env and
@@ -25,6 +27,7 @@ import numpy as np
 from trailer_env.env import ConvoyEnv
 from trailer_env.scenes.dock import SUCCESS_HEADING, SUCCESS_RADIUS, DockCore
 from trailer_env.scenes.heading import HEADING_TOLERANCE, HeadingCore
+from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
 
 
 def _convoy_env(wrapper: str, env: Any) -> ConvoyEnv:
@@ -72,6 +75,56 @@ class SafetyStep(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArg
     ) -> tuple[Any, SupportsFloat, float, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return obs, reward, float(info["cost"]), terminated, truncated, info
+
+
+class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArgs):
+    """The scene's reward plus potential-based shaping, ``gamma Phi(s') - Phi(s)``
+    (:func:`trailer_env.shaping.shaped_return_step`; ``Phi = 0`` on a terminal state).
+
+    Over an episode the added terms sum to ``-Phi(s_0)`` (``gamma = 1``) whatever the
+    policy does, so the task's optimal policies are unchanged (Ng, Harada and Russell
+    1999) while the reward tells at once whether a step brought the convoy nearer to or
+    farther from where the potential is high. The observation, termination and success
+    are the scene's; ``info["unshaped_reward"]`` is the scene's own reward.
+
+    Args:
+        env: One environment made with ``gym.make("trailer_env/...")``.
+        potential: A name of :data:`trailer_env.shaping.POTENTIALS` ("lqr").
+        gamma: The learner's discount factor, in (0, 1].
+        **potential_kwargs: The potential's own settings (``scale``, ``reference``).
+
+    Raises:
+        TypeError, ValueError: For anything but one trailer_env environment, an unknown
+            potential or keyword, or a bad value, before anything is built.
+    """
+
+    def __init__(
+        self, env: gym.Env[Any, Any], potential: str = "lqr", gamma: float = 0.99,
+        **potential_kwargs: float,
+    ) -> None:  # fmt: skip
+        base = _convoy_env("PotentialShaping", env)
+        gamma = check_gamma(gamma)
+        self.potential = make_potential(potential, base.settings, **potential_kwargs)
+        recorded: dict[str, Any] = {"potential": potential, "gamma": gamma, **potential_kwargs}
+        gym.utils.RecordConstructorArgs.__init__(self, **recorded)
+        gym.Wrapper.__init__(self, env)
+        self.gamma = gamma
+        self._previous = 0.0
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        self._previous = float(self.potential(obs)[0])
+        return obs, info
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        after = self.potential(obs)
+        shaped = shaped_return_step(np.array([float(reward)]), np.array([self._previous]),
+                                    after, np.array([terminated]), self.gamma)  # fmt: skip
+        self._previous = float(after[0])
+        return obs, float(shaped[0]), terminated, truncated, {**info, "unshaped_reward": reward}
 
 
 def _angle_features(angle: np.ndarray) -> np.ndarray:

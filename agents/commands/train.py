@@ -77,7 +77,7 @@ from agents.commands import options as cli
 from agents.envs import env_settings
 from agents.policies.sb3 import detect_algo, limit_torch_threads, load_model
 from agents.progress import plural
-from agents.training.config import TrainConfig, load_hyperparams
+from agents.training.config import TrainConfig, load_hyperparams, shaping_setting
 from agents.training.sb3 import train
 
 
@@ -140,6 +140,14 @@ def build_parser() -> argparse.ArgumentParser:
         type=Path,
         default=None,
         help="folder of <algo>.yml files (default agents/hyperparams)",
+    )
+    parser.add_argument(
+        "--shaping",
+        default=None,
+        metavar="POTENTIAL",
+        help="potential-based reward shaping over the file's `shaping` (sb3 only): "
+        "'lqr' (the log of the LQR's cost-to-go, trailer_env.shaping) or 'none'; the "
+        "success metric and the recorded returns stay the scene's",
     )
     parser.add_argument(
         "--run-dir",
@@ -224,6 +232,7 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
             ("--resume", args.resume is not None),
             ("--export", args.export is not None),
             ("--stop-on-plateau", args.stop_on_plateau is not None),
+            ("--shaping", args.shaping not in (None, "none")),
         ):
             if unsupported:
                 parser.error(f"argument {name}: not supported with --backend rllib")
@@ -261,6 +270,11 @@ def config_from_args(
     except (FileNotFoundError, KeyError, ValueError) as error:
         text = str(error.args[0]) if isinstance(error, KeyError) else str(error)
         parser.error(f"argument --hyperparams: {text}")
+    if args.shaping is not None:
+        try:
+            hp.shaping = shaping_setting(args.shaping, "--shaping")
+        except ValueError as error:
+            parser.error(f"argument {error}")
     n_envs = args.n_envs
     if args.backend == "rllib":
         runners = max(args.num_env_runners, 1)

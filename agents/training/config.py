@@ -54,7 +54,7 @@ MAX_BUFFER_SIZE = 10_000_000
 MAX_ROLLOUT_STEPS = 10_000_000
 #: rl-zoo3's keys of an entry that are not the algorithm's arguments.
 _ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "env_kwargs", "normalize", "noise_type",
-             "noise_std")  # fmt: skip
+             "noise_std", "shaping")  # fmt: skip
 #: Algorithm arguments that must be integers, and those that must be numbers.
 _INT_KEYS = ("n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
              "gradient_steps", "policy_delay", "target_update_interval", "sde_sample_freq",
@@ -86,6 +86,10 @@ class Hyperparams:
             a string is parsed like ``policy_kwargs``.
         action_noise_std: Gaussian exploration noise (rl-zoo3's ``noise_type: normal``,
             ``noise_std``) for TD3, or None.
+        shaping: Potential-based reward shaping (this project's key, not rl-zoo3's): the
+            keywords of :class:`trailer_env.sb3.PotentialShapingVecEnv` but ``gamma``
+            (the algorithm's), e.g. ``{"potential": "lqr"}``, or None. The file's
+            ``shaping: lqr`` names a potential; a ``dict(...)`` string sets its keywords.
         algo_kwargs: Everything else, ready for the algorithm's constructor.
     """
 
@@ -95,6 +99,7 @@ class Hyperparams:
     env_kwargs: dict[str, Any] = field(default_factory=dict)
     normalize: dict[str, Any] | None = None
     action_noise_std: float | None = None
+    shaping: dict[str, Any] | None = None
     algo_kwargs: dict[str, Any] = field(default_factory=dict)
 
 
@@ -240,6 +245,7 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
     for key in result.normalize or {}:
         if key not in _NORMALIZE_KEYS:
             raise ValueError(f"{where}: normalize has no setting {key!r}; {list(_NORMALIZE_KEYS)}")
+    result.shaping = shaping_setting(raw.pop("shaping", None), where)
     for key in _INT_KEYS:
         if key in raw:
             bound = MAX_BUFFER_SIZE if key == "buffer_size" else limits.MAX_TIMESTEPS
@@ -275,6 +281,39 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
             raise ValueError(f"{path}: {unsupported!r} is not supported by agents.train")
     result.algo_kwargs = raw
     return result
+
+
+def shaping_setting(value: object, where: str) -> dict[str, Any] | None:
+    """An entry's (or ``--shaping``'s) ``shaping`` as the wrapper's keywords, or None.
+
+    ``None``, ``False`` and ``"none"`` mean no shaping; a name of
+    :data:`trailer_env.shaping.POTENTIALS` means that potential with its defaults; a
+    ``dict(potential=..., scale=..., reference=...)`` string or a mapping sets them.
+
+    Raises:
+        ValueError: An unknown potential or keyword, or a value that is not a number.
+    """
+    from trailer_env.shaping import POTENTIALS
+
+    if value is None or value is False or value == "none":
+        return None
+    if isinstance(value, str) and not value.lstrip().startswith("dict("):
+        setting: dict[str, Any] = {"potential": value.strip()}
+    elif isinstance(value, (str, dict)):
+        setting = parse_policy_kwargs(value) if isinstance(value, str) else dict(value)
+    else:
+        raise ValueError(f"{where}: shaping must be a potential or a dict, got {value!r:.60}")
+    if setting.get("potential") not in POTENTIALS:
+        raise ValueError(
+            f"{where}: shaping needs a potential among {sorted(POTENTIALS)}, got "
+            f"{setting.get('potential')!r:.60}"
+        )
+    for key, number in setting.items():
+        if key not in ("potential", "scale", "reference"):
+            raise ValueError(f"{where}: shaping has no {key!r} (potential, scale, reference)")
+        if key != "potential" and not files.is_number(number):
+            raise ValueError(f"{where}: shaping {key} must be a finite number, got {number!r:.60}")
+    return setting
 
 
 def _count(value: Any, key: str, maximum: int, where: str, minimum: int = 1) -> int:
@@ -430,6 +469,8 @@ class TrainConfig:
                     "normalize": self.hyperparams.normalize,
                 }
             )
+            if self.hyperparams.shaping is not None:
+                record["shaping"] = dict(self.hyperparams.shaping)
         else:
             record["backend"] = self.backend
         return record

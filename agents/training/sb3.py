@@ -73,6 +73,7 @@ def train(
         SafetyEvalCallback,
         StatsCheckpointCallback,
     )
+    from trailer_env.sb3 import PotentialShapingVecEnv
 
     hp = config.hyperparams
     algo, seed, budget, batch = config.algo, config.seed, config.budget, config.n_envs
@@ -81,6 +82,9 @@ def train(
     run_dir.mkdir(parents=True, exist_ok=True)
     start_steps = 0
     venv = make_sb3_env(config.env_id, batch, env_kwargs, seed=seed)
+    if hp.shaping is not None:
+        # Under the normalisation, so its statistics (and the policy) see the scene's states.
+        venv = PotentialShapingVecEnv(venv, gamma=hp.algo_kwargs.get("gamma", 0.99), **hp.shaping)
     if hp.normalize is not None:
         normalize = {"gamma": hp.algo_kwargs.get("gamma", 0.99), **hp.normalize}
         venv = VecNormalize(venv, **normalize)

@@ -8,7 +8,12 @@ import pytest
 import torch.nn
 
 from agents.envs import ENV_IDS
-from agents.training.config import HYPERPARAMS_DIR, load_hyperparams, parse_policy_kwargs
+from agents.training.config import (
+    HYPERPARAMS_DIR,
+    load_hyperparams,
+    parse_policy_kwargs,
+    shaping_setting,
+)
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
@@ -50,3 +55,24 @@ def test_linear_schedule_and_unknown_entries(tmp_path: Path) -> None:
     with pytest.raises(FileNotFoundError, match=r"sac\.yml"):
         load_hyperparams("sac", "trailer_env/Reverse-v0", tmp_path)
     assert (HYPERPARAMS_DIR / "ppo.yml").is_file()
+
+
+def test_shaping_entries_name_a_potential_and_its_numbers(tmp_path: Path) -> None:
+    (tmp_path / "ppo.yml").write_text(
+        "trailer_env/Reverse-v1:\n  shaping: lqr\n"
+        "trailer_env/Reverse-v0:\n  shaping: \"dict(potential='lqr', scale=0.5)\"\n"
+    )
+    assert load_hyperparams("ppo", "trailer_env/Reverse-v1", tmp_path).shaping == {
+        "potential": "lqr"
+    }
+    hp = load_hyperparams("ppo", "trailer_env/Reverse-v0", tmp_path)
+    assert hp.shaping == {"potential": "lqr", "scale": 0.5} and "shaping" not in hp.algo_kwargs
+    assert shaping_setting("none", "--shaping") is None
+    for bad, words in (
+        ("energy", "potential among"),
+        ("dict(potential='lqr', weight=2)", "no 'weight'"),
+        ("dict(potential='lqr', scale='big')", "scale must be a finite number"),
+        (3, "a potential or a dict"),
+    ):
+        with pytest.raises(ValueError, match=words):
+            shaping_setting(bad, "--shaping")

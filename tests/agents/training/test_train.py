@@ -99,6 +99,28 @@ def test_smoke_training_beats_random(tmp_path: Path) -> None:
     assert (run / "best_model_vecnormalize.json").is_file()
 
 
+def test_shaped_training_records_its_potential_and_reports_unshaped_returns(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _hyperparams(tmp_path)
+    run = tmp_path / "run"
+    assert _train(tmp_path, "--timesteps", "2048", "--run-dir", str(run), "--shaping", "lqr") == 0
+    card = json.loads((run / "final_model.json").read_text())
+    assert card["shaping"] == {"potential": "lqr"}
+    assert "--shaping" in card["command"]
+    # The validation curve scores the scene's own reward and success, not the shaped one.
+    first = read_curve(run / "evaluations.csv")[0]
+    assert 30.0 < first["mean_return"] < 60.0  # the untrained policy, as without shaping
+    with pytest.raises(SystemExit) as refused:
+        _train(tmp_path, "--timesteps", "2048", "--shaping", "energy")
+    assert refused.value.code == 2
+    assert "--shaping: shaping needs a potential among ['lqr']" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:
+        _train(tmp_path, "--backend", "rllib", "--shaping", "lqr")
+    assert refused.value.code == 2
+    assert "--shaping: not supported with --backend rllib" in capsys.readouterr().err
+
+
 def test_resume_continues_the_timestep_count(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
