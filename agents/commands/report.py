@@ -52,6 +52,7 @@ from agents.evaluation.results import (
     evaluate_policies,
     results_document,
 )
+from agents.evaluation.time_to_ceiling import TIME_TO_CEILING_LEGEND, time_to_ceiling_table
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
@@ -161,6 +162,8 @@ def main(argv: list[str] | None = None) -> int:
         sweep = authority_table(args.episodes)
         bar.advance("actuator sweep")
     sections.append(f"#### LQR on Reverse-v0 as the actuator gets stronger\n\n{sweep}")
+    sections.append(f"#### Time to the ceiling\n\n{TIME_TO_CEILING_LEGEND}\n\n"
+                    f"{time_to_ceiling_table(documents)}")  # fmt: skip
     print(sections[-1], flush=True)
     grid = plots.plot_curve_grid([panel for panel in panels if panel[1]], img / "agents_curves.png")
     print(f"wrote {grid}")

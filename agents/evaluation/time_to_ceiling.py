@@ -1,0 +1,141 @@
+"""Time to the ceiling: per scenario, how far the best learned agent stands from the certified
+ceiling, and the wall time it took to make it.
+
+Read from the report's results documents (:func:`agents.evaluation.results.results_document`,
+``results.json`` of ``python -m agents.report``): the ceiling is the committed
+certificate's share of the test starts (:func:`agents.oracles.certify.ceiling_fraction`),
+the agent is the committed model with the highest headline rate on those starts, and the
+time is the ``wall_time_s`` its run recorded on its card: for an imitation agent the
+whole ``agents.imitate`` run (the planner's labels, the training and the choice of the
+iteration kept), for reinforcement learning the whole ``agents.train`` run (training and
+its validation evaluations). Choosing among training seeds is not in it. The machine's
+load during a run is not on its card: the figures are as recorded, on the 2-core machine
+of this project, usually beside other work.
+
+``python -m agents.evaluation.time_to_ceiling RESULTS_JSON`` prints the table.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from agents.envs import headline_metric, scene_title
+from agents.oracles.certify import ceiling_fraction
+
+#: The targets of the table's two last columns: points below the ceiling, minutes of wall time.
+GAP_TARGET_POINTS = 2.0
+TIME_TARGET_MINUTES = 15.0
+
+
+#: The line under the table's heading in the results tables.
+TIME_TO_CEILING_LEGEND = (
+    "Per scenario, the committed learned agent with the highest headline rate on these "
+    "test episodes against the certified ceiling, and the wall time its run recorded on its "
+    "card (imitation: labels, training and selection of the iteration; reinforcement "
+    "learning: training with its validation evaluations; on this project's 2-core machine, "
+    "its load not recorded). `python -m agents.evaluation.time_to_ceiling results.json` "
+    "prints it from a report's results."
+)
+
+
+@dataclass(frozen=True)
+class CeilingGap:
+    """One scenario's best learned agent against its ceiling (rates in [0, 1])."""
+
+    env_id: str
+    n_trailers: int
+    ceiling: float | None
+    agent: str | None
+    rate: float | None
+    seeds_mean: float | None
+    seeds: int
+    wall_minutes: float | None
+
+    @property
+    def gap_points(self) -> float | None:
+        """Ceiling minus the agent's rate, in percentage points (None without either)."""
+        if self.ceiling is None or self.rate is None:
+            return None
+        return 100.0 * (self.ceiling - self.rate)
+
+
+def gap_of(document: Mapping[str, Any]) -> CeilingGap:
+    """The :class:`CeilingGap` of one results document.
+
+    Raises:
+        KeyError: If the document lacks a field ``results_document`` writes.
+    """
+    env_id = str(document["env_id"])
+    n = int(document["env_kwargs"]["n_trailers"])
+    metric = headline_metric(env_id)
+    learned = [policy for policy in document["policies"] if policy["kind"] == "model"]
+    ceiling = ceiling_fraction(env_id, n, int(document["episodes"]), int(document["seeds"][0]))
+    if not learned:
+        return CeilingGap(env_id, n, ceiling, None, None, None, 0, None)
+    best = max(learned, key=lambda policy: float(policy[metric]))
+    seeds = best.get("training_seeds") or []
+    seeds_mean = sum(float(row[metric]) for row in seeds) / len(seeds) if seeds else None
+    wall = best.get("training", {}).get("wall_time_s")
+    return CeilingGap(
+        env_id, n, ceiling, str(best["name"]), float(best[metric]), seeds_mean, len(seeds),
+        None if wall is None else float(wall) / 60.0,
+    )  # fmt: skip
+
+
+def _percent(value: float | None) -> str:
+    return "-" if value is None else f"{100 * value:.0f} %"
+
+
+def _verdict(value: float | None, target: float) -> str:
+    if value is None:
+        return "-"
+    return "yes" if value <= target else "no"
+
+
+def time_to_ceiling_table(documents: Sequence[Mapping[str, Any]]) -> str:
+    """The Markdown table: one row per document, in their order."""
+    lines = [
+        "| scene, n | ceiling (certified) | best learned agent | its rate | gap (points) "
+        "| mean over training seeds | wall time of its run | within "
+        f"{GAP_TARGET_POINTS:g} points | within {TIME_TARGET_MINUTES:g} min |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for document in documents:
+        row = gap_of(document)
+        gap = row.gap_points
+        seeds = "-" if row.seeds_mean is None else f"{_percent(row.seeds_mean)} ({row.seeds})"
+        wall = "-" if row.wall_minutes is None else f"{row.wall_minutes:.1f} min"
+        lines.append(
+            f"| {scene_title(row.env_id)}, {row.n_trailers} | {_percent(row.ceiling)} "
+            f"| {row.agent or '-'} | {_percent(row.rate)} "
+            f"| {'-' if gap is None else f'{gap:.0f}'} | {seeds} | {wall} "
+            f"| {_verdict(gap, GAP_TARGET_POINTS)} "
+            f"| {_verdict(row.wall_minutes, TIME_TARGET_MINUTES)} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Print the table of a report's ``results.json``."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.evaluation.time_to_ceiling",
+        description="Gap to the certified ceiling and wall time of each scenario's best agent",
+    )
+    parser.add_argument("results", type=Path, help="results.json of python -m agents.report")
+    args = parser.parse_args(argv)
+    try:
+        documents = json.loads(args.results.read_text())
+        table = time_to_ceiling_table(documents)
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        parser.error(f"argument results: {args.results} is not a report's results.json ({error})")
+    print(table, end="")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,61 @@
+"""The time-to-ceiling table: the best learned agent against the committed certificate."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from agents.evaluation.time_to_ceiling import gap_of, main, time_to_ceiling_table
+
+
+def _document(env_id: str, n: int, policies: list[dict]) -> dict:
+    return {"env_id": env_id, "env_kwargs": {"n_trailers": n}, "episodes": 100,
+            "seeds": [1000, 1099], "policies": policies}  # fmt: skip
+
+
+def _model(name: str, rate: float, wall: float, seeds: list[float] = ()) -> dict:
+    return {
+        "name": name, "kind": "model", "training": {"wall_time_s": wall}, "safe_rate": rate,
+        "success_rate": rate,
+        "training_seeds": [{"seed": k, "safe_rate": r} for k, r in enumerate(seeds)],
+    }  # fmt: skip
+
+
+def test_the_best_model_is_set_against_the_committed_ceiling(tmp_path: Path, capsys) -> None:
+    document = _document("trailer_env/Reverse-v1", 3, [
+        {"name": "lqr", "kind": "baseline", "safe_rate": 0.99, "training": {}},
+        _model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89]),
+        _model("fast", 0.975, 600.0),
+    ])  # fmt: skip
+    row = gap_of(document)
+    # The committed Reverse-v1 n = 3 certificate leaves 1 of the test starts 1000-1099 open.
+    assert row.ceiling == pytest.approx(0.99)
+    assert row.agent == "fast" and row.rate == 0.975  # baselines are not agents
+    assert row.gap_points == pytest.approx(1.5) and row.wall_minutes == pytest.approx(10.0)
+    assert row.seeds == 0 and row.seeds_mean is None
+    table = time_to_ceiling_table([document])
+    assert "| Reverse-v1, 3 | 99 % | fast | 98 % | 2 | - | 10.0 min | yes | yes |" in table
+    slow = gap_of(
+        _document("trailer_env/Reverse-v1", 3, [_model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89])])
+    )
+    assert slow.seeds == 3 and slow.seeds_mean == pytest.approx(0.91)
+    assert "| 8 | 91 % (3) | 25.0 min | no | no |" in time_to_ceiling_table(
+        [_document("trailer_env/Reverse-v1", 3, [_model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89])])]
+    )
+    path = tmp_path / "results.json"
+    path.write_text(json.dumps([document]))
+    assert main([str(path)]) == 0
+    assert capsys.readouterr().out == table
+
+
+def test_a_scenario_without_agents_or_certificate_shows_dashes(tmp_path: Path, capsys) -> None:
+    # Heading-v0 has no certificate; no model was evaluated.
+    document = _document("trailer_env/Heading-v0", 2, [])
+    assert "| Heading-v0, 2 | - | - | - | - | - | - | - | - |" in time_to_ceiling_table([document])
+    path = tmp_path / "broken.json"
+    path.write_text('[{"env_id": "trailer_env/Heading-v0"}]')
+    with pytest.raises(SystemExit) as refused:
+        main([str(path)])
+    assert refused.value.code == 2 and "is not a report's results.json" in capsys.readouterr().err
