@@ -65,7 +65,8 @@ class RunCurve:
 
     Attributes:
         run_dir: The folder.
-        env_id, n_trailers, algo, seed: From its ``config.json``.
+        env_id, n_trailers, algo, seed: From its ``config.json``; ``algo`` names its reward
+            shaping too ("ppo + lqr shaping").
         rows: Its ``evaluations.csv`` rows (floats), in step order.
     """
 
@@ -226,6 +227,10 @@ def read_run(run_dir: Path) -> RunCurve:
     config = files.read_json(config_path, "run configuration")
     try:
         env_id, algo = str(config["env_id"]), str(config["algo"])
+        shaping = config.get("shaping")
+        if isinstance(shaping, dict):
+            # A shaped run is another recipe: grouped, tabled and drawn apart from the plain one.
+            algo = f"{algo} + {shaping.get('potential')} shaping"
         n_trailers, seed = config["env_kwargs"]["n_trailers"], config["seed"]
         metric = headline_metric(env_id)
     except (KeyError, TypeError, ValueError) as error:

@@ -89,6 +89,13 @@ def test_groups_and_bands_over_seeds(tmp_path: Path) -> None:
         group_runs([a, read_run(make_run(tmp_path / "a2", 0, [0.5]))])
     with pytest.raises(ValueError, match="axis must be one of"):
         seed_band([a], "episodes")
+    # A shaped run of the same seed is another recipe, not a second folder of one run.
+    shaped_dir = make_run(tmp_path / "shaped", 0, [0.3])
+    config = json.loads((shaped_dir / "config.json").read_text())
+    (shaped_dir / "config.json").write_text(json.dumps({**config, "shaping": {"potential": "lqr"}}))
+    shaped = read_run(shaped_dir)
+    assert shaped.algo == "ppo + lqr shaping"
+    assert list(group_runs([a, shaped])) == [(REVERSE, 2, "ppo"), (REVERSE, 2, "ppo + lqr shaping")]
 
 
 def test_chart_and_table_are_written_and_not_overwritten(tmp_path: Path) -> None:
