@@ -125,7 +125,7 @@ class GoalConditioned(
     Raises:
         TypeError: For a vector env or anything that is not a :class:`gymnasium.Env`.
         ValueError: For another library's env, or an env of another scene (or of a range
-            of trailer counts).
+            of trailer counts), or with observation="trailers".
     """
 
     def __init__(self, env: gym.Env[Any, Any]) -> None:
@@ -134,6 +134,11 @@ class GoalConditioned(
             raise ValueError(
                 "GoalConditioned needs trailer_env/Dock-v0 or trailer_env/Heading-v0 with one "
                 f"number of trailers, got a {type(core).__name__}"
+            )
+        if core.settings.observation != "flat":
+            raise ValueError(
+                "GoalConditioned needs the flat observation (observation='flat'), got "
+                f"observation={core.settings.observation!r}"
             )
         gym.utils.RecordConstructorArgs.__init__(self)
         gym.Wrapper.__init__(self, env)
