@@ -12,6 +12,7 @@ from agents.artifacts.paths import pickled_stats_path, stats_path
 from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError, read_sb3_data
 from agents.artifacts.stats import frozen_normalizer, load_pickled_stats, read_stats
 from agents.envs import make_vector_env
+from agents.policies.extractors import feature_extractors
 
 
 def limit_torch_threads(threads: int = 1) -> None:
@@ -88,8 +89,9 @@ class ModelPolicy:
         self.model = model
         self.stats = stats
 
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        batch = np.atleast_2d(obs)
+    def __call__(self, obs: np.ndarray | dict[str, np.ndarray]) -> np.ndarray:
+        # A Dict observation (observation="trailers") is a dict of batched arrays.
+        batch = obs if isinstance(obs, dict) else np.atleast_2d(obs)
         if self.stats is not None:
             batch = self.stats.normalize_obs(batch)
         actions, _ = self.model.predict(batch, deterministic=True)
@@ -138,4 +140,5 @@ def load_model(
         probe.single_observation_space,
         probe.single_action_space,
         trust_pickle=trust_pickle,
+        extractors=feature_extractors(),
     )
