@@ -98,6 +98,22 @@ def checked_observation(observation: Any, max_trailers: Any, n_trailers: int) ->
     return slots
 
 
+def flat_observation(obs: Observation, what: str) -> np.ndarray:
+    """``obs`` itself when it is the flat observation (an array).
+
+    Raises:
+        TypeError: If it is the dict of ``observation="trailers"``, naming ``what`` (the
+            consumer that reads flat observations).
+    """
+    if isinstance(obs, dict):
+        raise TypeError(
+            f"{what} reads the flat observation; make the environment with "
+            "observation='flat' (a policy may rearrange it with "
+            "trailer_env.observation.trailers_observation)"
+        )
+    return obs
+
+
 def trailers_observation(
     flat: np.ndarray, n: int, max_trailers: int, *, padded: bool = False
 ) -> dict[str, np.ndarray]:

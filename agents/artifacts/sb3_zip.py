@@ -25,7 +25,6 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from gymnasium.spaces import Dict, flatdim
 
 from agents.algorithms import ALGOS, algo_class, algorithm
@@ -267,7 +266,7 @@ def safe_custom_objects(
     if "clip_range_vf" in data:
         replacements["clip_range_vf"] = kwargs.get("clip_range_vf")
     policy_kwargs = data.get("policy_kwargs")
-    if _is_serialized(policy_kwargs):
+    if isinstance(policy_kwargs, dict) and _is_serialized(policy_kwargs):
         rebuilt = safe_policy_kwargs(path, policy_kwargs, extractors)
         problem = limits.network_problem(rebuilt.get("net_arch", [64, 64]))
         if problem is not None:

@@ -109,9 +109,10 @@ class ConvoyEncoder(BaseFeaturesExtractor):
         self.body = nn.Sequential(nn.Linear(body_dim, body_hidden), nn.Tanh())
         self.cell = nn.GRUCell(int(trailer_space.shape[1]), hidden)
         # cos(alpha) - 1: the straight convoy at the origin of every input.
+        self.centre: torch.Tensor
         self.register_buffer("centre", torch.tensor([0.0, 1.0]), persistent=False)
 
-    def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:  # type: ignore[override]
+    def forward(self, observations: dict[str, torch.Tensor]) -> torch.Tensor:
         body = observations["body"]
         present = observations["mask"] > 0.5
         inputs = (observations["trailers"] - self.centre) * self.trailer_scale

@@ -27,5 +27,7 @@ def feature_extractor(name: str) -> type:
         ValueError: Naming the shipped ones, if there is none of that name.
     """
     if name not in FEATURE_EXTRACTORS:
-        raise ValueError(f"unknown features extractor {name!r}; shipped: {list(FEATURE_EXTRACTORS)}")
+        raise ValueError(
+            f"unknown features extractor {name!r}; shipped: {list(FEATURE_EXTRACTORS)}"
+        )
     return feature_extractors()[name]

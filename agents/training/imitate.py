@@ -78,6 +78,7 @@ from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
 from agents.training.config import load_hyperparams, parse_policy_kwargs
 from trailer_env.mixed import is_trailer_range, mixed_settings, trailer_range
+from trailer_env.observation import flat_observation
 from trailer_env.randomize import PRESETS, Randomization
 from trailer_env.registry import core_class_of
 from trailer_env.vector import ConvoyVectorEnv
@@ -245,7 +246,8 @@ def collect(
     ``policy`` None lets the planner drive. ``envs`` must reset in the same step
     (``autoreset_mode="same_step"``) so that each observation is the core's state.
     """
-    obs, _ = envs.reset(seed=seed)
+    reset_obs, _ = envs.reset(seed=seed)
+    obs = flat_observation(reset_obs, "DAgger's labelling")
     planner.reset()
     core = envs.core
     steps = envs.max_episode_steps
@@ -256,7 +258,8 @@ def collect(
         observations[t] = obs
         labels[t] = label[:, 0]
         action = label if policy is None else policy(obs)
-        obs, _, terminated, truncated, _ = envs.step(np.asarray(action, dtype=np.float32))
+        stepped, _, terminated, truncated, _ = envs.step(np.asarray(action, dtype=np.float32))
+        obs = flat_observation(stepped, "DAgger's labelling")
         ended = np.flatnonzero(terminated | truncated)
         if ended.size:
             planner.reset(ended)

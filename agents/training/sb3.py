@@ -19,9 +19,9 @@ from agents.artifacts.run_folder import (
     write_config,
 )
 from agents.artifacts.sb3_zip import UnsafeFileError, algo_class, load_sb3, save_model
-from agents.policies.extractors import feature_extractors
 from agents.artifacts.stats import load_pickled_stats, read_stats, restore_stats, save_stats
 from agents.envs import env_settings, make_sb3_env
+from agents.policies.extractors import feature_extractors
 from agents.training.config import TrainConfig
 
 if TYPE_CHECKING:

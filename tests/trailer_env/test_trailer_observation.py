@@ -11,8 +11,9 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 from tests.trailer_env.helpers import SCENE_IDS
+from trailer_env.benchmark import rollout
 from trailer_env.mixed import pad_observations
-from trailer_env.observation import DEFAULT_MAX_TRAILERS, trailers_observation
+from trailer_env.observation import DEFAULT_MAX_TRAILERS, flat_observation, trailers_observation
 from trailer_env.sb3 import ConvoySB3VecEnv
 from trailer_env.vector import MAX_NUM_ENVS
 
@@ -242,3 +243,12 @@ def test_flat_is_the_default_and_unchanged() -> None:
     first, _ = default.reset(seed=0)
     second, _ = named.reset(seed=0)
     np.testing.assert_array_equal(first, second, strict=True)
+
+
+def test_the_scoring_rollout_refuses_the_dict_observation() -> None:
+    with pytest.raises(ValueError, match="rollout scores policies on the flat observation"):
+        rollout(lambda obs: np.zeros((2, 1)), REVERSE, 2, 1000, {"observation": "trailers"})
+    with pytest.raises(TypeError, match="DAgger reads the flat observation"):
+        flat_observation(trailers_observation(np.zeros(8), 2, 4), "DAgger")
+    flat = np.zeros(8, np.float32)
+    assert flat_observation(flat, "DAgger") is flat

@@ -166,7 +166,7 @@ def test_the_encoder_refuses_other_spaces_and_sizes() -> None:
     space = ConvoySB3VecEnv(REVERSE, num_envs=1, observation="trailers").observation_space
     with pytest.raises(TypeError, match="needs the Dict observation"):
         ConvoyEncoder(gym.spaces.Box(-1.0, 1.0, (8,)))  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="hidden must be an integer in 1..4096, got 0"):
+    with pytest.raises(ValueError, match=r"hidden must be an integer in 1\.\.4096, got 0"):
         ConvoyEncoder(space, hidden=0)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="trailer_scale must be a positive number"):
         ConvoyEncoder(space, trailer_scale=float("nan"))  # type: ignore[arg-type]
