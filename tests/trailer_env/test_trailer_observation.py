@@ -252,3 +252,23 @@ def test_the_scoring_rollout_refuses_the_dict_observation() -> None:
         flat_observation(trailers_observation(np.zeros(8), 2, 4), "DAgger")
     flat = np.zeros(8, np.float32)
     assert flat_observation(flat, "DAgger") is flat
+
+
+def test_torchrl_reads_the_dict_as_a_composite() -> None:
+    torchrl_envs = pytest.importorskip("torchrl.envs")
+    from torchrl.envs.utils import check_env_specs
+
+    env = torchrl_envs.GymEnv(REVERSE, n_trailers=2, observation="trailers", max_trailers=4)
+    check_env_specs(env)
+    env.set_seed(0)
+    data = env.rollout(5)
+    assert data["next", "trailers"].shape == (5, 4, 2)
+    assert data["next", "body"].shape == (5, 4)
+    assert data["mask"][0].tolist() == [1.0, 1.0, 0.0, 0.0]
+
+
+def test_goal_conditioned_needs_the_flat_observation() -> None:
+    from trailer_env.wrappers import GoalConditioned
+
+    with pytest.raises(ValueError, match="GoalConditioned needs the flat observation"):
+        GoalConditioned(gym.make("trailer_env/Dock-v0", n_trailers=1, observation="trailers"))

@@ -170,3 +170,14 @@ def test_the_encoder_refuses_other_spaces_and_sizes() -> None:
         ConvoyEncoder(space, hidden=0)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="trailer_scale must be a positive number"):
         ConvoyEncoder(space, trailer_scale=float("nan"))  # type: ignore[arg-type]
+
+
+def test_agents_train_refuses_the_dict_observation_before_writing(tmp_path: Path) -> None:
+    from agents.training.config import Hyperparams, TrainConfig
+    from agents.training.sb3 import train
+
+    hp = Hyperparams(policy="MultiInputPolicy", env_kwargs={"observation": "trailers"})
+    config = TrainConfig.resolve(REVERSE, "ppo", 2, 0, hp, timesteps=64, n_envs=1)
+    with pytest.raises(ValueError, match=r"agents\.train needs the flat observation"):
+        train(config, tmp_path / "run", progress_bar=False, verbose=0)
+    assert not (tmp_path / "run").exists()
