@@ -13,6 +13,7 @@ from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError, read_sb3_data
 from agents.artifacts.stats import frozen_normalizer, load_pickled_stats, read_stats
 from agents.envs import make_vector_env
 from agents.policies.extractors import feature_extractors
+from trailer_env.observation import trailers_observation
 
 
 def limit_torch_threads(threads: int = 1) -> None:
@@ -96,6 +97,29 @@ class ModelPolicy:
             batch = self.stats.normalize_obs(batch)
         actions, _ = self.model.predict(batch, deterministic=True)
         return np.asarray(actions, dtype=np.float32)
+
+
+class TrailersPolicy:
+    """A policy of ``observation="trailers"`` acting on flat observations: each batch is
+    rearranged by :func:`trailer_env.observation.trailers_observation` first.
+
+    Args:
+        policy: A policy that takes the dict of ``observation="trailers"``.
+        n: Trailers of the flat layout (``high`` of a padded one).
+        max_trailers: The policy's trailer slots (>= n).
+        padded: Whether the flat observations are the padded layout of a range.
+    """
+
+    def __init__(self, policy: Any, n: int, max_trailers: int, padded: bool) -> None:
+        self.policy = policy
+        self.n = n
+        self.max_trailers = max_trailers
+        self.padded = padded
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        batch = trailers_observation(np.atleast_2d(obs), self.n, self.max_trailers,
+                                     padded=self.padded)  # fmt: skip
+        return np.asarray(self.policy(batch), dtype=np.float32)
 
 
 def load_model(
