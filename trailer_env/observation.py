@@ -130,8 +130,9 @@ def trailers_observation(
             n's (the first n slots are real).
 
     Returns:
-        New float32 arrays ``body`` (..., D - 2n), ``trailers`` (..., max_trailers, 2) and
-        ``mask`` (..., max_trailers) (one fewer axis for one observation).
+        New float32 arrays ``body`` (..., D - 2n; D - 3n when padded), ``trailers``
+        (..., max_trailers, 2) and ``mask`` (..., max_trailers) (one fewer axis for one
+        observation).
 
     Raises:
         ValueError: If ``flat`` is not 1-D or 2-D, is too short for n trailers, or
