@@ -60,6 +60,8 @@ from typing import Any
 
 import numpy as np
 
+from trailer_env.observation import flat_observation
+
 PROTOCOL = "trailer_env-benchmark/1"
 #: First seed of the test episodes.
 TEST_SEED = 1000
@@ -193,20 +195,30 @@ def rollout(
         The per-episode results; deterministic for a deterministic policy and seed.
 
     Raises:
-        TypeError, ValueError: On a bad count, seed, id or keyword (before any env exists).
+        TypeError, ValueError: On a bad count, seed, id or keyword (before any env exists);
+            ``observation="trailers"`` is refused (ValueError): policies are scored on the
+            flat observation (a policy may rearrange it,
+            :func:`trailer_env.observation.trailers_observation`).
     """
     import gymnasium as gym
 
     from trailer_env.vector import ConvoyVectorEnv
 
     episodes, seed = _check_episodes_and_seed(episodes, seed)
+    if (env_kwargs or {}).get("observation", "flat") != "flat":
+        raise ValueError(
+            "rollout scores policies on the flat observation; got observation="
+            f"{(env_kwargs or {})['observation']!r} (a policy may rearrange the flat one with "
+            "trailer_env.observation.trailers_observation)"
+        )
     made = gym.make_vec(
         env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
     envs = made.unwrapped
     if not isinstance(envs, ConvoyVectorEnv):  # pragma: no cover - registration guarantees it
         raise TypeError(f"{env_id} did not build a ConvoyVectorEnv")
-    obs, info = envs.reset(seed=seed)
+    reset_obs, info = envs.reset(seed=seed)
+    obs = flat_observation(reset_obs, "rollout")
     running = np.ones(episodes, dtype=bool)
     returns = np.zeros(episodes)
     lengths = np.zeros(episodes, dtype=np.int64)
@@ -221,7 +233,8 @@ def rollout(
         observe = privileged_view(policy)
     for _ in range(envs.max_episode_steps):
         seen = obs if observe is None else observe(envs.core, obs)
-        obs, reward, terminated, truncated, info = envs.step(policy(seen))
+        stepped, reward, terminated, truncated, info = envs.step(policy(seen))
+        obs = flat_observation(stepped, "rollout")
         rows = running.copy()  # the environments whose episode this step belongs to
         returns[rows] += reward[rows]
         lengths[rows] += 1

@@ -16,7 +16,8 @@ from gymnasium import spaces
 
 from dynamics.params import real_number
 from trailer_env.core import ConvoyCore
-from trailer_env.mixed import build_core
+from trailer_env.mixed import build_core, observation_view
+from trailer_env.observation import Observation
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
 from trailer_env.settings import EnvSettings
 
@@ -191,7 +192,7 @@ def checked_state(z: Any, s: Any, s_dot: Any) -> tuple[np.ndarray, float, float]
     return state, real_number("s", s), real_number("s_dot", s_dot)
 
 
-class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
+class ConvoyEnv(gym.Env[Observation, np.ndarray]):
     """Base of the scenes' single environments (see each scene's docstring).
 
     Args:
@@ -222,8 +223,8 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         self.render_mode = render_mode
         # Frames at the control rate: RecordVideo and the human window play in real time.
         self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.settings.dt))}
-        low, high = self.core.observation_bounds()
-        self.observation_space = spaces.Box(low, high, dtype=np.float32)
+        self._view = observation_view(self.core)
+        self.observation_space = self._view.space
         self.action_space = spaces.Box(-1.0, 1.0, (self.settings.action_dim,), dtype=np.float32)
         self._rows = np.zeros(1, dtype=np.int64)
         self._action = np.zeros((1, self.settings.action_dim))
@@ -234,7 +235,7 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[np.ndarray, dict[str, Any]]:
+    ) -> tuple[Observation, dict[str, Any]]:
         """Start an episode; ``seed`` seeds the generator that draws the starting state.
 
         Args:
@@ -280,9 +281,9 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         self._record_path()
         if self.render_mode == "human":
             self.render()
-        return self.core.obs[0].copy(), self.core.info_row(0)
+        return self._view.row(self.core.obs, 0), self.core.info_row(0)
 
-    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
         """Advance by ``dt``. Out-of-range actions are clipped to [-1, 1].
 
         ``action`` must have exactly the action space's shape, (1,) or (2,) in planar
@@ -320,7 +321,7 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
             if self.render_mode == "human":
                 self.render()
         return (
-            core.obs[0].copy(),
+            self._view.row(core.obs, 0),
             float(core.reward[0]),
             bool(core.terminated[0]),
             False,
@@ -334,7 +335,7 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         s: float = 0.0,
         s_dot: float = 0.0,
         **task: Any,
-    ) -> np.ndarray:
+    ) -> Observation:
         """Put the environment in a hand-built state (tests, demos); returns the observation.
 
         Args:
@@ -356,7 +357,7 @@ class ConvoyEnv(gym.Env[np.ndarray, np.ndarray]):
         self.core.set_row_state(0, state, s=s, s_dot=s_dot, **task)
         self._path.clear()
         self._record_path()
-        return self.core.obs[0].copy()
+        return self._view.row(self.core.obs, 0)
 
     def get_state(self) -> dict[str, Any]:
         """The current state, as :meth:`set_state` takes it: ``env.set_state(**env.get_state())``

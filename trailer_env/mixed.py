@@ -50,6 +50,7 @@ from dynamics.params import MAX_TRAILERS, bounded_integer
 from trailer_env.actuator import first_non_finite_row
 from trailer_env.core import INFO_FIELDS, ConvoyCore
 from trailer_env.generators import GeneratorBank
+from trailer_env.observation import ObservationView
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 
 #: Most trailer counts one environment may mix (one scene core each).
@@ -337,3 +338,17 @@ def build_core(
         raise ValueError("rendering needs one number of trailers, not a range")
     core = MixedCore(core_class, by_count, batch_size)
     return core.settings, core
+
+
+def observation_view(core: ConvoyCore | MixedCore) -> ObservationView:
+    """How the environments built on ``core`` (by :func:`build_core`) present its
+    observations, as its settings' ``observation`` keyword asks
+    (:mod:`trailer_env.observation`)."""
+    settings = core.settings
+    return ObservationView(
+        settings.observation,
+        settings.max_trailers,
+        core.n,
+        isinstance(core, MixedCore),
+        core.observation_bounds(),
+    )

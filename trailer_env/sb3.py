@@ -44,7 +44,7 @@ from dynamics.params import bounded_integer
 from trailer_env.batch_infos import BatchInfos
 from trailer_env.episodes import count_episodes
 from trailer_env.generators import GeneratorBank
-from trailer_env.mixed import MixedCore, build_core
+from trailer_env.mixed import MixedCore, build_core, observation_view
 from trailer_env.registry import core_class_of
 from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
 from trailer_env.vector import MAX_NUM_ENVS, as_action_batch, as_bank, seed_generators
@@ -81,8 +81,8 @@ class ConvoySB3VecEnv(VecEnv):
         if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
             raise ValueError(f"max_episode_steps must be an integer >= 1, got {steps!r}")
         self.max_episode_steps = int(steps)
-        low, high = self.core.observation_bounds()
-        observation_space = spaces.Box(low, high, dtype=np.float32)
+        self._view = observation_view(self.core)
+        observation_space = self._view.space
         action_space = spaces.Box(-1.0, 1.0, (self.settings.action_dim,), dtype=np.float32)
         self.render_mode = None
         super().__init__(self.core.batch_size, observation_space, action_space)
@@ -106,7 +106,7 @@ class ConvoySB3VecEnv(VecEnv):
         self.reset_infos = self.core.info_rows()
         self._reset_seeds()
         self._reset_options()
-        return self.core.obs.copy()
+        return self._view.batch(self.core.obs)  # type: ignore[return-value]
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = as_action_batch(
@@ -133,7 +133,7 @@ class ConvoySB3VecEnv(VecEnv):
             cut = truncated[rows].tolist()
             for j, i in enumerate(rows.tolist()):
                 extras[i] = {
-                    "terminal_observation": core.obs[i].copy(),
+                    "terminal_observation": self._view.row(core.obs, i),
                     "TimeLimit.truncated": cut[j],
                     "episode": {"r": returns[j], "l": lengths[j], "t": elapsed},
                 }
@@ -144,7 +144,7 @@ class ConvoySB3VecEnv(VecEnv):
             self._episode_lengths[rows] = 0
         else:
             infos = BatchInfos(core.info_batch(), extras, self.num_envs)
-        return core.obs.copy(), rewards, dones, infos  # type: ignore[return-value]
+        return self._view.batch(core.obs), rewards, dones, infos  # type: ignore[return-value]
 
     def close(self) -> None:
         """Nothing to release."""
@@ -216,6 +216,11 @@ class PotentialShapingVecEnv(VecEnvWrapper):
             )
         if isinstance(venv.core, MixedCore):
             raise ValueError("PotentialShapingVecEnv needs one count of trailers, not a mix")
+        if venv.settings.observation != "flat":
+            raise ValueError(
+                "PotentialShapingVecEnv reads the flat observation; got "
+                f"observation={venv.settings.observation!r}"
+            )
         self.gamma = check_gamma(gamma)
         self.potential = make_potential(potential, venv.settings, **potential_kwargs)
         super().__init__(venv)

@@ -21,6 +21,7 @@ from dynamics import ConvoyParams
 from dynamics.params import MAX_TRAILERS, bounded_integer, bounded_real
 from trailer_env.actuator import ACTUATORS, ActionMode, Actuator
 from trailer_env.fidelity import MAX_FIXED_SUBSTEPS, Fidelity
+from trailer_env.observation import checked_observation
 from trailer_env.randomize import PARAMETERS, Randomization, checked_observe_params
 from trailer_env.substeps import STABILITY_FRACTION, cart_rate_coefficient, stability_limit
 
@@ -86,6 +87,10 @@ class EnvSettings:
         observe_params: Append the episode's parameter factors to the observation
             (``log(value / nominal)`` of M, J0, a, m, J, l, mu: 0 where not randomised,
             and where the nominal value is 0, which a factor leaves 0).
+        observation: "flat" (default: the scene's Box) or "trailers" (a Dict whose shapes
+            do not depend on n, :mod:`trailer_env.observation`).
+        max_trailers: Trailer slots of ``observation="trailers"``, an integer in
+            ``n_trailers .. 256`` (default 8); None with "flat" (giving it is a ValueError).
     """
 
     params: ConvoyParams = field(default_factory=ConvoyParams)
@@ -98,10 +103,14 @@ class EnvSettings:
     fold_angle: float = math.pi / 2
     randomize: Randomization | None = None
     observe_params: bool = False
+    observation: str = "flat"
+    max_trailers: int | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, ConvoyParams):
             raise TypeError(f"params must be a ConvoyParams, got {type(self.params).__name__}")
+        slots = checked_observation(self.observation, self.max_trailers, self.params.n_trailers)
+        object.__setattr__(self, "max_trailers", slots)
         object.__setattr__(self, "fidelity", Fidelity.coerce(self.fidelity))
         object.__setattr__(self, "dt", bounded_real("dt", self.dt, *DT_RANGE))
         for name in ("rail_accel_max", "servo_bandwidth"):
@@ -221,6 +230,8 @@ def settings_from_kwargs(
     fold_angle: float = math.pi / 2,
     randomize: Randomization | dict[str, Any] | str | None = None,
     observe_params: bool = False,
+    observation: str = "flat",
+    max_trailers: int | None = None,
     **param_overrides: float,
 ) -> EnvSettings:
     """Build settings from ``gym.make``-style keyword arguments.
@@ -231,6 +242,7 @@ def settings_from_kwargs(
         params: Full parameters; by default ConvoyParams' own.
         dt, fidelity, action_mode, rail_accel_max, servo_bandwidth: See :class:`EnvSettings`.
         singular_band, fold_angle, randomize, observe_params: See :class:`EnvSettings`.
+        observation, max_trailers: See :class:`EnvSettings`.
         **param_overrides: Any ConvoyParams field, e.g. ``mu=0.4``.
 
     Raises:
@@ -246,7 +258,8 @@ def settings_from_kwargs(
         raise TypeError(
             "; ".join(f"unexpected keyword argument {name!r}" for name in unknown)
             + "; valid: n_trailers, params, dt, fidelity, action_mode, rail_accel_max, "
-            "servo_bandwidth, singular_band, fold_angle, randomize, observe_params and the "
+            "servo_bandwidth, singular_band, fold_angle, randomize, observe_params, "
+            "observation, max_trailers and the "
             "ConvoyParams fields "
             f"{sorted(_PARAM_FIELDS - {'n_trailers'})}"
         )
@@ -276,4 +289,6 @@ def settings_from_kwargs(
         fold_angle=fold_angle,
         randomize=Randomization.coerce(randomize),
         observe_params=observe_params,
+        observation=observation,
+        max_trailers=max_trailers,
     )

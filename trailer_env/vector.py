@@ -63,7 +63,8 @@ from trailer_env.env import (
 )
 from trailer_env.episodes import count_step
 from trailer_env.generators import GeneratorBank
-from trailer_env.mixed import build_core
+from trailer_env.mixed import build_core, observation_view
+from trailer_env.observation import Observation
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
 
 VECTOR_RENDER_MODES = ("rgb_array",)
@@ -263,8 +264,8 @@ class ConvoyVectorEnv(VectorEnv):
         self._paths = PathTrace(self.num_envs, PATH_LENGTH) if render_mode else None
         self._renderer: Any = None
         self._warned_render = False
-        low, high = self.core.observation_bounds()
-        self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
+        self._view = observation_view(self.core)
+        self.single_observation_space = self._view.space
         self.single_action_space = spaces.Box(
             -1.0, 1.0, (self.settings.action_dim,), dtype=np.float32
         )
@@ -285,7 +286,7 @@ class ConvoyVectorEnv(VectorEnv):
         *,
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
-    ) -> tuple[np.ndarray, dict[str, Any]]:
+    ) -> tuple[Observation, dict[str, Any]]:
         """Reset every environment, or those of ``options["reset_mask"]``.
 
         ``seed`` seeds environment i with ``seed + i`` (see the module docstring); with a
@@ -313,7 +314,7 @@ class ConvoyVectorEnv(VectorEnv):
                 if generators[i] is not self._generators[i]:
                     self._generators[i] = generators[i]
         self._start(rows, states)
-        return self.core.obs.copy(), self._infos()
+        return self._view.batch(self.core.obs), self._infos()
 
     def _reset_options(self, options: Any) -> tuple[np.ndarray, np.ndarray | None]:
         """The rows to reset and their given states (None: draw them) from ``options``."""
@@ -380,7 +381,7 @@ class ConvoyVectorEnv(VectorEnv):
 
     def step(
         self, actions: Any
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    ) -> tuple[Observation, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every environment (autoreset as ``autoreset_mode`` says).
 
         Raises:
@@ -441,7 +442,7 @@ class ConvoyVectorEnv(VectorEnv):
             rows = np.flatnonzero(done)
             final_obs = np.full(self.num_envs, None, dtype=object)
             for i in rows.tolist():
-                final_obs[i] = core.obs[i].copy()
+                final_obs[i] = self._view.row(core.obs, i)
             final = {
                 "final_obs": final_obs,
                 "_final_obs": done,
@@ -452,7 +453,7 @@ class ConvoyVectorEnv(VectorEnv):
         infos = self._infos()
         if final is not None:
             infos.update(final)
-        return core.obs.copy(), reward, terminated, truncated, infos
+        return self._view.batch(core.obs), reward, terminated, truncated, infos
 
     def _record_paths(self, rows: np.ndarray) -> None:
         assert self._paths is not None

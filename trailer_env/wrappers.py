@@ -103,6 +103,11 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
         **potential_kwargs: float,
     ) -> None:  # fmt: skip
         base = _convoy_env("PotentialShaping", env)
+        if base.settings.observation != "flat":
+            raise ValueError(
+                "PotentialShaping reads the flat observation (observation='flat'), got "
+                f"observation={base.settings.observation!r}"
+            )
         gamma = check_gamma(gamma)
         self.potential = make_potential(potential, base.settings, **potential_kwargs)
         recorded: dict[str, Any] = {"potential": potential, "gamma": gamma, **potential_kwargs}
@@ -178,7 +183,7 @@ class GoalConditioned(
     Raises:
         TypeError: For a vector env or anything that is not a :class:`gymnasium.Env`.
         ValueError: For another library's env, or an env of another scene (or of a range
-            of trailer counts).
+            of trailer counts), or with observation="trailers".
     """
 
     def __init__(self, env: gym.Env[Any, Any]) -> None:
@@ -187,6 +192,11 @@ class GoalConditioned(
             raise ValueError(
                 "GoalConditioned needs trailer_env/Dock-v0 or trailer_env/Heading-v0 with one "
                 f"number of trailers, got a {type(core).__name__}"
+            )
+        if core.settings.observation != "flat":
+            raise ValueError(
+                "GoalConditioned needs the flat observation (observation='flat'), got "
+                f"observation={core.settings.observation!r}"
             )
         gym.utils.RecordConstructorArgs.__init__(self)
         gym.Wrapper.__init__(self, env)

@@ -7,6 +7,12 @@ inflating past :data:`~agents.artifacts.limits.MAX_ZIP_MEMBER_BYTES` (all togeth
 than :data:`~agents.artifacts.limits.MAX_ZIP_RATIO` times. The network the ``data``
 entry's ``policy_kwargs`` asks for is bounded (:func:`~agents.artifacts.limits.network_problem`)
 before SB3 builds it. Models are saved atomically (:func:`save_model`).
+
+A ``policy_kwargs`` that holds a class (a features extractor, an activation) is a pickle
+in the zip; it is rebuilt from the entry's JSON text instead, with classes taken only
+from the tables the caller passes (``extractors``: the shipped features extractors,
+:func:`agents.policies.extractors.feature_extractors`) and torch's activations: a class
+named by the text and in no table is refused.
 """
 
 from __future__ import annotations
@@ -15,10 +21,11 @@ import io
 import math
 import re
 import zipfile
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
+from gymnasium.spaces import Dict, flatdim
 
 from agents.algorithms import ALGOS, algo_class, algorithm
 from agents.artifacts import files, limits
@@ -103,7 +110,7 @@ def check_network(path: Path, data: dict[str, Any], observation_space: Any = Non
     kwargs = data.get("policy_kwargs")
     if not isinstance(kwargs, dict) or "net_arch" not in kwargs:
         return
-    inputs = int(np.prod(observation_space.shape)) if observation_space is not None else 64
+    inputs = int(flatdim(observation_space)) if observation_space is not None else 64
     problem = limits.network_problem(kwargs["net_arch"], inputs=inputs)
     if problem is not None:
         raise ValueError(f"{path}: {problem}")
@@ -145,12 +152,64 @@ def _constant(value: Any, fallback: float) -> float:
     return fallback
 
 
+#: torch activations a saved ``policy_kwargs`` may name (as its text ``<class '...'>``).
+_ACTIVATIONS = ("ReLU", "Tanh", "ELU", "LeakyReLU", "SiLU", "GELU")
+
+
+def _class_text(cls: type) -> str:
+    """How SB3's ``data`` entry writes a class it pickled: ``str(cls)``."""
+    return str(cls)
+
+
+def safe_policy_kwargs(
+    path: Path, entry: dict[str, Any], extractors: Mapping[str, type] | None = None
+) -> dict[str, Any]:
+    """A pickled ``policy_kwargs`` entry rebuilt from its JSON text (nothing unpickled).
+
+    SB3 writes beside the pickle each item as JSON, or as its ``str`` when it is not
+    JSON (a class: ``"<class 'module.Name'>"``). JSON items are kept; a class text must
+    be one of ``extractors`` (for ``features_extractor_class``) or a torch activation of
+    :data:`_ACTIVATIONS` (for ``activation_fn``).
+
+    Raises:
+        UnsafeFileError: If the entry is not a dict's record, or an item is a class (or
+            any other object) outside those tables.
+    """
+    if entry.get(":type:") != "<class 'dict'>":
+        raise UnsafeFileError(
+            f"{path}: its policy_kwargs is a pickled {entry.get(':type:')!r}, not a dict; "
+            "load it with --trust-pickle only if you trust the file"
+        )
+    classes: dict[str, type] = {_class_text(cls): cls for cls in (extractors or {}).values()}
+    import torch.nn
+
+    activations = {_class_text(getattr(torch.nn, name)): getattr(torch.nn, name)
+                   for name in _ACTIVATIONS}  # fmt: skip
+    kwargs: dict[str, Any] = {}
+    for key, value in entry.items():
+        if key in (":type:", ":serialized:"):
+            continue
+        table = {"features_extractor_class": classes, "activation_fn": activations}.get(key)
+        if table is not None and isinstance(value, str) and value in table:
+            kwargs[key] = table[value]
+        elif isinstance(value, str) and value.startswith("<"):
+            raise UnsafeFileError(
+                f"{path}: policy_kwargs[{key!r}] is {value[:80]!r}, which has no safe "
+                "replacement (shipped features extractors and torch activations only); load "
+                "it with --trust-pickle only if you trust the file"
+            )
+        else:
+            kwargs[key] = value
+    return kwargs
+
+
 def safe_custom_objects(
     path: Path,
     algo: str,
     observation_space: Any,
     action_space: Any,
     algo_kwargs: dict[str, Any] | None = None,
+    extractors: Mapping[str, type] | None = None,
 ) -> dict[str, Any]:
     """Replacements for every ``:serialized:`` entry of an SB3 zip (SB3's ``custom_objects``).
 
@@ -162,6 +221,8 @@ def safe_custom_objects(
         algo_kwargs: The hyperparameter file's algorithm arguments: schedules, train
             frequency and action noise for a resumed training (None: evaluation only,
             constants read from the file's text, no noise).
+        extractors: The features extractors a pickled ``policy_kwargs`` may name
+            (:func:`safe_policy_kwargs`); None: none.
 
     Raises:
         ValueError: On a shape mismatch, a policy class of another algorithm, or a
@@ -172,7 +233,7 @@ def safe_custom_objects(
     kwargs = algo_kwargs or {}
     for key, space in (("observation_space", observation_space), ("action_space", action_space)):
         shape = saved_shape(data, key)
-        if shape is not None and shape != tuple(space.shape):
+        if shape is not None and space.shape is not None and shape != tuple(space.shape):
             noun = "observations" if key == "observation_space" else "actions"
             raise ValueError(
                 f"model {path} expects {noun} of shape {shape}, "
@@ -188,8 +249,11 @@ def safe_custom_objects(
             "custom policies load only with --trust-pickle"
         )
     learning_rate = kwargs.get("learning_rate", _constant(data.get("learning_rate"), 3e-4))
+    # A Dict observation (observation="trailers") needs the algorithm's MultiInputPolicy,
+    # recorded under the same module.
+    policy = "MultiInputPolicy" if isinstance(observation_space, Dict) else "MlpPolicy"
     replacements: dict[str, Any] = {
-        "policy_class": algo_class(algo).policy_aliases["MlpPolicy"],
+        "policy_class": algo_class(algo).policy_aliases[policy],
         "observation_space": observation_space,
         "action_space": action_space,
         "learning_rate": learning_rate,
@@ -201,6 +265,13 @@ def safe_custom_objects(
     }
     if "clip_range_vf" in data:
         replacements["clip_range_vf"] = kwargs.get("clip_range_vf")
+    policy_kwargs = data.get("policy_kwargs")
+    if isinstance(policy_kwargs, dict) and _is_serialized(policy_kwargs):
+        rebuilt = safe_policy_kwargs(path, policy_kwargs, extractors)
+        problem = limits.network_problem(rebuilt.get("net_arch", [64, 64]))
+        if problem is not None:
+            raise ValueError(f"{path}: {problem}")
+        replacements["policy_kwargs"] = rebuilt
     custom = {}
     for key, value in data.items():
         if not _is_serialized(value):
@@ -223,8 +294,10 @@ def load_sb3(
     env: Any = None,
     algo_kwargs: dict[str, Any] | None = None,
     trust_pickle: bool = False,
+    extractors: Mapping[str, type] | None = None,
 ) -> Any:
-    """Load an SB3 model on the CPU, unpickling nothing unless ``trust_pickle``.
+    """Load an SB3 model on the CPU, unpickling nothing unless ``trust_pickle``
+    (``extractors``: see :func:`safe_custom_objects`).
 
     Raises:
         ValueError: If the file is not a loadable model of ``algo`` for these spaces
@@ -236,7 +309,9 @@ def load_sb3(
     custom = (
         None
         if trust_pickle
-        else safe_custom_objects(path, algo, observation_space, action_space, algo_kwargs)
+        else safe_custom_objects(
+            path, algo, observation_space, action_space, algo_kwargs, extractors
+        )
     )
     with zipfile.ZipFile(path) as archive:
         if "policy.pth" not in archive.namelist():

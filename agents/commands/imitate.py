@@ -17,6 +17,8 @@ argument                   bound
 ``--seed``                 training seeds below 2**32
 ``--n-trailers``           one count N, or a range LOW-HIGH (a generalist)
 ``--randomize``            a preset of :data:`trailer_env.randomize.PRESETS`
+``--observation``          ``flat`` or ``trailers``
+``--max-trailers``         the largest n .. 256 (``trailers`` only; default 8)
 =========================  ==========================================
 
 The expert (``--expert``): ``mpc`` (the sampling planner; the default on Reverse) or
@@ -30,6 +32,10 @@ A generalist (``--n-trailers 1-3 --randomize mismatch20``, ``mpc`` only): the en
 draws each episode's n and physics; the expert (one planner per n) plans with the
 episode's true parameters, the student sees the padded observation and the trailer
 mask only.
+
+``--observation trailers``: the student reads the Dict of ``observation="trailers"``
+through :class:`~agents.policies.convoy_encoder.ConvoyEncoder`, so it acts with any n up
+to ``--max-trailers``; its default run folder ends in ``_trailers``.
 
 The run folder and ``--export`` are checked as by ``agents.train`` (writable, no
 symbolic link, locked while the run writes it).
@@ -53,6 +59,8 @@ from agents.envs import HEADLINE_ENV_ID
 from agents.oracles.experts import EXPERTS, default_expert
 from agents.policies.sb3 import limit_torch_threads
 from agents.training.imitate import ImitationConfig, imitate
+from dynamics.params import MAX_TRAILERS
+from trailer_env.observation import OBSERVATIONS
 from trailer_env.randomize import PRESETS
 
 #: The longest ``--planner-horizon`` (twice Dock's default): the iLQR's derivative core
@@ -139,6 +147,19 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="ilqr's planned steps (default the scene's: 60, Dock 100)",
     )
+    parser.add_argument(
+        "--observation",
+        choices=list(OBSERVATIONS),
+        default="flat",
+        help="what the student reads: the flat observation, or the Dict of "
+        "observation='trailers' through ConvoyEncoder (a GRU along the convoy)",
+    )
+    parser.add_argument(
+        "--max-trailers",
+        type=cli.at_least(1, MAX_TRAILERS),
+        default=None,
+        help="trailer slots of --observation trailers (default 8)",
+    )
     parser.add_argument("--run-dir", type=Path, default=None, help="run folder")
     parser.add_argument(
         "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
@@ -178,6 +199,8 @@ def main(argv: list[str] | None = None) -> int:
             net_arch=tuple(args.net_arch) if args.net_arch else None,
             planner=planner,
             expert=expert.name,
+            observation=args.observation,
+            max_trailers=args.max_trailers,
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))
@@ -190,6 +213,8 @@ def main(argv: list[str] | None = None) -> int:
         default = default.with_name(f"{default.name}_{config.randomize}")
     if config.expert != default_expert(config.env_id):
         default = default.with_name(f"{default.name}_{config.expert}")
+    if config.observation != "flat":
+        default = default.with_name(f"{default.name}_{config.observation}")
     try:
         with claimed_run_dir(default, args.run_dir, overwrite=args.overwrite) as run_dir:
             limit_torch_threads()

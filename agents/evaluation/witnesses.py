@@ -60,6 +60,7 @@ from agents.policies.registry import load_policy, policy_label
 from agents.progress import Progress
 from trailer_env.benchmark import privileged_view
 from trailer_env.core import ConvoyCore
+from trailer_env.observation import flat_observation
 from trailer_env.registry import core_class_of
 
 #: The integrator of the witnesses' closed-loop plant.
@@ -114,7 +115,8 @@ def witness_run(
     if len(seeds) == 0:
         raise ValueError("witness_run needs at least one seed")
     envs = make_vector_env(env_id, len(seeds), env_kwargs)
-    obs, _ = envs.reset(seed=[int(seed) for seed in seeds])
+    reset_obs, _ = envs.reset(seed=[int(seed) for seed in seeds])
+    obs = flat_observation(reset_obs, "witness_run")
     count, steps = len(seeds), envs.max_episode_steps
     dim = envs.settings.action_dim
     goal = is_goal_scene(env_id)
@@ -129,7 +131,8 @@ def witness_run(
         raw = np.asarray(policy(seen), dtype=np.float64).reshape(count, dim)
         applied = np.clip(raw, -1.0, 1.0)  # the kernel's own clip: the record is the step
         actions[running, t] = applied[running]
-        obs, _, terminated, truncated, info = envs.step(applied)
+        stepped, _, terminated, truncated, info = envs.step(applied)
+        obs = flat_observation(stepped, "witness_run")
         lengths[running] += 1
         ended = running & (terminated | truncated)
         if goal:

@@ -29,7 +29,8 @@ from agents.envs import (
     make_vector_env,
 )
 from agents.policies.baselines import BASELINES, Policy, make_baseline
-from agents.policies.sb3 import ModelPolicy, load_model, load_stats
+from agents.policies.sb3 import ModelPolicy, TrailersPolicy, load_model, load_stats
+from dynamics.params import MAX_TRAILERS, bounded_integer
 from trailer_env.mixed import is_trailer_range, pad_observations, trailer_range
 
 #: ``package.module:attribute`` (the form of console-script entry points).
@@ -145,6 +146,48 @@ class PaddedPolicy:
         return np.asarray(self.policy(pad_observations(obs, self.n, self.top)))
 
 
+def _trailers_model(
+    path: Path,
+    card: dict[str, Any],
+    env_id: str,
+    kwargs: dict[str, Any],
+    trust_pickle: bool,
+    force: bool,
+) -> Policy:
+    """A model trained on ``observation="trailers"`` (its card says so), acting in the env
+    of ``env_id`` and ``kwargs`` with any n up to its ``max_trailers``: on the flat
+    observation, rearranged (:class:`~agents.policies.sb3.TrailersPolicy`), unless the
+    env gives the Dict itself.
+
+    Raises:
+        ValueError: If the card names another env id (unless ``force``), its
+            ``max_trailers`` is not an integer in 1 .. 256, or the env has more trailers.
+    """
+    trained_id = card.get("env_id")
+    if not force and trained_id is not None and trained_id != env_id:
+        raise ValueError(
+            f"model {path} was trained on {trained_id}, not {env_id}; pass --force to "
+            "evaluate it anyway"
+        )
+    try:
+        slots = bounded_integer("max_trailers", card["env_kwargs"].get("max_trailers"), 1,
+                                MAX_TRAILERS)  # fmt: skip
+    except TypeError as error:
+        raise ValueError(f"{path}: its card's env_kwargs: {error}") from None
+    wanted = _wanted_trailers(kwargs)
+    top = wanted[1] if isinstance(wanted, tuple) else wanted
+    if top > slots:
+        raise ValueError(
+            f"model {path} reads at most {slots} trailers (max_trailers = {slots}), so it "
+            f"cannot act with n_trailers = {wanted}"
+        )
+    space_kwargs = {**kwargs, "observation": "trailers", "max_trailers": slots}
+    model = load_model(path, env_id=env_id, env_kwargs=space_kwargs, trust_pickle=trust_pickle)
+    if kwargs.get("observation") == "trailers":
+        return ModelPolicy(model)
+    return TrailersPolicy(ModelPolicy(model), top, slots, isinstance(wanted, tuple))
+
+
 def model_card(spec: str) -> dict[str, Any]:
     """The card of a model spec (SB3 zip or RLlib checkpoint); empty for a baseline."""
     if not is_model_spec(spec):
@@ -213,6 +256,9 @@ def load_policy(
             path, probe.single_observation_space, probe.single_action_space, trust_pickle
         )
     card = read_card(path)
+    if card.get("env_kwargs", {}).get("observation") == "trailers":
+        read_curve(curve_path(path), CURVE_COLUMNS)
+        return _trailers_model(path, card, env_id, kwargs, trust_pickle, force)
     if not force:
         check_card(card, spec, env_id, kwargs)
     read_curve(curve_path(path), CURVE_COLUMNS)  # a damaged curve fails now, not at the end

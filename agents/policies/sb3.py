@@ -12,6 +12,8 @@ from agents.artifacts.paths import pickled_stats_path, stats_path
 from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError, read_sb3_data
 from agents.artifacts.stats import frozen_normalizer, load_pickled_stats, read_stats
 from agents.envs import make_vector_env
+from agents.policies.extractors import feature_extractors
+from trailer_env.observation import trailers_observation
 
 
 def limit_torch_threads(threads: int = 1) -> None:
@@ -88,12 +90,36 @@ class ModelPolicy:
         self.model = model
         self.stats = stats
 
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        batch = np.atleast_2d(obs)
+    def __call__(self, obs: np.ndarray | dict[str, np.ndarray]) -> np.ndarray:
+        # A Dict observation (observation="trailers") is a dict of batched arrays.
+        batch = obs if isinstance(obs, dict) else np.atleast_2d(obs)
         if self.stats is not None:
             batch = self.stats.normalize_obs(batch)
         actions, _ = self.model.predict(batch, deterministic=True)
         return np.asarray(actions, dtype=np.float32)
+
+
+class TrailersPolicy:
+    """A policy of ``observation="trailers"`` acting on flat observations: each batch is
+    rearranged by :func:`trailer_env.observation.trailers_observation` first.
+
+    Args:
+        policy: A policy that takes the dict of ``observation="trailers"``.
+        n: Trailers of the flat layout (``high`` of a padded one).
+        max_trailers: The policy's trailer slots (>= n).
+        padded: Whether the flat observations are the padded layout of a range.
+    """
+
+    def __init__(self, policy: Any, n: int, max_trailers: int, padded: bool) -> None:
+        self.policy = policy
+        self.n = n
+        self.max_trailers = max_trailers
+        self.padded = padded
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        batch = trailers_observation(np.atleast_2d(obs), self.n, self.max_trailers,
+                                     padded=self.padded)  # fmt: skip
+        return np.asarray(self.policy(batch), dtype=np.float32)
 
 
 def load_model(
@@ -138,4 +164,5 @@ def load_model(
         probe.single_observation_space,
         probe.single_action_space,
         trust_pickle=trust_pickle,
+        extractors=feature_extractors(),
     )

@@ -10,9 +10,12 @@ and the algorithm's own keyword arguments.
 
 :func:`load_hyperparams` turns an entry into what :mod:`agents.commands.train` needs. It does
 not ``eval`` anything: ``policy_kwargs`` is parsed by :func:`parse_policy_kwargs`,
-which accepts literals, ``dict(...)`` and the activations ``nn.ReLU`` / ``nn.Tanh``.
+which accepts literals, ``dict(...)``, the activations ``nn.ReLU`` / ``nn.Tanh`` and the
+shipped features extractors by name (``ConvoyEncoder``,
+:data:`agents.policies.extractors.FEATURE_EXTRACTORS`).
 
-An entry is checked before anything is built: ``policy`` must be ``MlpPolicy``; every
+An entry is checked before anything is built: ``policy`` must be ``MlpPolicy`` (or
+``MultiInputPolicy``, for the Dict observation of ``observation="trailers"``); every
 other key must be one of rl-zoo3's (``n_envs``, ``normalize`` ...) or an argument of
 the algorithm's constructor (an unknown key is refused, naming it); counts
 (``batch_size``, ``n_steps`` ...) must be integers and rates numbers; and the sizes are
@@ -43,6 +46,7 @@ import yaml
 
 from agents.algorithms import algo_class
 from agents.artifacts import files, limits
+from agents.policies.extractors import FEATURE_EXTRACTORS, feature_extractor
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
 
@@ -70,6 +74,9 @@ _NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma"
 
 #: Activation functions allowed in policy_kwargs strings.
 _ACTIVATIONS = ("ReLU", "Tanh", "ELU", "LeakyReLU", "SiLU", "GELU")
+#: The SB3 policies an entry may name: flat observations, and Dict ones
+#: (``observation="trailers"``).
+POLICIES = ("MlpPolicy", "MultiInputPolicy")
 
 
 @dataclass
@@ -104,7 +111,8 @@ class Hyperparams:
 
 
 def _literal(node: ast.expr) -> Any:
-    """Evaluate a policy_kwargs expression node: literals, dict(...), nn.<activation>."""
+    """Evaluate a policy_kwargs expression node: literals, dict(...), nn.<activation>, and
+    a shipped features extractor's name."""
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict":
         if node.args:
             raise ValueError("dict(...) in policy_kwargs takes keyword arguments only")
@@ -118,6 +126,8 @@ def _literal(node: ast.expr) -> Any:
         import torch.nn
 
         return getattr(torch.nn, node.attr)
+    if isinstance(node, ast.Name) and node.id in FEATURE_EXTRACTORS:
+        return feature_extractor(node.id)
     if isinstance(node, ast.Dict):
         pairs = zip(node.keys, node.values, strict=True)
         return {_literal(key): _literal(value) for key, value in pairs if key is not None}
@@ -132,10 +142,12 @@ def _literal(node: ast.expr) -> Any:
 
 
 def parse_policy_kwargs(text: str | dict[str, Any]) -> dict[str, Any]:
-    """Parse an rl-zoo3 ``policy_kwargs`` string such as ``"dict(net_arch=[64, 64])"``.
+    """Parse an rl-zoo3 ``policy_kwargs`` string such as ``"dict(net_arch=[64, 64])"`` or
+    ``"dict(features_extractor_class=ConvoyEncoder, features_extractor_kwargs=dict(hidden=32))"``.
 
     Raises:
-        ValueError: If the string is not a dict of literals and allowed activations.
+        ValueError: If the string is not a dict of literals, allowed activations and
+            shipped features extractors (any other name included).
     """
     if isinstance(text, dict):
         return text
@@ -233,8 +245,8 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
         policy=str(raw.pop("policy", "MlpPolicy")),
         env_kwargs=dict(env_kwargs),
     )
-    if result.policy != "MlpPolicy":
-        raise ValueError(f"{where}: policy must be MlpPolicy, got {result.policy!r:.60}")
+    if result.policy not in POLICIES:
+        raise ValueError(f"{where}: policy must be one of {POLICIES}, got {result.policy!r:.60}")
     normalize = raw.pop("normalize", False)
     if isinstance(normalize, str):
         result.normalize = parse_policy_kwargs(normalize)

@@ -42,6 +42,14 @@ model loads, evaluates and fine-tunes (``agents.train --resume``) like any PPO m
 The run folder gets ``config.json``, ``evaluations.csv`` (one row per iteration;
 ``timesteps`` counts labelled steps), ``best_model.zip`` and ``final_model.zip`` with
 their cards and statistics.
+
+With ``observation="trailers"`` (``--observation trailers``) the student is PPO's
+``MultiInputPolicy`` with :class:`~agents.policies.convoy_encoder.ConvoyEncoder` (a GRU
+along the convoy) reading the Dict of :mod:`trailer_env.observation`, rearranged from the
+flat observations the labelling collects (:func:`trailer_env.observation.trailers_observation`):
+no statistics (the encoder scales its inputs itself), and its card's ``env_kwargs`` record
+the observation, so :func:`agents.policies.registry.load_policy` evaluates it on the flat
+envs of any n up to ``max_trailers``.
 """
 
 from __future__ import annotations
@@ -72,12 +80,14 @@ from agents.envs import check_env_id, env_settings, make_sb3_env
 from agents.evaluation.metrics import rollout, summarize
 from agents.oracles.experts import EXPERTS, ExpertConfig, Labeller, default_expert
 from agents.oracles.planner import SamplingPlanner
-from agents.policies.sb3 import ModelPolicy
+from agents.policies.extractors import feature_extractor
+from agents.policies.sb3 import ModelPolicy, TrailersPolicy
 from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
 from agents.training.config import load_hyperparams, parse_policy_kwargs
 from trailer_env.mixed import is_trailer_range, mixed_settings, trailer_range
+from trailer_env.observation import checked_observation, flat_observation, trailers_observation
 from trailer_env.randomize import PRESETS, Randomization
 from trailer_env.registry import core_class_of
 from trailer_env.vector import ConvoyVectorEnv
@@ -86,7 +96,8 @@ from trailer_env.vector import ConvoyVectorEnv
 RUN_TOTALS = ("timesteps", "wall_time_s", "simulated_steps")
 
 
-#: The aggregated data set (normalised observations, labels) in the run folder.
+#: The aggregated data set (observations: normalised, or raw with "trailers"; labels) in the
+#: run folder.
 DATASET_FILE = "dataset.npz"
 
 
@@ -135,6 +146,9 @@ class ImitationConfig:
             nominal physics). The expert (``mpc``; ``ilqr`` refuses randomised
             parameters) plans with each episode's true parameters; the student does not
             observe them.
+        observation: What the student reads: "flat" (default, normalised) or "trailers"
+            (the Dict, through :class:`~agents.policies.convoy_encoder.ConvoyEncoder`).
+        max_trailers: Trailer slots of "trailers" (default 8; at least the largest n).
     """
 
     env_id: str
@@ -150,6 +164,8 @@ class ImitationConfig:
     planner: ExpertConfig | None = None
     randomize: str | dict[str, Any] | None = None
     expert: str | None = None
+    observation: str = "flat"
+    max_trailers: int | None = None
 
     def __post_init__(self) -> None:
         check_env_id(self.env_id)
@@ -185,6 +201,8 @@ class ImitationConfig:
         if not (np.isfinite(self.learning_rate) and self.learning_rate > 0.0):
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
         self.settings_by_count()  # a bad number of trailers fails here, named
+        slots = checked_observation(self.observation, self.max_trailers, self.top_trailers)
+        object.__setattr__(self, "max_trailers", slots)
         if self.expert is None:
             object.__setattr__(self, "expert", default_expert(self.env_id))
         elif not isinstance(self.expert, str):
@@ -218,6 +236,34 @@ class ImitationConfig:
         return kwargs
 
     @property
+    def top_trailers(self) -> int:
+        """The largest n of the episodes (the padded layout's with a range)."""
+        return self.n_trailers[1] if isinstance(self.n_trailers, tuple) else self.n_trailers
+
+    @property
+    def student_kwargs(self) -> dict[str, Any]:
+        """The environment the student's spaces come from (and its card records): the
+        labelling env's keywords with the observation."""
+        if self.observation == "flat":
+            return self.env_kwargs
+        return {**self.env_kwargs, "observation": self.observation,
+                "max_trailers": self.max_trailers}  # fmt: skip
+
+    def student(self, model: Any, stats: Any) -> Any:
+        """The student as a policy of the (flat) labelling and validation envs."""
+        if self.max_trailers is None:
+            return ModelPolicy(model, stats)
+        padded = isinstance(self.n_trailers, tuple)
+        return TrailersPolicy(ModelPolicy(model), self.top_trailers, self.max_trailers, padded)
+
+    def inputs(self, obs: np.ndarray) -> np.ndarray | dict[str, np.ndarray]:
+        """What the student's network reads for the flat observations ``obs``."""
+        if self.max_trailers is None:
+            return obs
+        padded = isinstance(self.n_trailers, tuple)
+        return trailers_observation(obs, self.top_trailers, self.max_trailers, padded=padded)
+
+    @property
     def run_label(self) -> str:
         """The trailer part of the default run folder's name: ``2`` or ``1-3``."""
         if isinstance(self.n_trailers, tuple):
@@ -245,7 +291,8 @@ def collect(
     ``policy`` None lets the planner drive. ``envs`` must reset in the same step
     (``autoreset_mode="same_step"``) so that each observation is the core's state.
     """
-    obs, _ = envs.reset(seed=seed)
+    reset_obs, _ = envs.reset(seed=seed)
+    obs = flat_observation(reset_obs, "DAgger's labelling")
     planner.reset()
     core = envs.core
     steps = envs.max_episode_steps
@@ -256,7 +303,8 @@ def collect(
         observations[t] = obs
         labels[t] = label[:, 0]
         action = label if policy is None else policy(obs)
-        obs, _, terminated, truncated, _ = envs.step(np.asarray(action, dtype=np.float32))
+        stepped, _, terminated, truncated, _ = envs.step(np.asarray(action, dtype=np.float32))
+        obs = flat_observation(stepped, "DAgger's labelling")
         ended = np.flatnonzero(terminated | truncated)
         if ended.size:
             planner.reset(ended)
@@ -266,23 +314,37 @@ def collect(
 
 
 def fit(
-    model: Any, obs: np.ndarray, labels: np.ndarray, config: ImitationConfig, rng: Any
+    model: Any,
+    obs: np.ndarray | dict[str, np.ndarray],
+    labels: np.ndarray,
+    config: ImitationConfig,
+    rng: Any,
 ) -> float:
-    """Fit the policy's mean action to ``labels`` (normalised ``obs``); the last epoch's loss."""
+    """Fit the policy's mean action to ``labels`` (``obs``: normalised flat observations,
+    or the dict of ``observation="trailers"``); the last epoch's loss."""
     import torch
 
     policy = model.policy
     policy.set_training_mode(True)
     optimizer = torch.optim.Adam(policy.parameters(), lr=config.learning_rate)
-    inputs = torch.as_tensor(obs, dtype=torch.float32)
+    if isinstance(obs, dict):
+        inputs: Any = {key: torch.as_tensor(value, dtype=torch.float32)
+                       for key, value in obs.items()}  # fmt: skip
+    else:
+        inputs = torch.as_tensor(obs, dtype=torch.float32)
     targets = torch.as_tensor(labels, dtype=torch.float32)
     loss_sum = 0.0
     for _ in range(config.epochs):
-        order = torch.as_tensor(rng.permutation(len(inputs)))
+        order = torch.as_tensor(rng.permutation(len(targets)))
         loss_sum, batches = 0.0, 0
         for start in range(0, len(order), config.batch_size):
             rows = order[start : start + config.batch_size]
-            mean = policy.get_distribution(inputs[rows]).distribution.mean
+            batch = (
+                {key: value[rows] for key, value in inputs.items()}
+                if isinstance(inputs, dict)
+                else inputs[rows]
+            )
+            mean = policy.get_distribution(batch).distribution.mean
             loss = torch.mean((mean - targets[rows]) ** 2)
             optimizer.zero_grad()
             loss.backward()
@@ -295,7 +357,8 @@ def fit(
 
 
 def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
-    """The PPO model (untrained), its frozen VecNormalize and the hyperparameters used."""
+    """The PPO model (untrained), its frozen VecNormalize (None with "trailers") and the
+    hyperparameters used."""
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import VecNormalize
 
@@ -305,6 +368,12 @@ def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
         policy_kwargs["net_arch"] = list(config.net_arch)
     policy_kwargs["log_std_init"] = FINE_TUNE_LOG_STD
     algo_kwargs = {**hp.algo_kwargs, "policy_kwargs": policy_kwargs}
+    if config.observation == "trailers":
+        policy_kwargs["features_extractor_class"] = feature_extractor("ConvoyEncoder")
+        venv = make_sb3_env(config.env_id, hp.n_envs, config.student_kwargs, seed=config.seed)
+        model = PPO("MultiInputPolicy", venv, seed=config.seed, device="cpu", verbose=0,
+                    **algo_kwargs)  # fmt: skip
+        return model, None, {"n_envs": hp.n_envs, **algo_kwargs}
     venv = make_sb3_env(config.env_id, hp.n_envs, config.env_kwargs, seed=config.seed)
     gamma = algo_kwargs.get("gamma", 0.99)
     stats = VecNormalize(venv, norm_obs=True, norm_reward=False, gamma=gamma, training=False)
@@ -331,12 +400,13 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
         "expert": expert.name,
         "command": ["python", "-m", "agents.imitate", *sys.argv[1:]],
         "env_id": config.env_id,
-        "env_kwargs": config.env_kwargs,
+        "env_kwargs": config.student_kwargs,
         "seed": config.seed,
         "imitation": {
             key: (list(value) if isinstance(value, tuple) else value)
             for key, value in asdict(config).items()
-            if key not in ("env_id", "n_trailers", "seed", "planner", "randomize", "expert")
+            if key not in ("env_id", "n_trailers", "seed", "planner", "randomize", "expert",
+                           "observation", "max_trailers")
         },
         "planner": asdict(planner.config),
         "hyperparams": {
@@ -346,8 +416,8 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
             key: value for key, value in hyperparams["policy_kwargs"].items()
             if isinstance(value, (int, float, str, list, tuple))
         }},
-        "normalize": {"norm_obs": True, "norm_reward": False},
-        "policy": "MlpPolicy",
+        "normalize": None if stats is None else {"norm_obs": True, "norm_reward": False},
+        "policy": "MlpPolicy" if stats is not None else "MultiInputPolicy",
         "training_seed": TRAINING_SEED,
         "budget": config.iterations * config.episodes * envs.max_episode_steps,
     }  # fmt: skip
@@ -359,22 +429,23 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     summary: dict[str, Any] = {}
     for iteration in range(config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
-        driver = None if iteration == 0 else ModelPolicy(model, stats)
+        driver = None if iteration == 0 else config.student(model, stats)
         label = (
             f"imitate: iteration {iteration + 1}/{config.iterations}, {config.episodes} convoys, "
             f"{expert.name} labels ({planner.steps_per_label:,} simulated steps each)"
         )
         with Progress(envs.max_episode_steps, label, quiet=not verbose) as bar:
             obs, labels = collect(envs, planner, driver, seed, bar)
-        if iteration == 0:
+        if iteration == 0 and stats is not None:
             stats.obs_rms.mean = obs.mean(axis=0).astype(np.float64)
             stats.obs_rms.var = np.maximum(obs.var(axis=0), OBS_VAR_FLOOR).astype(np.float64)
             stats.obs_rms.count = float(len(obs))
-        data_obs.append(stats.normalize_obs(obs).astype(np.float32))
+        data_obs.append((obs if stats is None else stats.normalize_obs(obs)).astype(np.float32))
         data_labels.append(labels)
-        loss = fit(model, np.concatenate(data_obs), np.concatenate(data_labels), config, rng)
+        inputs = config.inputs(np.concatenate(data_obs))
+        loss = fit(model, inputs, np.concatenate(data_labels), config, rng)
         results = rollout(
-            ModelPolicy(model, stats),
+            config.student(model, stats),
             config.env_id,
             config.validation_episodes,
             VALIDATION_SEED,
@@ -407,7 +478,8 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
                 "selected_at_timesteps": samples, "timesteps": samples}  # fmt: skip
         if best is None or score(summary) > best:
             best = score(summary)
-            save_stats(stats, stats_path(run_dir / BEST_MODEL))
+            if stats is not None:
+                save_stats(stats, stats_path(run_dir / BEST_MODEL))
             write_card(run_dir / BEST_MODEL, card)
             save_model(model, run_dir / BEST_MODEL)
     record.update(
@@ -422,7 +494,8 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
         dataset, observations=np.concatenate(data_obs), labels=np.concatenate(data_labels)
     )
     atomic_write_bytes(run_dir / DATASET_FILE, dataset.getvalue())
-    save_stats(stats, stats_path(run_dir / FINAL_MODEL))
+    if stats is not None:
+        save_stats(stats, stats_path(run_dir / FINAL_MODEL))
     write_card(run_dir / FINAL_MODEL, {**record, "validation": summary})
     save_model(model, run_dir / FINAL_MODEL)
     # The best model's card keeps when it was selected, and gets the run's totals.

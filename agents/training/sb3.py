@@ -21,6 +21,7 @@ from agents.artifacts.run_folder import (
 from agents.artifacts.sb3_zip import UnsafeFileError, algo_class, load_sb3, save_model
 from agents.artifacts.stats import load_pickled_stats, read_stats, restore_stats, save_stats
 from agents.envs import env_settings, make_sb3_env
+from agents.policies.extractors import feature_extractors
 from agents.training.config import TrainConfig
 
 if TYPE_CHECKING:
@@ -61,7 +62,9 @@ def train(
             pruner): each evaluation is passed on; one returning True stops the run.
 
     Raises:
-        ValueError: If ``resume`` cannot be loaded safely (or at all).
+        ValueError: If ``resume`` cannot be loaded safely (or at all), or the environment
+            has ``observation="trailers"`` (not supported here yet; before anything is
+            written).
     """
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.noise import NormalActionNoise
@@ -79,6 +82,13 @@ def train(
     algo, seed, budget, batch = config.algo, config.seed, config.budget, config.n_envs
     env_kwargs = config.env_kwargs
     settings = env_settings(env_kwargs)  # fail early on bad settings
+    if settings.observation != "flat":
+        # Its evaluations score on the flat observation and its statistics files hold one
+        # array; SB3 trains on the Dict directly (docs/agents.md, ConvoyEncoder).
+        raise ValueError(
+            f"agents.train needs the flat observation, got observation={settings.observation!r}"
+            "; train SB3 on ConvoySB3VecEnv(..., observation='trailers') directly"
+        )
     run_dir.mkdir(parents=True, exist_ok=True)
     start_steps = 0
     venv = make_sb3_env(config.env_id, batch, env_kwargs, seed=seed)
@@ -105,6 +115,7 @@ def train(
             env=venv,
             algo_kwargs=kwargs,
             trust_pickle=trust_pickle,
+            extractors=feature_extractors(),
         )
         start_steps = int(model.num_timesteps)
         # Fresh starting states, not a replay of the first session's.

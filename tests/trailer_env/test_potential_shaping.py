@@ -1,5 +1,5 @@
-"""Potential-based shaping (trailer_env.shaping, wrappers.PotentialShaping, sb3.PotentialShapingVecEnv):
-it adds gamma Phi(s') - Phi(s) and changes nothing else."""
+"""Potential-based shaping (trailer_env.shaping, wrappers.PotentialShaping,
+sb3.PotentialShapingVecEnv): it adds gamma Phi(s') - Phi(s) and changes nothing else."""
 
 from __future__ import annotations
 
@@ -69,9 +69,7 @@ def test_the_batch_wrapper_matches_the_single_env_wrapper_and_records_unshaped_r
     venv = PotentialShapingVecEnv(ConvoySB3VecEnv(ENV_ID, 3, n_trailers=2), gamma=gamma)
     venv.seed(20)
     venv.reset()
-    singles = [
-        PotentialShaping(gym.make(ENV_ID, n_trailers=2), gamma=gamma) for _ in range(3)
-    ]
+    singles = [PotentialShaping(gym.make(ENV_ID, n_trailers=2), gamma=gamma) for _ in range(3)]
     for i, env in enumerate(singles):
         env.reset(seed=20 + i)
     ends = 0
@@ -129,5 +127,9 @@ def test_bad_shaping_arguments_are_refused_naming_them():
         PotentialShaping(gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point"))
     with pytest.raises(ValueError, match="one count of trailers"):
         PotentialShapingVecEnv(ConvoySB3VecEnv(ENV_ID, 4, n_trailers=(1, 2)))
+    with pytest.raises(ValueError, match="flat observation"):
+        PotentialShaping(gym.make(ENV_ID, n_trailers=1, observation="trailers"))
+    with pytest.raises(ValueError, match="flat observation"):
+        PotentialShapingVecEnv(ConvoySB3VecEnv(ENV_ID, 2, n_trailers=1, observation="trailers"))
     with pytest.raises(TypeError, match="ConvoySB3VecEnv"):
         PotentialShapingVecEnv(env)  # type: ignore[arg-type]

@@ -185,6 +185,9 @@ class HeadingEnv(ConvoyEnv):
 
     In planar mode the actuator takes indices 2n+2 .. 2n+5 ((xi - b) / s_max,
     eta / s_max, xi_dot / v_max, eta_dot / v_max) and the task features follow.
+    With `observation="trailers"` the same numbers come as a `Dict` of `body` (u, omega,
+    then every entry from index 2n+2 on, in order), `trailers` (max_trailers, 2) and
+    `mask`: the layout of Reverse-v0's docstring (`trailer_env.observation`).
 
     ## Rewards
 

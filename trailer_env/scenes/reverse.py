@@ -249,6 +249,29 @@ class ReverseEnv(ConvoyEnv):
     leaves it 0; bounds +-log(1000)). The other scenes append them after their task
     features.
 
+    With `observation="trailers"` the same numbers come as a `Dict` whose shapes do not
+    depend on n (`M = max_trailers`, default 8; `trailer_env.observation`), for policies
+    with weights shared across trailers (`agents.policies.convoy_encoder`):
+
+    | Key, index        | Observation                                  | Min  | Max |
+    |-------------------|----------------------------------------------|------|-----|
+    | `body[0]`         | u (flat index 0)                             | -Inf | Inf |
+    | `body[1]`         | omega (flat index 1)                         | -Inf | Inf |
+    | `body[2]`         | s / s_max (flat index 2n+2)                  | -1   | 1   |
+    | `body[3]`         | s_dot / v_max (flat index 2n+3)              | -1   | 1   |
+    | `body[4 ..]`      | flat index 2n+4 .. in order: task, parameters | as flat | as flat |
+    | `trailers[k-1, 0]`| sin(alpha_k) for k <= n, 0 beyond (k = 1..M) | -1   | 1   |
+    | `trailers[k-1, 1]`| cos(alpha_k) for k <= n, 0 beyond            | -1   | 1   |
+    | `mask[k-1]`       | 1 for k <= n, 0 beyond                       | 0    | 1   |
+
+    `body` has `2 + m + T + P` entries (m = 2 mass features, 4 in planar mode, where
+    `body[2 .. 5]` are the planar mass's four; T task features, P = 7 with
+    `observe_params`): `(4,)` here, `(11,)` with `observe_params`. It is the flat
+    observation rearranged (no value is computed anew): row k-1 of `trailers` is trailer
+    k counted from the cart, and a row of a mixed-n batch (`n_trailers=(low, high)`)
+    equals the observation of `n_trailers=n` in the same state. `max_trailers` must be
+    at least n (at least `high` with a range).
+
     ## Rewards
 
     Each step: `mean_k cos(alpha_k)` (1 when n = 0) `- 0.1 min(omega^2, 1)`
@@ -306,7 +329,9 @@ class ReverseEnv(ConvoyEnv):
     Dock-v0, varies the other four), drawn uniformly after the start
     from the env's generator (`trailer_env.randomize`); bad ranges raise ValueError or
     TypeError naming the entry. `observe_params` (False): append the factors'
-    logarithms to the observation.
+    logarithms to the observation. `observation` (`"flat"`): `"trailers"` for the Dict
+    above; `max_trailers` (8 with `"trailers"`, an integer from n to 256; refused with
+    `"flat"`).
 
     ## References
 

@@ -319,7 +319,10 @@ def test_train_bounds(
     ("entry", "message"),
     [
         ({"batch_size": "abc"}, "batch_size must be an integer"),
-        ({"policy": "CnnPolicy"}, "policy must be MlpPolicy, got 'CnnPolicy'"),
+        (
+            {"policy": "CnnPolicy"},
+            "policy must be one of ('MlpPolicy', 'MultiInputPolicy'), got 'CnnPolicy'",
+        ),
         ({"surprise": 1}, "unknown key 'surprise'"),
         ({"policy_kwargs": "dict(net_arch=[40000, 40000])"}, "over the limit of 10,000,000"),
         ({"n_envs": 100_000_000}, "n_envs must be an integer in 1..65536"),

@@ -76,3 +76,21 @@ def test_shaping_entries_name_a_potential_and_its_numbers(tmp_path: Path) -> Non
     ):
         with pytest.raises(ValueError, match=words):
             shaping_setting(bad, "--shaping")
+
+
+def test_an_entry_may_name_the_multi_input_policy_and_the_encoder(tmp_path: Path) -> None:
+    from agents.policies.convoy_encoder import ConvoyEncoder
+
+    (tmp_path / "ppo.yml").write_text(
+        "trailer_env/Reverse-v1:\n"
+        "  policy: MultiInputPolicy\n"
+        "  env_kwargs: {n_trailers: 2, observation: trailers}\n"
+        '  policy_kwargs: "dict(features_extractor_class=ConvoyEncoder, net_arch=[16])"\n'
+    )
+    hp = load_hyperparams("ppo", "trailer_env/Reverse-v1", tmp_path)
+    assert hp.policy == "MultiInputPolicy"
+    assert hp.env_kwargs == {"n_trailers": 2, "observation": "trailers"}
+    assert hp.algo_kwargs["policy_kwargs"] == {
+        "features_extractor_class": ConvoyEncoder,
+        "net_arch": [16],
+    }

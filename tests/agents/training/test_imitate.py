@@ -71,3 +71,42 @@ def test_bad_configurations_are_refused(tmp_path: Path, capsys: pytest.CaptureFi
         main(["--n-trailers", "1", "--run-dir", str(run)])
     assert error.value.code == 2
     assert "--overwrite" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_imitation_on_the_trailer_sequence_acts_on_unseen_n(tmp_path: Path) -> None:
+    from agents.evaluation.metrics import rollout
+    from agents.policies.sb3 import TrailersPolicy
+
+    planner = PlannerConfig(samples=4, elites=1, iterations=1, tail=10)
+    config = ImitationConfig(V1, (1, 3), iterations=2, episodes=4, epochs=2,
+                             validation_episodes=4, net_arch=(16,), planner=planner,
+                             observation="trailers", max_trailers=6)  # fmt: skip
+    record = imitate(config, tmp_path / "run", verbose=0)
+    assert record["policy"] == "MultiInputPolicy" and record["normalize"] is None
+    assert record["timesteps"] == 2 * 4 * 400
+    card = json.loads((tmp_path / "run" / "best_model.json").read_text())
+    assert card["env_kwargs"] == {"n_trailers": [1, 3], "observation": "trailers",
+                                  "max_trailers": 6}  # fmt: skip
+    assert not (tmp_path / "run" / "best_model_vecnormalize.json").exists()
+    model = str(tmp_path / "run" / "best_model.zip")
+    for n in (1, 4, 6):  # trained on 1..3: n = 4 and 6 zero-shot
+        policy = load_policy(model, V1, {"n_trailers": n})
+        assert isinstance(policy, TrailersPolicy) and policy.n == n
+        actions = policy(np.zeros((5, 2 * n + 4), dtype=np.float32))
+        assert actions.shape == (5, 1) and np.all(np.isfinite(actions))
+    results = rollout(load_policy(model, V1, {"n_trailers": 4}), V1, 4, 1000, {"n_trailers": 4})
+    assert results.returns.shape == (4,) and np.all(np.isfinite(results.returns))
+    with pytest.raises(ValueError, match="reads at most 6 trailers"):
+        load_policy(model, V1, {"n_trailers": 7})
+
+
+def test_the_observation_options_are_checked(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(ValueError, match="max_trailers = 2 holds fewer trailers"):
+        ImitationConfig(V1, (1, 3), observation="trailers", max_trailers=2)
+    with pytest.raises(ValueError, match="observation must be one of"):
+        ImitationConfig(V1, 1, observation="grid")
+    with pytest.raises(SystemExit) as error:
+        main(["--n-trailers", "1", "--observation", "grid"])
+    assert error.value.code == 2
+    assert "argument --observation: invalid choice: 'grid'" in capsys.readouterr().err
