@@ -174,6 +174,9 @@ class ConvoyCore:
     #: The rate the agents report first for this scene (a key of
     #: :func:`trailer_env.benchmark.summarize`'s summary).
     headline_metric: ClassVar[str] = "success_rate"
+    #: The scene's failure other than a jackknife (what :meth:`_is_failed` tests), in
+    #: words for the results tables ("the convoy stopped reversing"); "" if it has none.
+    failure_words: ClassVar[str] = ""
     #: Names of the ``agents`` baselines that apply to this scene (evaluated by default).
     baselines: ClassVar[tuple[str, ...]] = ("zero", "random", "lqr")
     #: Baselines that apply too but read the exact state and cost minutes per 100

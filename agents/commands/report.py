@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wrote {grid}")
     for path in write_leaderboards(documents, img):
         print(f"wrote {path}")
-    tables = tables_document(sections)
+    tables = tables_document(sections, [env_id for env_id, _ in SCENARIOS])
     files.atomic_write_text(args.out / "tables.md", tables)
     files.write_json(args.out / "results.json", documents)
     print(f"wrote {args.out / 'tables.md'} and results.json")

@@ -75,6 +75,7 @@ class DockCore(ShapedCore):
     start_kernel = staticmethod(dock_starts)
     #: The hitch positions of the reward and the task features use one rod length.
     fixed_parameters = ("l",)
+    failure_words = "a miss (the last axle ran past the dock)"
     #: The deterministic planner (agents.oracles.ilqr), run only when named.
     oracle_baselines = ("ilqr",)
     uses_pose = True
