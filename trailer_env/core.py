@@ -177,11 +177,10 @@ class ConvoyCore:
     #: The scene's failure other than a jackknife (what :meth:`_is_failed` tests), in
     #: words for the results tables ("the convoy stopped reversing"); "" if it has none.
     failure_words: ClassVar[str] = ""
-    #: Names of the ``agents`` baselines that apply to this scene (evaluated by default).
+    #: Names of the ``agents`` baselines that apply to this scene (evaluated by default):
+    #: the controllers of :mod:`trailer_env.controllers` and the trivial policies. The
+    #: planners that apply too are the agents' business (``agents.oracles.scenes``).
     baselines: ClassVar[tuple[str, ...]] = ("zero", "random", "lqr")
-    #: Baselines that apply too but read the exact state and cost minutes per 100
-    #: episodes (the ``mpc`` planner): named explicitly, never run by default.
-    oracle_baselines: ClassVar[tuple[str, ...]] = ()
     #: Whether the scene itself needs the cart's pose (x, y, theta).
     uses_pose: ClassVar[bool] = False
     #: Number of task features appended to the observation.

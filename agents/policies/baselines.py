@@ -39,6 +39,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from agents.envs import ENV_IDS, scene_baselines
+from agents.oracles.scenes import scene_oracle
 from trailer_env.controllers import LQRController, heading_policy
 from trailer_env.randomize import PARAMETERS
 from trailer_env.settings import EnvSettings
@@ -173,10 +174,21 @@ class HeadingProportionalPolicy:
         return np.atleast_2d(heading_policy(np.atleast_2d(obs), n_trailers=self.n_trailers))
 
 
+def applicable_baselines(env_id: str) -> tuple[str, ...]:
+    """The baselines that fit the scene: its default ones (:func:`agents.envs.scene_baselines`)
+    then the planners of its record (:data:`agents.oracles.scenes.SCENE_ORACLES`), which
+    are run only when named.
+
+    Raises:
+        ValueError: For an id that is not registered.
+    """
+    return (*scene_baselines(env_id), *scene_oracle(env_id).planners)
+
+
 def _applies(name: str, env_id: str) -> bool:
     """Whether the baseline fits the scene; ``lqr-adaptive`` wherever ``lqr`` does (it is
     named explicitly, so the scenes' lists and the default tables stay as they were)."""
-    applying = scene_baselines(env_id, oracles=True)
+    applying = applicable_baselines(env_id)
     return name in applying or (name == "lqr-adaptive" and "lqr" in applying)
 
 
@@ -186,8 +198,8 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
     Args:
         name: One of :data:`BASELINES`.
         settings: The environment's settings (``env.unwrapped.settings``).
-        env_id: The environment id: its scene declares which baselines apply
-            (:func:`agents.envs.scene_baselines`).
+        env_id: The environment id: which baselines fit its scene
+            (:func:`applicable_baselines`).
         seed: Seed of the random baseline.
 
     Raises:

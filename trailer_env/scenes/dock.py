@@ -76,8 +76,6 @@ class DockCore(ShapedCore):
     #: The hitch positions of the reward and the task features use one rod length.
     fixed_parameters = ("l",)
     failure_words = "a miss (the last axle ran past the dock)"
-    #: The deterministic planner (agents.oracles.ilqr), run only when named.
-    oracle_baselines = ("ilqr",)
     uses_pose = True
     n_task_features = 4
     # 400 steps * (0.01 + 0.05) = 24 < 30: neither folding nor missing on purpose pays.

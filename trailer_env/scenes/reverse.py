@@ -149,7 +149,6 @@ class ReverseCore(ConvoyCore):
     max_episode_steps = 400
     headline_metric = "safe_rate"
     failure_words = "the convoy stopped reversing"
-    oracle_baselines = ("mpc", "mpc-replay", "ilqr")
     #: The episode fails once the reversing speed -u is at most this (m/s).
     min_reverse_speed: ClassVar[float] = 0.0
     scene_kernel = staticmethod(reverse_step)
