@@ -13,23 +13,19 @@ from typing import Any
 
 from agents.envs import ENV_IDS, core_class_of, scene_title
 from agents.evaluation.results import Evaluation
+from agents.policies.baselines import BASELINES
 
 #: No-break space: a return such as "394.8 ± 31.4" stays on one line of its cell.
 NBSP = "\u00a0"
 
 
 def oracle_note(label: str, episode_steps: int = 400) -> str:
-    """What the training footnote says of a baseline ("-" unless an oracle)."""
-    if label == "mpc-replay":
-        return "oracle (the certified planner's committed records, replayed open-loop)"
-    if label == "ilqr":
-        return "oracle (exact model and state), deterministic iLQR (agents.oracles.ilqr)"
-    if label != "mpc":
+    """What the training footnote says of a baseline: its record's ``oracle_note``
+    (:data:`agents.policies.baselines.BASELINES`), "-" unless an oracle."""
+    baseline = BASELINES.get(label)
+    if baseline is None or baseline.oracle_note is None:
         return "-"
-    from agents.oracles.planner import PlannerConfig
-
-    per_episode = PlannerConfig().steps_per_decision * episode_steps
-    return f"oracle (exact model and state), {per_episode / 1000:.0f}k simulated steps per episode"
+    return baseline.oracle_note(episode_steps)
 
 
 def _steps_text(steps: float) -> str:

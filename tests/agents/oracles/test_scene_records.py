@@ -8,6 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from agents.commands.certify import PLANNERS, planner_problem
 from agents.envs import ENV_IDS, env_settings
 from agents.oracles.certify_goals import GOAL_SCENES, is_goal_scene
 from agents.oracles.experts import EXPERTS, default_expert
@@ -82,3 +83,20 @@ def test_a_new_scene_is_one_record(monkeypatch: pytest.MonkeyPatch) -> None:
     residuals = cost.stage_residuals(core)
     np.testing.assert_array_equal(residuals[:, -1], 2.0 * core.heading_error)
     assert isinstance(make_baseline("ilqr", settings, HEADING), ILQRPolicy)
+
+
+def test_the_certifying_planner_follows_the_scene_s_kind(monkeypatch: pytest.MonkeyPatch) -> None:
+    assert {name: certifier.goal for name, certifier in PLANNERS.items()} == {
+        "mpc": False,
+        "ilqr": True,
+    }
+    assert planner_problem("trailer_env/Reverse-v1", "ilqr") == (
+        "trailer_env/Reverse-v1 is certified by surviving the full episode with the sampling "
+        "planner; use --planner mpc (ilqr certifies the goal scenes Dock and Coast)"
+    )
+    assert planner_problem("trailer_env/Coast-v0", "ilqr") is None
+    monkeypatch.setitem(SCENE_ORACLES, "Heading", SceneOracle(goal=True))
+    assert planner_problem(HEADING, "ilqr") is None
+    assert "does not steer it to trailer_env/Heading-v0's goal" in str(
+        planner_problem(HEADING, "mpc")
+    )
