@@ -431,7 +431,12 @@ class ConvoyCore:
         return np.zeros(self.batch_size, dtype=bool)
 
     def _is_terminated(self) -> np.ndarray:
-        """Boolean (B,): the episode ends. Default: jackknife, success or failure."""
+        """Boolean (B,): the episode ends. Default: jackknife, success or failure.
+
+        A survival scene whose :meth:`_is_success` means "not failed so far" must
+        override it (``jackknifed | failed``): the default would end its episodes on
+        their first step, as successes (CONTRIBUTING.md, "Adding a scene").
+        """
         return self.jackknifed | self.success | self.failed
 
     def _reward(self) -> np.ndarray:

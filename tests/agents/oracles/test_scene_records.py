@@ -30,7 +30,9 @@ def test_every_record_names_a_scene_and_known_planners() -> None:
         assert set(record.weights) <= {field.name for field in dataclasses.fields(CostWeights)}
         assert {name for name, _ in record.task_residuals} <= set(record.weights)
     assert GOAL_SCENES == ("Dock", "Coast")
-    assert [is_goal_scene(env_id) for env_id in ENV_IDS] == [False, False, True, False, True]
+    goals = {"Reverse-v0": False, "Reverse-v1": False, "Coast-v0": True, "Heading-v0": False,
+             "Dock-v0": True}  # fmt: skip
+    assert {name: is_goal_scene(f"trailer_env/{name}") for name in goals} == goals
     assert scene_oracle(HEADING) is scene_oracle(HeadingCore) is NO_ORACLE
     assert scene_oracle("trailer_env/Reverse-v1") is SCENE_ORACLES["Reverse"]
 
@@ -46,7 +48,10 @@ def test_the_baselines_that_fit_are_the_core_s_then_the_record_s() -> None:
 
 
 def test_the_records_hold_the_ilqr_defaults() -> None:
-    assert [scene_horizon(core_class_of(env_id)) for env_id in ENV_IDS] == [60, 60, 60, 60, 100]
+    horizons = {"Reverse-v1": 60, "Coast-v0": 60, "Heading-v0": 60, "Dock-v0": 100}
+    assert {name: scene_horizon(core_class_of(f"trailer_env/{name}")) for name in horizons} == (
+        horizons
+    )
     assert scene_weights(ReverseV1Core) == CostWeights()
     assert scene_weights(DockCore) == dataclasses.replace(
         CostWeights(), angle=0.1, omega=0.05, rail=0.5, lateral=2.0, heading=2.0, terminal=1.0
