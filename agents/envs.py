@@ -47,13 +47,11 @@ def headline_metric(env_id: str) -> str:
     return core_class_of(env_id).headline_metric
 
 
-def scene_baselines(env_id: str, *, oracles: bool = False) -> tuple[str, ...]:
-    """The baselines the scene evaluates by default (:data:`agents.policies.baselines.BASELINES`).
-
-    With ``oracles``, also those that apply but are only run when named (the planner).
-    """
-    core = core_class_of(env_id)
-    return (*core.baselines, *core.oracle_baselines) if oracles else core.baselines
+def scene_baselines(env_id: str) -> tuple[str, ...]:
+    """The baselines the scene evaluates by default (:data:`agents.policies.baselines.BASELINES`),
+    as its core declares them. The planners that apply too, run only when named, are the
+    scene's record's (:func:`agents.policies.baselines.applicable_baselines`)."""
+    return core_class_of(env_id).baselines
 
 
 def env_settings(env_kwargs: dict[str, Any] | None = None) -> EnvSettings:

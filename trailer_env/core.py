@@ -174,11 +174,13 @@ class ConvoyCore:
     #: The rate the agents report first for this scene (a key of
     #: :func:`trailer_env.benchmark.summarize`'s summary).
     headline_metric: ClassVar[str] = "success_rate"
-    #: Names of the ``agents`` baselines that apply to this scene (evaluated by default).
+    #: The scene's failure other than a jackknife (what :meth:`_is_failed` tests), in
+    #: words for the results tables ("the convoy stopped reversing"); "" if it has none.
+    failure_words: ClassVar[str] = ""
+    #: Names of the ``agents`` baselines that apply to this scene (evaluated by default):
+    #: the controllers of :mod:`trailer_env.controllers` and the trivial policies. The
+    #: planners that apply too are the agents' business (``agents.oracles.scenes``).
     baselines: ClassVar[tuple[str, ...]] = ("zero", "random", "lqr")
-    #: Baselines that apply too but read the exact state and cost minutes per 100
-    #: episodes (the ``mpc`` planner): named explicitly, never run by default.
-    oracle_baselines: ClassVar[tuple[str, ...]] = ()
     #: Whether the scene itself needs the cart's pose (x, y, theta).
     uses_pose: ClassVar[bool] = False
     #: Number of task features appended to the observation.
@@ -429,7 +431,12 @@ class ConvoyCore:
         return np.zeros(self.batch_size, dtype=bool)
 
     def _is_terminated(self) -> np.ndarray:
-        """Boolean (B,): the episode ends. Default: jackknife, success or failure."""
+        """Boolean (B,): the episode ends. Default: jackknife, success or failure.
+
+        A survival scene whose :meth:`_is_success` means "not failed so far" must
+        override it (``jackknifed | failed``): the default would end its episodes on
+        their first step, as successes (CONTRIBUTING.md, "Adding a scene").
+        """
         return self.jackknifed | self.success | self.failed
 
     def _reward(self) -> np.ndarray:

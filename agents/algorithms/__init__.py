@@ -3,8 +3,9 @@
 :data:`ALGOS` is the one table of them. A record names the class (stable-baselines3's,
 or this package's :class:`~agents.algorithms.ppo_lagrangian.PPOLagrangian`), the module
 its saved ``MlpPolicy`` comes from (what the safe loader of :mod:`agents.artifacts.sb3_zip`
-accepts in a zip) and whether it keeps a replay buffer. Adding an algorithm is one
-record here plus its hyperparameter file ``agents/hyperparams/<name>.yml``.
+accepts in a zip); whether it keeps a replay buffer follows from its class (SB3's
+``OffPolicyAlgorithm``). Adding an algorithm is one record here plus its hyperparameter
+file ``agents/hyperparams/<name>.yml`` (or none: the files' ``default:`` entries).
 
 This package sits in the agents' bottom layer (beside ``seeds``, ``envs``, ``progress``)
 so that the artifacts layer can load every algorithm's files.
@@ -27,7 +28,6 @@ class Algorithm:
         name: As on the command line (``--algo``) and in model cards.
         module, class_name: Where its class lives (imported when first needed).
         policy_module: Module of the ``MlpPolicy`` class its saved zips record.
-        off_policy: It keeps a replay buffer (checkpointed beside the model).
         label: A short description for help texts and docs.
         marker: An entry of the zip's ``data`` only this algorithm saves (it tells a
             checkpoint without a card from another algorithm's with the same policy), or
@@ -38,13 +38,20 @@ class Algorithm:
     module: str
     class_name: str
     policy_module: str
-    off_policy: bool
     label: str
     marker: str | None = None
 
     def load_class(self) -> Any:
         """The algorithm's class (imports its module)."""
         return getattr(importlib.import_module(self.module), self.class_name)
+
+    @property
+    def off_policy(self) -> bool:
+        """Whether it keeps a replay buffer (checkpointed beside the model): its class is
+        a stable-baselines3 ``OffPolicyAlgorithm`` (imports it)."""
+        from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+        return issubclass(self.load_class(), OffPolicyAlgorithm)
 
 
 #: Every algorithm, by name. A zip without a card is told by its policy's module and
@@ -53,15 +60,15 @@ ALGOS: dict[str, Algorithm] = {
     record.name: record
     for record in (
         Algorithm("ppo", "stable_baselines3", "PPO", "stable_baselines3.common.policies",
-                  off_policy=False, label="PPO"),
+                  label="PPO"),
         Algorithm("ppo_lag", "agents.algorithms.ppo_lagrangian", "PPOLagrangian",
-                  "stable_baselines3.common.policies", off_policy=False,
+                  "stable_baselines3.common.policies",
                   label="PPO-Lagrangian (episode cost limit on info['cost'])",
                   marker="lagrange_multiplier"),
         Algorithm("sac", "stable_baselines3", "SAC", "stable_baselines3.sac.policies",
-                  off_policy=True, label="SAC"),
+                  label="SAC"),
         Algorithm("td3", "stable_baselines3", "TD3", "stable_baselines3.td3.policies",
-                  off_policy=True, label="TD3"),
+                  label="TD3"),
     )
 }  # fmt: skip
 

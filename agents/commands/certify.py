@@ -31,6 +31,7 @@ certificate.md, actions/seed_*.npy) and nothing else; a link among them is refus
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -56,6 +57,7 @@ from agents.oracles.certify import DEFAULT_RESTARTS, certify
 from agents.oracles.certify_goals import (
     CLOSED_LOOP_INTEGRATORS,
     DEFAULT_GOAL_RESTARTS,
+    GOAL_SCENES,
     certify_goals,
     is_goal_scene,
 )
@@ -65,28 +67,53 @@ from agents.policies.registry import load_policy
 
 #: The defaults of --env, --n-trailers and --seeds.
 DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = "trailer_env/Reverse-v1", 2, "1000-1099"
+
+
+@dataclass(frozen=True)
+class Certifier:
+    """A planner ``--planner`` names (a record of :data:`PLANNERS`).
+
+    Attributes:
+        goal: It certifies the goal scenes, by reaching their success
+            (:mod:`agents.oracles.certify_goals`), rather than the survival scenes, by
+            surviving the episode (:mod:`agents.oracles.certify`); a scene's kind is its
+            record's (:data:`agents.oracles.scenes.SCENE_ORACLES`).
+        refusal: Why it does not certify a scene of the other kind (``{env_id}`` is
+            filled in).
+    """
+
+    goal: bool
+    refusal: str
+
+
 #: The planners ``--planner`` names: the sampling planner (survival) and iLQR (goals).
-PLANNERS = ("mpc", "ilqr")
+PLANNERS: dict[str, Certifier] = {
+    "mpc": Certifier(
+        goal=False,
+        refusal="the sampling planner (mpc) keeps a convoy safe but does not steer it to "
+        "{env_id}'s goal; certify it with --planner ilqr",
+    ),
+    "ilqr": Certifier(
+        goal=True,
+        refusal="{env_id} is certified by surviving the full episode with the sampling "
+        "planner; use --planner mpc (ilqr certifies the goal scenes "
+        + " and ".join(GOAL_SCENES)
+        + ")",
+    ),
+}
 
 
 def planner_problem(env_id: str, planner: str | None) -> str | None:
     """Why ``planner`` cannot certify ``env_id`` (None if it can, or if None: the scene's
-    default, mpc for Reverse, ilqr for Dock and Coast)."""
+    default, the planner of :data:`PLANNERS` for its kind: mpc for Reverse, ilqr for Dock
+    and Coast)."""
     if planner is None:
         return None
     if planner not in PLANNERS:
         return f"unknown planner {planner!r}; choose one of {list(PLANNERS)}"
-    goal = is_goal_scene(env_id)
-    if goal and planner == "mpc":
-        return (
-            f"the sampling planner (mpc) keeps a convoy safe but does not steer it to "
-            f"{env_id}'s goal; certify it with --planner ilqr"
-        )
-    if not goal and planner == "ilqr":
-        return (
-            f"{env_id} is certified by surviving the full episode with the sampling "
-            "planner; use --planner mpc (ilqr certifies the goal scenes Dock and Coast)"
-        )
+    certifier = PLANNERS[planner]
+    if certifier.goal != is_goal_scene(env_id):
+        return certifier.refusal.format(env_id=env_id)
     return None
 
 
@@ -139,7 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     parser.add_argument(
         "--planner",
-        choices=PLANNERS,
+        choices=tuple(PLANNERS),
         default=None,
         help="mpc (the sampling planner; the default for Reverse) or ilqr (the default "
         "for Dock and Coast, which are certified by reaching their goal)",

@@ -215,10 +215,10 @@ def main(argv: list[str] | None = None) -> int:
     files.atomic_write_text(
         args.out / "results.md",
         f"{env_id}, n = {args.n_trailers}: {plural(args.episodes, 'episode')}, seeds "
-        f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}\n{table_legend()}\n",
+        f"{args.seed}..{args.seed + args.episodes - 1}\n\n{table}\n{table_legend([env_id])}\n",
     )
     print(table)
-    print(table_legend())
+    print(table_legend([env_id]))
     elapsed = time.perf_counter() - started
     print(f"evaluated {plural(len(specs), 'policy', 'policies')} in {elapsed:.1f} s")
     if not args.no_plots:

@@ -204,10 +204,11 @@ def main(argv: list[str] | None = None) -> int:
         f"{TEST_SEED}..{TEST_SEED + args.episodes - 1}; safe = never in the singular band "
         "(margin < 0.3), never folded, never slowed to 0.3 m/s\n"
     )
-    files.atomic_write_text(args.out / "results.md", f"{table}\n{ceiling}\n\n{table_legend()}\n")
+    legend = table_legend([ENV_ID])
+    files.atomic_write_text(args.out / "results.md", f"{table}\n{ceiling}\n\n{legend}\n")
     print(table)
     print(ceiling + "\n")
-    print(table_legend() + "\n")
+    print(legend + "\n")
     for path in write_pictures(evaluations, ENV_ID, env_kwargs, args.out, TEST_SEED):
         print(f"wrote {path}")
     print(f"main job done in {duration(time.perf_counter() - started)}; results in {args.out}")

@@ -35,7 +35,6 @@ from typing import Any
 from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
-from agents.envs import scene_baselines
 from agents.evaluation import leaderboard, plots
 from agents.evaluation.pictures import write_pictures
 from agents.evaluation.report import (
@@ -53,6 +52,7 @@ from agents.evaluation.results import (
     results_document,
 )
 from agents.evaluation.time_to_ceiling import TIME_TO_CEILING_LEGEND, time_to_ceiling_table
+from agents.policies.baselines import applicable_baselines
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
@@ -134,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     with Progress(len(SCENARIOS) + 1, "report") as bar:
         for env_id, n in report_order(SCENARIOS):
             env_kwargs = {"n_trailers": n}
-            oracles = [] if args.no_planner else list(scene_baselines(env_id, oracles=True))
+            oracles = [] if args.no_planner else list(applicable_baselines(env_id))
             oracles = [name for name in oracles if name not in default_baselines(env_id)]
             models = [str(path) for path in committed_models(env_id, n)]
             specs = [*default_baselines(env_id), *oracles, *models]
@@ -169,7 +169,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"wrote {grid}")
     for path in write_leaderboards(documents, img):
         print(f"wrote {path}")
-    tables = tables_document(sections)
+    tables = tables_document(sections, [env_id for env_id, _ in SCENARIOS])
     files.atomic_write_text(args.out / "tables.md", tables)
     files.write_json(args.out / "results.json", documents)
     print(f"wrote {args.out / 'tables.md'} and results.json")

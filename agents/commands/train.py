@@ -236,9 +236,11 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
         ):
             if unsupported:
                 parser.error(f"argument {name}: not supported with --backend rllib")
-        if args.algo != "ppo":
-            parser.error(f"argument --algo: --backend rllib trains ppo, not {args.algo}")
-        from agents.training.rllib import address_problem, local_cpus
+        from agents.training.rllib import RLLIB_ALGOS, address_problem, local_cpus
+
+        if args.algo not in RLLIB_ALGOS:
+            trained = ", ".join(RLLIB_ALGOS)
+            parser.error(f"argument --algo: --backend rllib trains {trained}, not {args.algo}")
 
         if args.address is not None:
             problem = address_problem(args.address)

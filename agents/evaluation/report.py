@@ -61,10 +61,10 @@ def scenario_section(
     return f"#### {scene_title(env_id)}, n = {n}\n\n{where}\n\n{table}\n{ceiling}\n"
 
 
-def tables_document(sections: Sequence[str]) -> str:
-    """The results tables' Markdown: what the columns mean (:func:`table_legend`, once),
-    then the sections."""
-    return "\n".join([f"{table_legend()}\n", *sections])
+def tables_document(sections: Sequence[str], env_ids: Sequence[str]) -> str:
+    """The results tables' Markdown: what the columns mean on the scenes ``env_ids``
+    (:func:`table_legend`, once), then the sections."""
+    return "\n".join([f"{table_legend(env_ids)}\n", *sections])
 
 
 #: Actuator settings of the authority sweep (ConvoyParams / EnvSettings overrides).

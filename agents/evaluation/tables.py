@@ -11,24 +11,21 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from agents.envs import ENV_IDS, core_class_of, scene_title
 from agents.evaluation.results import Evaluation
+from agents.policies.baselines import BASELINES
 
 #: No-break space: a return such as "394.8 ± 31.4" stays on one line of its cell.
 NBSP = "\u00a0"
 
 
 def oracle_note(label: str, episode_steps: int = 400) -> str:
-    """What the training footnote says of a baseline ("-" unless an oracle)."""
-    if label == "mpc-replay":
-        return "oracle (the certified planner's committed records, replayed open-loop)"
-    if label == "ilqr":
-        return "oracle (exact model and state), deterministic iLQR (agents.oracles.ilqr)"
-    if label != "mpc":
+    """What the training footnote says of a baseline: its record's ``oracle_note``
+    (:data:`agents.policies.baselines.BASELINES`), "-" unless an oracle."""
+    baseline = BASELINES.get(label)
+    if baseline is None or baseline.oracle_note is None:
         return "-"
-    from agents.oracles.planner import PlannerConfig
-
-    per_episode = PlannerConfig().steps_per_decision * episode_steps
-    return f"oracle (exact model and state), {per_episode / 1000:.0f}k simulated steps per episode"
+    return baseline.oracle_note(episode_steps)
 
 
 def _steps_text(steps: float) -> str:
@@ -101,16 +98,45 @@ def table_header(metric: str = "safe_rate") -> str:
     )
 
 
-def table_legend() -> str:
+def _scenes_text(env_ids: Sequence[str]) -> tuple[str, str]:
+    """What "stop %" and "% over seeds" mean on the scenes ``env_ids``, from each scene's
+    core (``failure_words``, ``headline_metric``): "Reverse-v1: the convoy slowed to 0.3
+    m/s; none on Heading-v0" and "safe on Reverse-v1; success on Heading-v0"."""
+    failures, without = [], []
+    metrics: dict[str, list[str]] = {}
+    for env_id in dict.fromkeys(env_ids):
+        core, title = core_class_of(env_id), scene_title(env_id)
+        if core.failure_words:
+            failures.append(f"{title}: {core.failure_words}")
+        else:
+            without.append(title)
+        metrics.setdefault(_metric_name(core.headline_metric), []).append(title)
+    if without:
+        failures.append(f"none on {', '.join(without)}")
+    headline = "; ".join(f"{metric} on {', '.join(titles)}" for metric, titles in metrics.items())
+    return "; ".join(failures), headline
+
+
+def table_legend(env_ids: Sequence[str] = ENV_IDS) -> str:
     """What the columns of :func:`markdown_table` hold, in one paragraph (written once
-    per page of tables; the metrics are defined in docs/agents.md, Metrics)."""
+    per page of tables; the metrics are defined in docs/agents.md, Metrics).
+
+    ``env_ids`` are the scenes the page's tables show: "stop %" and "% over seeds" are
+    spelled out for each from its core's ``failure_words`` and ``headline_metric``.
+
+    Raises:
+        ValueError: If ``env_ids`` is empty or names an unregistered id.
+    """
+    if not env_ids:
+        raise ValueError("table_legend needs the scenes the tables show, got none")
+    failures, headline = _scenes_text(env_ids)
     return (
         "Columns: **return** mean ± sd; **safe %** safe episodes with their 95 % Wilson "
         "interval; **fold %** episodes ended by a jackknife; **band %** share of the steps "
         "in the singular band; **min margin** the episode's smallest singular margin, "
         "mean / worst over the episodes; **success %** the env's `is_success`; **stop %** "
-        "failures without a fold (Reverse: the convoy stopped reversing; Dock: a miss); "
-        "**% over seeds** the scene's headline rate (safe on Reverse, success elsewhere) of each "
+        f"failures without a fold ({failures}); "
+        f"**% over seeds** the scene's headline rate ({headline}) of each "
         "training seed's model on the same episodes, mean ± sd (min-max, seeds); "
         "**training** is short for the line under the table."
     )
@@ -121,8 +147,8 @@ def markdown_table(evaluations: Sequence[Evaluation], metric: str = "safe_rate")
     a blank line, by :func:`training_footnote` when there is one.
 
     The last column gives ``metric`` (the scene's headline rate) over a committed
-    model's training seeds. "stop %" counts the failures that are not folds (on
-    Reverse the cart stopped reversing). :func:`table_legend` explains the headers.
+    model's training seeds. "stop %" counts the failures that are not folds (the
+    scene's ``failure_words``). :func:`table_legend` explains the headers.
     """
     lines = []
     for evaluation in evaluations:

@@ -38,14 +38,15 @@ from agents.artifacts.certificates import FEASIBLE, OPEN
 from agents.envs import env_settings
 from agents.oracles.ilqr import ILQRConfig, ILQRPlanner
 from agents.oracles.ilqr_costs import scene_horizon
+from agents.oracles.scenes import SCENE_ORACLES, scene_oracle
 from agents.progress import Progress, plural
 from trailer_env.core import ConvoyCore
 from trailer_env.registry import core_class_of
 from trailer_env.settings import EnvSettings
 from trailer_env.vector import seed_generators
 
-#: The scenes certified by reaching their goal, and the planner each one needs.
-GOAL_SCENES = ("Dock", "Coast")
+#: The scenes certified by reaching their goal (their records' ``goal``).
+GOAL_SCENES = tuple(scene for scene, record in SCENE_ORACLES.items() if record.goal)
 #: The integrators a closed-loop check may run on the plant.
 CLOSED_LOOP_INTEGRATORS = ("dopri5",)
 #: ``rtol = atol`` of the closed-loop plant (the default fidelity's tolerance is 1e-4).
@@ -55,8 +56,13 @@ DEFAULT_GOAL_RESTARTS = 2
 
 
 def is_goal_scene(env_id: str) -> bool:
-    """Whether ``env_id`` is certified by reaching a goal (Dock, Coast), not by surviving."""
-    return core_class_of(env_id).scene in GOAL_SCENES
+    """Whether ``env_id`` is certified by reaching a goal (Dock, Coast), not by surviving
+    (its record's ``goal``, :data:`agents.oracles.scenes.SCENE_ORACLES`).
+
+    Raises:
+        ValueError: For an id that is not registered.
+    """
+    return scene_oracle(env_id).goal
 
 
 def restart_config(config: ILQRConfig, core_class: type[ConvoyCore], restart: int) -> ILQRConfig:

@@ -17,8 +17,8 @@ and Coast, where the sampling planner has no cost for the goal.
   trailers with the nominal parameters: a range of counts and randomised physical
   parameters are refused (:meth:`Expert.problem`).
 
-A scene fits an expert when the expert's name is among its core's ``oracle_baselines``
-(the scene table says which planners have a cost for it).
+A scene fits an expert when the expert's name is among its record's ``planners``
+(:data:`agents.oracles.scenes.SCENE_ORACLES` says which planners have a cost for it).
 """
 
 from __future__ import annotations
@@ -32,9 +32,9 @@ import numpy as np
 
 from agents.oracles.ilqr import ILQRConfig, ILQRPlanner
 from agents.oracles.planner import PlannerConfig, PrivilegedExpert
+from agents.oracles.scenes import scene_oracle
 from trailer_env.core import ConvoyCore
 from trailer_env.randomize import PARAMETERS, Randomization
-from trailer_env.registry import core_class_of
 from trailer_env.settings import EnvSettings
 
 #: The settings of an expert's planner.
@@ -138,7 +138,7 @@ class Expert:
     """One expert of :data:`EXPERTS`.
 
     Attributes:
-        name: The ``--expert`` name (also the scene's ``oracle_baselines`` entry).
+        name: The ``--expert`` name (also the scene record's ``planners`` entry).
         summary: One line for the help.
         config_class: The type of its settings.
         default_config: Its settings when none are given.
@@ -163,7 +163,7 @@ class Expert:
 
     def fits(self, env_id: str) -> bool:
         """Whether the scene of ``env_id`` has a cost for this planner."""
-        return self.name in core_class_of(env_id).oracle_baselines
+        return self.name in scene_oracle(env_id).planners
 
     def problem(
         self,

@@ -189,8 +189,10 @@ class ILQRPlanner:
         batch_size: int,
         config: ILQRConfig | None = None,
     ) -> None:
-        if settings.action_mode == "planar":
-            raise ValueError("the planner drives the rail actuator, not action_mode='planar'")
+        if settings.actuator.planar:
+            raise ValueError(
+                f"the planner drives the rail actuator, not action_mode={settings.action_mode!r}"
+            )
         if config is not None and not isinstance(config, ILQRConfig):
             raise TypeError(f"config must be ILQRConfig, got {type(config).__name__}")
         self.batch_size = _positive_int("batch_size", batch_size, 1)

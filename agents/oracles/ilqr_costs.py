@@ -15,8 +15,9 @@ Residuals (``sqrt(weight) * feature``):
   ``max(0, |s| / s_max - stroke_fraction)`` (the rail's ends),
   ``max(0, band + band_pad - margin)`` (the singular band) and, for scenes that fail
   when the convoy stops reversing (Reverse-v1), ``max(0, u + min_speed + speed_pad)``;
-* Dock-v0 adds the last axle's lateral offset from the dock line and its heading error
-  (both in the dock's frame), so the convoy tracks the line that ends on the dock;
+* a scene's record (:data:`agents.oracles.scenes.SCENE_ORACLES`) adds its task
+  residuals: Dock-v0 the last axle's lateral offset from the dock line and its heading
+  error (both in the dock's frame), so the convoy tracks the line that ends on the dock;
 * the terminal residuals are ``L^T x`` with ``P = L L^T`` the LQR's Riccati matrix
   (:func:`agents.oracles.planner.riccati_matrices`) at the design speed nearest the
   plan's final speed, on ``x = (omega, alpha, s, s_dot)``: the regulator's cost-to-go,
@@ -34,10 +35,9 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from agents.oracles.planner import riccati_matrices
+from agents.oracles.scenes import scene_oracle
 from trailer_env.controllers import DESIGN_SPEEDS
 from trailer_env.core import ConvoyCore
-from trailer_env.scenes.coast import CoastCore
-from trailer_env.scenes.dock import DockCore
 from trailer_env.settings import EnvSettings
 
 
@@ -89,16 +89,19 @@ class CostWeights:
 
 
 def scene_horizon(core_class: type[ConvoyCore]) -> int:
-    """The default horizon (steps) for a scene: 100 (5 s) for Dock, 60 (3 s) otherwise.
+    """The default horizon (steps) for a scene, its record's
+    (:data:`agents.oracles.scenes.SCENE_ORACLES`): 100 (5 s) for Dock, 60 (3 s) otherwise.
 
     Dock's approach lasts 4-6 s; planned over 3 s, a hard start (validation seed 50000,
     0.58 m off the line) drove the mass to the rail's end and folded, over 5 s it docked.
     """
-    return 100 if issubclass(core_class, DockCore) else 60
+    return scene_oracle(core_class).horizon
 
 
 def scene_weights(core_class: type[ConvoyCore]) -> CostWeights:
-    """The default weights for a scene: survival for Reverse, goal-reaching for the others.
+    """The default weights for a scene, :class:`CostWeights` with its record's changes
+    (:data:`agents.oracles.scenes.SCENE_ORACLES`): survival for Reverse, goal-reaching
+    for the others.
 
     Coast weighs the turning rate like the angles (its success needs both small);
     Dock adds the dock line and keeps the convoy's own shape weights small, so that
@@ -109,13 +112,7 @@ def scene_weights(core_class: type[ConvoyCore]) -> CostWeights:
     docked, 20 -> 18 straightened), while with 1 Reverse-v1 (n = 2) lost 2 of 20 that
     10 keeps safe.
     """
-    if issubclass(core_class, DockCore):
-        return replace(
-            CostWeights(), angle=0.1, omega=0.05, rail=0.5, lateral=2.0, heading=2.0, terminal=1.0
-        )
-    if issubclass(core_class, CoastCore):
-        return replace(CostWeights(), angle=2.0, omega=2.0, terminal=1.0)
-    return CostWeights()
+    return replace(CostWeights(), **scene_oracle(core_class).weights)
 
 
 #: The weights that scale residuals (their square roots).
@@ -126,7 +123,7 @@ class SceneCost:
     """The residuals of one scene's cost (see the module), evaluated on a core's rows.
 
     Args:
-        core_class: The scene's core class (chooses the task terms).
+        core_class: The scene's core class (its record chooses the task terms).
         settings: The environment's settings (the Riccati matrices, the thresholds).
         weights: The weights; default :func:`scene_weights`.
     """
@@ -142,7 +139,7 @@ class SceneCost:
         self.weights = weights or scene_weights(core_class)
         self.settings = settings
         self.n = settings.n_trailers
-        self.dock = issubclass(core_class, DockCore)
+        self.task_residuals = scene_oracle(core_class).task_residuals
         self.min_speed = float(getattr(core_class, "min_reverse_speed", 0.0))
         # Both directions: Coast's convoys may move forwards.
         self.speeds = np.concatenate([-DESIGN_SPEEDS, DESIGN_SPEEDS])
@@ -151,7 +148,9 @@ class SceneCost:
         jitter = 1e-12 * np.eye(riccati.shape[1])
         self.factors = np.linalg.cholesky(riccati + jitter)
         w = self.weights
-        self.size = 2 * self.n + 3 + (self.n > 1) + (self.min_speed > 0.0) + 2 * self.dock
+        self.size = (
+            2 * self.n + 3 + (self.n > 1) + (self.min_speed > 0.0) + len(self.task_residuals)
+        )
         self.terminal_size = self.n + 3
         self._root = {name: float(np.sqrt(getattr(w, name))) for name in _ROOTED}
 
@@ -181,10 +180,8 @@ class SceneCost:
         if self.min_speed > 0.0:
             excess = z[:, 0] + self.min_speed + w.speed_pad
             columns.append(root["speed"] * np.maximum(excess, 0.0)[:, None])
-        if self.dock:
-            dock = core  # a DockCore: its task arrays are current after refresh/step
-            columns.append(root["lateral"] * dock.dock_xy[:, 1:2])  # type: ignore[attr-defined]
-            columns.append(root["heading"] * dock.dock_heading_error[:, None])  # type: ignore[attr-defined]
+        for name, feature in self.task_residuals:  # task arrays are current after refresh/step
+            columns.append(root[name] * feature(core)[:, None])
         return np.concatenate(columns, axis=1)
 
     def terminal_residuals(self, z: np.ndarray, act: np.ndarray, index: np.ndarray) -> np.ndarray:

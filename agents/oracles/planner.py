@@ -164,8 +164,10 @@ class SamplingPlanner:
         batch_size: int,
         config: PlannerConfig | None = None,
     ) -> None:
-        if settings.action_mode == "planar":
-            raise ValueError("the planner drives the rail actuator, not action_mode='planar'")
+        if settings.actuator.planar:
+            raise ValueError(
+                f"the planner drives the rail actuator, not action_mode={settings.action_mode!r}"
+            )
         if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)):
             raise TypeError(f"batch_size must be an int, got {type(batch_size).__name__}")
         if batch_size < 1:
@@ -454,8 +456,10 @@ def state_from_observation(obs: np.ndarray, settings: EnvSettings) -> tuple[np.n
     Raises:
         ValueError: In planar mode (the observation's layout differs).
     """
-    if settings.action_mode == "planar":
-        raise ValueError("the planner drives the rail actuator, not action_mode='planar'")
+    if settings.actuator.planar:
+        raise ValueError(
+            f"the planner drives the rail actuator, not action_mode={settings.action_mode!r}"
+        )
     n = settings.n_trailers
     batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
     z = np.column_stack(

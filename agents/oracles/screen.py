@@ -226,8 +226,10 @@ def screen_start(
     Raises:
         ValueError: If the settings use the planar actuator, or on a bad start or horizon.
     """
-    if settings.action_mode == "planar":
-        raise ValueError("the screen models the rail actuator, not action_mode='planar'")
+    if settings.actuator.planar:
+        raise ValueError(
+            f"the screen models the rail actuator, not action_mode={settings.action_mode!r}"
+        )
     n = settings.n_trailers
     z0 = np.asarray(z0, dtype=np.float64).reshape(-1)
     if z0.shape[0] < n + 2:

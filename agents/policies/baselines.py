@@ -26,37 +26,30 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
   certificate's records of that planner (not its witnesses') replayed open-loop (no
   planning: the seed given is the first episode's; the default settings only).
 
-The physics of the regulator lives in ``trailer_env.controllers``; this module only
-adapts it to the batched policy interface.
+Each is a record of :data:`BASELINES` (:class:`Baseline`: its description, how it is
+built, and for an oracle the words of the results tables' training line): a new baseline
+is one record. The physics of the regulator lives in ``trailer_env.controllers``; this
+module only adapts it to the batched policy interface.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from agents.envs import ENV_IDS, scene_baselines
+from agents.oracles.scenes import scene_oracle
 from trailer_env.controllers import LQRController, heading_policy
 from trailer_env.randomize import PARAMETERS
+from trailer_env.registry import core_class_of
 from trailer_env.settings import EnvSettings
 
 #: A policy: observations (B, obs_dim) -> actions (B, action_dim), float32 in [-1, 1].
 Policy = Callable[[np.ndarray], np.ndarray]
-
-#: Baseline name -> one-line description (the evaluation tables use these names).
-BASELINES: dict[str, str] = {
-    "zero": "zero action: the mass stays centred and the convoy coasts",
-    "random": "uniform random actions in [-1, 1] (seeded)",
-    "lqr": "LQR on the linearised straight convoy, mass states included (trailer_env.controllers)",
-    "lqr-adaptive": "the LQR re-designed for each episode's drawn parameters (privileged)",
-    "heading-p": "proportional heading baseline of Heading-v0 (trailer_env.controllers)",
-    "mpc": "sampling MPC on the nonlinear model from the LQR (an oracle; agents.oracles.planner)",
-    "ilqr": "deterministic iLQR on the nonlinear model, box-bounded (oracle; agents.oracles.ilqr)",
-    "mpc-replay": "the certified planner's committed action records, replayed (agents.certify)",
-}
 
 
 class ZeroPolicy:
@@ -173,11 +166,23 @@ class HeadingProportionalPolicy:
         return np.atleast_2d(heading_policy(np.atleast_2d(obs), n_trailers=self.n_trailers))
 
 
+def applicable_baselines(env_id: str) -> tuple[str, ...]:
+    """The baselines that fit the scene: its default ones (:func:`agents.envs.scene_baselines`)
+    then the planners of its record (:data:`agents.oracles.scenes.SCENE_ORACLES`), which
+    are run only when named.
+
+    Raises:
+        ValueError: For an id that is not registered.
+    """
+    return (*scene_baselines(env_id), *scene_oracle(env_id).planners)
+
+
 def _applies(name: str, env_id: str) -> bool:
-    """Whether the baseline fits the scene; ``lqr-adaptive`` wherever ``lqr`` does (it is
-    named explicitly, so the scenes' lists and the default tables stay as they were)."""
-    applying = scene_baselines(env_id, oracles=True)
-    return name in applying or (name == "lqr-adaptive" and "lqr" in applying)
+    """Whether the baseline ``name`` (of :data:`BASELINES`) fits the scene: the scene
+    names it, or it fits wherever its record's ``fits_like`` does."""
+    applying = applicable_baselines(env_id)
+    like = BASELINES[name].fits_like
+    return name in applying or (like is not None and like in applying)
 
 
 def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | None = 0) -> Policy:
@@ -186,39 +191,19 @@ def make_baseline(name: str, settings: EnvSettings, env_id: str, seed: int | Non
     Args:
         name: One of :data:`BASELINES`.
         settings: The environment's settings (``env.unwrapped.settings``).
-        env_id: The environment id: its scene declares which baselines apply
-            (:func:`agents.envs.scene_baselines`).
+        env_id: The environment id: which baselines fit its scene
+            (:func:`applicable_baselines`).
         seed: Seed of the random baseline.
 
     Raises:
         ValueError: On an unknown name or a baseline that does not fit the environment.
     """
-    if name in BASELINES and not _applies(name, env_id):
+    if name not in BASELINES:
+        raise ValueError(f"unknown baseline {name!r}; choose from {sorted(BASELINES)}")
+    if not _applies(name, env_id):
         fitting = [other for other in ENV_IDS if _applies(name, other)]
         raise ValueError(f"the {name} baseline is for {', '.join(fitting)}, not {env_id}")
-    if name == "zero":
-        return ZeroPolicy(settings.action_dim)
-    if name == "random":
-        return RandomPolicy(settings.action_dim, seed)
-    if name == "lqr":
-        return LQRPolicy(settings)
-    if name == "lqr-adaptive":
-        return AdaptiveLQRPolicy(settings)
-    if name == "heading-p":
-        return HeadingProportionalPolicy(settings)
-    if name == "mpc":
-        from agents.oracles.planner import MPCPolicy
-        from trailer_env.registry import core_class_of
-
-        return MPCPolicy(core_class_of(env_id), settings)
-    if name == "ilqr":
-        from agents.oracles.ilqr_policy import ILQRPolicy
-        from trailer_env.registry import core_class_of
-
-        return ILQRPolicy(core_class_of(env_id), settings)
-    if name == "mpc-replay":
-        return recorded_policy(settings, env_id, seed)
-    raise ValueError(f"unknown baseline {name!r}; choose from {sorted(BASELINES)}")
+    return BASELINES[name].build(settings, env_id, seed)
 
 
 def recorded_policy(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
@@ -244,3 +229,85 @@ def recorded_policy(settings: EnvSettings, env_id: str, seed: int | None) -> Pol
     if settings != settings_from_kwargs(n_trailers=n):
         raise ValueError("mpc-replay replays traces of the default settings only; use mpc")
     return RecordedPolicy(records, 0 if seed is None else seed, settings.action_dim)
+
+
+def _mpc(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
+    from agents.oracles.planner import MPCPolicy
+
+    return MPCPolicy(core_class_of(env_id), settings)
+
+
+def _ilqr(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
+    from agents.oracles.ilqr_policy import ILQRPolicy
+
+    return ILQRPolicy(core_class_of(env_id), settings)
+
+
+def _mpc_note(episode_steps: int) -> str:
+    from agents.oracles.planner import PlannerConfig
+
+    per_episode = PlannerConfig().steps_per_decision * episode_steps
+    return f"oracle (exact model and state), {per_episode / 1000:.0f}k simulated steps per episode"
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """One baseline of :data:`BASELINES`.
+
+    Attributes:
+        description: One line for the help and the docs.
+        build: ``(settings, env_id, seed) -> Policy`` (``seed``: the random baseline's).
+        oracle_note: For an oracle (a planner that reads the exact state), the results
+            tables' training line for it from the episode's length in steps; None for
+            the others.
+        fits_like: Another baseline wherever which this one fits too, though no scene
+            names it (so the scenes' default lists and tables stay as they were); None:
+            it fits the scenes that name it.
+    """
+
+    description: str
+    build: Callable[[EnvSettings, str, int | None], Policy]
+    oracle_note: Callable[[int], str] | None = None
+    fits_like: str | None = None
+
+
+#: Baseline name -> its record (the evaluation tables use these names). Which scenes a
+#: baseline fits is the scene's (:func:`applicable_baselines`), not the record's.
+BASELINES: dict[str, Baseline] = {
+    "zero": Baseline(
+        "zero action: the mass stays centred and the convoy coasts",
+        lambda settings, env_id, seed: ZeroPolicy(settings.action_dim),
+    ),
+    "random": Baseline(
+        "uniform random actions in [-1, 1] (seeded)",
+        lambda settings, env_id, seed: RandomPolicy(settings.action_dim, seed),
+    ),
+    "lqr": Baseline(
+        "LQR on the linearised straight convoy, mass states included (trailer_env.controllers)",
+        lambda settings, env_id, seed: LQRPolicy(settings),
+    ),
+    "lqr-adaptive": Baseline(
+        "the LQR re-designed for each episode's drawn parameters (privileged)",
+        lambda settings, env_id, seed: AdaptiveLQRPolicy(settings),
+        fits_like="lqr",
+    ),
+    "heading-p": Baseline(
+        "proportional heading baseline of Heading-v0 (trailer_env.controllers)",
+        lambda settings, env_id, seed: HeadingProportionalPolicy(settings),
+    ),
+    "mpc": Baseline(
+        "sampling MPC on the nonlinear model from the LQR (an oracle; agents.oracles.planner)",
+        _mpc,
+        _mpc_note,
+    ),
+    "ilqr": Baseline(
+        "deterministic iLQR on the nonlinear model, box-bounded (oracle; agents.oracles.ilqr)",
+        _ilqr,
+        lambda steps: "oracle (exact model and state), deterministic iLQR (agents.oracles.ilqr)",
+    ),
+    "mpc-replay": Baseline(
+        "the certified planner's committed action records, replayed (agents.certify)",
+        recorded_policy,
+        lambda steps: "oracle (the certified planner's committed records, replayed open-loop)",
+    ),
+}

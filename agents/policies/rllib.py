@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
 from typing import Any
 
@@ -10,9 +11,35 @@ import numpy as np
 from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS, read_rllib_card
 from agents.policies.baselines import Policy
 
+#: The RLModule of a policy card that names none (the cards written before it did: PPO's).
+DEFAULT_MODULE = (
+    "ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module:DefaultPPOTorchRLModule"
+)
+
+
+def module_class(path: str) -> Any:
+    """The RLModule class a policy card names (``"module:Class"``, under ``ray.rllib``).
+
+    Raises:
+        ValueError: For a path outside ``ray.rllib``, malformed, missing, or not naming an
+            RLModule (a card cannot make the loader import anything else).
+    """
+    from ray.rllib.core.rl_module.rl_module import RLModule
+
+    module, _, name = str(path).partition(":")
+    if not (module.startswith("ray.rllib.") and name.isidentifier()):
+        raise ValueError(f"policy card module {path[:120]!r} is not 'ray.rllib.<module>:<Class>'")
+    try:
+        found = getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError):
+        raise ValueError(f"policy card module {path[:120]!r} does not exist") from None
+    if not (isinstance(found, type) and issubclass(found, RLModule)):
+        raise ValueError(f"policy card module {path[:120]!r} is not an RLModule")
+    return found
+
 
 class RLlibPolicy:
-    """A trained RLlib PPO module's deterministic action (the Gaussian's mean), batched.
+    """A trained RLlib module's deterministic action (the Gaussian's mean), batched.
 
     Actions are clipped to the action space, as RLlib's module-to-env connector does.
     """
@@ -48,9 +75,6 @@ def load_rllib_policy(
             and ``trust_pickle`` is false, or its weights cannot be read.
     """
     import torch
-    from ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module import (
-        DefaultPPOTorchRLModule,
-    )
     from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
     from ray.rllib.core.rl_module.rl_module import RLModule, RLModuleSpec
 
@@ -70,13 +94,14 @@ def load_rllib_policy(
         hiddens = [int(width) for width in card["hyperparams"]["fcnet_hiddens"]]
     except (KeyError, TypeError, ValueError) as error:
         raise ValueError(f"{path}: malformed {POLICY_CARD} ({error!r})") from None
+    module_type = module_class(card.get("module_path", DEFAULT_MODULE))
     if saved_shape != tuple(observation_space.shape):
         raise ValueError(
             f"RLlib policy {path} expects observations of shape {saved_shape}, "
             f"but the environment gives {tuple(observation_space.shape)}"
         )
     module: Any = RLModuleSpec(
-        module_class=DefaultPPOTorchRLModule,
+        module_class=module_type,
         observation_space=observation_space,
         action_space=action_space,
         model_config=DefaultModelConfig(fcnet_hiddens=hiddens),

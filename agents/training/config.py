@@ -3,10 +3,15 @@
 The files follow rl-baselines3-zoo's conventions so that
 ``python -m rl_zoo3.train --gym-packages trailer_env --env trailer_env/Reverse-v0
 --algo ppo --conf-file agents/hyperparams/ppo.yml`` reads them too: one entry per
-environment id, with ``n_envs``, ``n_timesteps``, ``policy``, ``env_kwargs``,
-``normalize``, ``policy_kwargs`` as a Python expression string (``"dict(net_arch=[64,
-64])"``), learning-rate schedules as ``lin_<initial value>``, ``train_freq`` as a list,
-and the algorithm's own keyword arguments.
+environment id (plus a ``default:`` entry the others merge with ``<<: *default``), with
+``n_envs``, ``n_timesteps``, ``policy``, ``env_kwargs``, ``normalize``, ``policy_kwargs``
+as a Python expression string (``"dict(net_arch=[64, 64])"``), learning-rate schedules as
+``lin_<initial value>``, ``train_freq`` as a list, and the algorithm's own keyword
+arguments.
+
+An id without an entry of its own reads the file's ``default:`` entry (MuJoCo Playground's
+rule: the defaults, then the overrides an id's entry names), so a new scene trains before
+it has entries; rl-zoo3 itself has no such fallback and still needs the id's entry.
 
 :func:`load_hyperparams` turns an entry into what :mod:`agents.commands.train` needs. It does
 not ``eval`` anything: ``policy_kwargs`` is parsed by :func:`parse_policy_kwargs`,
@@ -196,16 +201,26 @@ def hyperparams_file(algo: str, directory: Path = HYPERPARAMS_DIR) -> Path:
     return path
 
 
+#: The entry an id without one of its own reads.
+DEFAULT_ENTRY = "default"
+
+
 def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> dict[str, Any]:
     """``env_id``'s entry of ``<directory>/<algo>.yml`` as the YAML holds it (anchors
-    merged, nothing checked but the file's size and shape).
+    merged, nothing checked but the file's size and shape), or the file's ``default:``
+    entry when ``env_id`` has none.
 
     Raises:
         FileNotFoundError: If the algorithm has no file.
-        KeyError: If the file has no entry for ``env_id``.
+        KeyError: If the file has neither an entry for ``env_id`` nor a ``default:`` one.
         ValueError: If the file is too large, not YAML, or not a mapping of mappings.
     """
     path = hyperparams_file(algo, directory)
+    return _entry(path, env_id)[1]
+
+
+def _entry(path: Path, env_id: str) -> tuple[str, dict[str, Any]]:
+    """The name of the entry ``env_id`` reads in ``path`` and that entry (see :func:`raw_entry`)."""
     size = path.stat().st_size
     if size > MAX_HYPERPARAMS_BYTES:
         raise ValueError(f"{path} is {size} bytes, over the limit of {MAX_HYPERPARAMS_BYTES}")
@@ -215,24 +230,29 @@ def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> dict
         raise ValueError(f"{path} is not valid YAML: {str(error)[:200]}") from None
     if not isinstance(entries, dict):
         raise ValueError(f"{path} must map environment ids to entries")
-    if env_id not in entries:
-        raise KeyError(f"{path} has no entry for {env_id}; entries: {sorted(map(str, entries))}")
-    if not isinstance(entries[env_id], dict):
-        raise ValueError(f"{path}: the entry for {env_id} must be a mapping")
-    return {str(key): value for key, value in entries[env_id].items()}
+    name = env_id if env_id in entries else DEFAULT_ENTRY
+    if name not in entries:
+        raise KeyError(
+            f"{path} has no entry for {env_id} and no {DEFAULT_ENTRY!r} entry; entries: "
+            f"{sorted(map(str, entries))}"
+        )
+    if not isinstance(entries[name], dict):
+        raise ValueError(f"{path}: the entry for {name} must be a mapping")
+    return name, {str(key): value for key, value in entries[name].items()}
 
 
 def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> Hyperparams:
-    """Read and preprocess ``env_id``'s entry of ``<directory>/<algo>.yml``.
+    """Read and preprocess ``env_id``'s entry of ``<directory>/<algo>.yml`` (its
+    ``default:`` entry when ``env_id`` has none).
 
     Raises:
         FileNotFoundError: If the algorithm has no file.
-        KeyError: If the file has no entry for ``env_id``.
+        KeyError: If the file has neither an entry for ``env_id`` nor a ``default:`` one.
         ValueError: On a value the trainer cannot use.
     """
-    raw = raw_entry(algo, env_id, directory)
     path = hyperparams_file(algo, directory)
-    where = f"{path}, entry {env_id}"
+    name, raw = _entry(path, env_id)
+    where = f"{path}, entry {name}"
     _check_keys(algo, raw, where)
     env_kwargs = raw.pop("env_kwargs", None) or {}
     if not isinstance(env_kwargs, dict):

@@ -1,4 +1,9 @@
-"""Distributed PPO on Ray RLlib (the ``rllib`` extra): ``agents.train --backend rllib``.
+"""Distributed training on Ray RLlib (the ``rllib`` extra): ``agents.train --backend rllib``.
+
+The algorithms it trains are the records of :data:`RLLIB_ALGOS` (PPO today): each builds
+its RLlib config from the SB3 hyperparameter file's entry, says which of the resolved
+settings the run records, and names the RLModule its exported policy is rebuilt with;
+another algorithm is one more record.
 
 Usage::
 
@@ -57,7 +62,8 @@ import shutil
 import signal
 import socket
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -71,10 +77,6 @@ from agents.training.config import Hyperparams, TrainConfig
 
 #: The name under which :func:`register_trailer_env` registers the env creator.
 RLLIB_ENV_NAME = "trailer_env_rllib"
-
-
-#: Algorithms the RLlib backend trains.
-RLLIB_ALGOS = ("ppo",)
 
 
 #: Seconds to wait for the cluster at ``--address`` to answer.
@@ -209,6 +211,51 @@ def ppo_config(
     )
 
 
+def ppo_settings(rllib_config: Any) -> dict[str, Any]:
+    """The settings a ``PPOConfig`` resolved, for the run's record (``fcnet_hiddens``
+    rebuilds the exported policy's network)."""
+    return {
+        "train_batch_size": rllib_config.train_batch_size_per_learner,
+        "minibatch_size": rllib_config.minibatch_size,
+        "num_epochs": rllib_config.num_epochs,
+        "lr": rllib_config.lr,
+        "gamma": rllib_config.gamma,
+        "lambda": rllib_config.lambda_,
+        "clip_param": rllib_config.clip_param,
+        "entropy_coeff": rllib_config.entropy_coeff,
+        "fcnet_hiddens": list(rllib_config.model_config["fcnet_hiddens"]),
+    }
+
+
+@dataclass(frozen=True)
+class RLlibAlgorithm:
+    """One algorithm the RLlib backend trains (a record of :data:`RLLIB_ALGOS`).
+
+    Attributes:
+        build_config: ``(env_id, env_kwargs, hp, seed, num_env_runners, envs_per_runner)``
+            -> the RLlib ``AlgorithmConfig`` equivalent to the SB3 entry ``hp``.
+        settings: The settings that config resolved, for ``config.json`` and the policy
+            card (their ``fcnet_hiddens`` rebuild the exported policy's network).
+        module: ``"module:Class"`` of the RLModule the exported policy is rebuilt with
+            (a class under ``ray.rllib``, :func:`agents.policies.rllib.load_rllib_policy`).
+    """
+
+    build_config: Callable[[str, dict[str, Any], Hyperparams, int, int, int], Any]
+    settings: Callable[[Any], dict[str, Any]]
+    module: str
+
+
+#: Algorithms the RLlib backend trains, by ``--algo`` name (a name of
+#: :data:`agents.algorithms.ALGOS`).
+RLLIB_ALGOS: dict[str, RLlibAlgorithm] = {
+    "ppo": RLlibAlgorithm(
+        build_config=ppo_config,
+        settings=ppo_settings,
+        module="ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module:DefaultPPOTorchRLModule",
+    ),
+}
+
+
 def _runner_env(runner: Any) -> tuple[str, bool, str]:
     """An env runner's env class, whether it is the native batch, and the Ray node it runs
     on (runs on the runner)."""
@@ -296,7 +343,8 @@ def train_rllib(
     address: str | None = None,
     verbose: int = 1,
 ) -> dict[str, Any]:
-    """Train PPO on Ray RLlib until ``config.budget`` env steps; returns the run's record.
+    """Train ``config.algo`` (a record of :data:`RLLIB_ALGOS`) on Ray RLlib until
+    ``config.budget`` env steps; returns the run's record.
 
     Args:
         config: What to train (backend "rllib"); ``config.n_envs`` convoys in all,
@@ -309,11 +357,12 @@ def train_rllib(
     Training stops after the first iteration that reaches the budget.
 
     Raises:
-        ValueError: For an algorithm other than PPO or a negative runner count.
+        ValueError: For an algorithm without a record or a negative runner count.
         ConnectionError: If ``address`` cannot be reached.
     """
     if config.algo not in RLLIB_ALGOS:
         raise ValueError(f"the rllib backend trains {list(RLLIB_ALGOS)}, not {config.algo!r}")
+    trained = RLLIB_ALGOS[config.algo]
     if num_env_runners < 0:
         raise ValueError(f"num_env_runners must be >= 0, got {num_env_runners}")
 
@@ -328,7 +377,7 @@ def train_rllib(
     run_dir.mkdir(parents=True, exist_ok=True)
     previous_handler = _raise_on_sigterm()
     try:
-        rllib_config = ppo_config(
+        rllib_config = trained.build_config(
             config.env_id, env_kwargs, config.hyperparams, config.seed, num_env_runners, per_runner
         )
         algorithm = rllib_config.build_algo()
@@ -346,17 +395,7 @@ def train_rllib(
             # What each runner steps and where: (class name, is a native ConvoyVectorEnv
             # batch, Ray node id).
             "runner_envs": runner_envs,
-            "hyperparams": {
-                "train_batch_size": rllib_config.train_batch_size_per_learner,
-                "minibatch_size": rllib_config.minibatch_size,
-                "num_epochs": rllib_config.num_epochs,
-                "lr": rllib_config.lr,
-                "gamma": rllib_config.gamma,
-                "lambda": rllib_config.lambda_,
-                "clip_param": rllib_config.clip_param,
-                "entropy_coeff": rllib_config.entropy_coeff,
-                "fcnet_hiddens": list(rllib_config.model_config["fcnet_hiddens"]),
-            },
+            "hyperparams": trained.settings(rllib_config),
         }
         write_config(run_dir, record)
         rows: list[dict[str, Any]] = []
@@ -377,7 +416,7 @@ def train_rllib(
                     "episode_len_mean": float(runners.get("episode_len_mean", float("nan"))),
                     "num_episodes": int(runners.get("num_episodes_lifetime", 0)),
                     # RLlib's own timers, smoothed across iterations (so not summable into
-                    # a wall time): sampling on the runners, the PPO update in the learner.
+                    # a wall time): sampling on the runners, the update in the learner.
                     "sample_s": float(timers.get("env_runner_sampling_timer", float("nan"))),
                     "learn_s": float(timers.get("learner_update_timer", float("nan"))),
                 }
@@ -400,7 +439,7 @@ def train_rllib(
                 "episode_return_mean": rows[-1]["episode_return_mean"],
             }
         )
-        export_policy(algorithm, checkpoint, record)
+        export_policy(algorithm, checkpoint, record, trained.module)
         write_config(run_dir, record)
         algorithm.stop()
         return record
@@ -425,8 +464,14 @@ def learner_policy_state(algorithm: Any) -> dict[str, Any]:
     return {key: torch.as_tensor(np.asarray(value)) for key, value in weights.items()}
 
 
-def export_policy(algorithm: Any, checkpoint: Path, card: dict[str, Any]) -> None:
-    """Write the pickle-free policy export (weights + card) into ``checkpoint``."""
+def export_policy(
+    algorithm: Any,
+    checkpoint: Path,
+    card: dict[str, Any],
+    module_path: str = RLLIB_ALGOS["ppo"].module,
+) -> None:
+    """Write the pickle-free policy export (weights + card) into ``checkpoint``; the card
+    names the RLModule (``module_path``, ``"module:Class"``) the policy is rebuilt with."""
     import torch
 
     checkpoint.mkdir(parents=True, exist_ok=True)
@@ -442,7 +487,8 @@ def export_policy(algorithm: Any, checkpoint: Path, card: dict[str, Any]) -> Non
     }
     document = {
         **card,
-        "module": "DefaultPPOTorchRLModule",
+        "module": module_path.rpartition(":")[2],
+        "module_path": module_path,
         "inference_only": True,
         "spaces": spaces,
     }

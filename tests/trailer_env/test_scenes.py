@@ -15,6 +15,8 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import trailer_env
 from dynamics import ConvoyParams, energy, is_jackknifed, rhs, singular_margin
 from tests.trailer_env.helpers import SCENE_IDS, make
+from trailer_env.registry import env_id_of
+from trailer_env.scenes import SCENE_ENVS
 from trailer_env.vector import ConvoyVectorEnv
 
 
@@ -45,26 +47,26 @@ def test_other_action_modes_pass_the_checker(mode: str) -> None:
 
 
 def test_ids_are_registered_with_both_entry_points() -> None:
-    expected = {
-        "Reverse-v0": 400,
-        "Reverse-v1": 400,
-        "Coast-v0": 300,
-        "Heading-v0": 300,
-        "Dock-v0": 400,
-    }
-    modules = {"Reverse-v1": "reverse_v1:ReverseV1Env"}
-    assert list(trailer_env.ENVIRONMENTS) == [f"trailer_env/{name}" for name in expected]
-    for name, steps in expected.items():
-        spec = gym.spec(f"trailer_env/{name}")
-        assert spec.max_episode_steps == steps
-        module = modules.get(name, f"{name[:-3].lower()}:{name[:-3]}Env")
-        assert spec.entry_point == f"trailer_env.scenes.{module}"
+    """Every scene of the table is registered as its core declares it (read from the
+    table, so that a new scene needs no edit here)."""
+    assert list(trailer_env.ENVIRONMENTS) == [env_id_of(env) for env in SCENE_ENVS]
+    assert len(set(trailer_env.ENVIRONMENTS)) == len(SCENE_ENVS) >= 1
+    for env_id, env_class in trailer_env.ENVIRONMENTS.items():
+        core = env_class.core_class
+        assert env_id == f"trailer_env/{core.scene}-v{core.version}"
+        spec = gym.spec(env_id)
+        assert spec.max_episode_steps == core.max_episode_steps >= 1
+        assert spec.entry_point == f"{env_class.__module__}:{env_class.__name__}"
+        assert env_class.__module__.startswith("trailer_env.scenes.")
         envs = gym.make_vec(spec.id, num_envs=2, vectorization_mode="vector_entry_point")
         assert isinstance(envs.unwrapped, ConvoyVectorEnv)
-        assert envs.unwrapped.core_class.scene == name[:-3]
-        assert envs.unwrapped.max_episode_steps == steps
+        assert envs.unwrapped.core_class is core
+        assert envs.unwrapped.max_episode_steps == core.max_episode_steps
     env = gym.make("trailer_env:trailer_env/Reverse-v0")
     assert type(env.unwrapped).__name__ == "ReverseEnv"
+    assert gym.spec("trailer_env/Reverse-v1").entry_point == (
+        "trailer_env.scenes.reverse_v1:ReverseV1Env"
+    )
 
 
 def test_common_observation_layout() -> None:

@@ -161,8 +161,6 @@ class CoastCore(ShapedCore):
 
     scene = "Coast"
     max_episode_steps = 300
-    #: The deterministic planner (agents.oracles.ilqr), run only when named.
-    oracle_baselines = ("ilqr",)
     scene_kernel = staticmethod(coast_step)
     scene_outcome = staticmethod(coast_outcome)
     start_kernel = staticmethod(coast_starts)

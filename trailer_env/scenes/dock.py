@@ -75,8 +75,7 @@ class DockCore(ShapedCore):
     start_kernel = staticmethod(dock_starts)
     #: The hitch positions of the reward and the task features use one rod length.
     fixed_parameters = ("l",)
-    #: The deterministic planner (agents.oracles.ilqr), run only when named.
-    oracle_baselines = ("ilqr",)
+    failure_words = "a miss (the last axle ran past the dock)"
     uses_pose = True
     n_task_features = 4
     # 400 steps * (0.01 + 0.05) = 24 < 30: neither folding nor missing on purpose pays.

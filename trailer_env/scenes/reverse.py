@@ -148,7 +148,7 @@ class ReverseCore(ConvoyCore):
     scene = "Reverse"
     max_episode_steps = 400
     headline_metric = "safe_rate"
-    oracle_baselines = ("mpc", "mpc-replay", "ilqr")
+    failure_words = "the convoy stopped reversing"
     #: The episode fails once the reversing speed -u is at most this (m/s).
     min_reverse_speed: ClassVar[float] = 0.0
     scene_kernel = staticmethod(reverse_step)

@@ -59,6 +59,7 @@ class ReverseV1Core(ReverseCore):
     #: Radius of the starting perturbation per number of trailers (see PERTURBATION_RADII).
     perturbation_radii: ClassVar[dict[int, float]] = PERTURBATION_RADII
     min_reverse_speed = MIN_REVERSE_SPEED
+    failure_words = f"the convoy slowed to {MIN_REVERSE_SPEED} m/s"
 
     @classmethod
     def perturbation_radius(cls, n_trailers: int) -> float:

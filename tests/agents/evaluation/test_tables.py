@@ -3,11 +3,15 @@ spelled out under the table, the legend once, the headline scenario first."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 from agents.evaluation.metrics import EpisodeResults
 from agents.evaluation.report import (
     HEADLINE,
+    SCENARIOS,
     report_order,
     scenario_section,
     tables_document,
@@ -104,8 +108,12 @@ def test_section_heading_names_the_scenario_only_and_the_legend_comes_once() -> 
     assert lines[-1].startswith("ceiling: ")
     headings = [line for line in section.splitlines() if line.startswith("#")]
     assert headings == ["#### Reverse-v1, n = 2"]
-    document = tables_document([section, section.replace("n = 2", "n = 3")])
-    assert document.startswith(table_legend() + "\n\n#### Reverse-v1, n = 2\n")
+    document = tables_document(
+        [section, section.replace("n = 2", "n = 3")], ["trailer_env/Reverse-v1"] * 2
+    )
+    assert document.startswith(
+        table_legend(["trailer_env/Reverse-v1"]) + "\n\n#### Reverse-v1, n = 2\n"
+    )
     assert document.count("Columns:") == 1
     assert document.count("#### ") == 2
 
@@ -126,3 +134,39 @@ def test_the_headline_scenario_comes_first() -> None:
         ("trailer_env/Reverse-v0", 1),
         ("trailer_env/Coast-v0", 1),
     ]
+
+
+def _stop_and_headline(legend: str) -> tuple[str, str]:
+    stop = legend.split("**stop %** failures without a fold (", 1)[1].split("); **", 1)[0]
+    headline = legend.split("the scene's headline rate (", 1)[1].split(") of each", 1)[0]
+    return stop, headline
+
+
+def test_the_legend_words_each_scene_from_its_core() -> None:
+    """ "stop %" and "% over seeds" are spelled out per scene from the cores'
+    ``failure_words`` and ``headline_metric``, not as Reverse's for every scene."""
+    assert _stop_and_headline(table_legend(["trailer_env/Reverse-v1"])) == (
+        "Reverse-v1: the convoy slowed to 0.3 m/s",
+        "safe on Reverse-v1",
+    )
+    assert _stop_and_headline(table_legend(["trailer_env/Heading-v0"])) == (
+        "none on Heading-v0",
+        "success on Heading-v0",
+    )
+    every = ["trailer_env/Reverse-v0", "trailer_env/Dock-v0", "trailer_env/Coast-v0",
+             "trailer_env/Reverse-v0", "trailer_env/Heading-v0"]  # fmt: skip
+    assert _stop_and_headline(table_legend(every)) == (
+        "Reverse-v0: the convoy stopped reversing; Dock-v0: a miss (the last axle ran past "
+        "the dock); none on Coast-v0, Heading-v0",
+        "safe on Reverse-v0; success on Dock-v0, Coast-v0, Heading-v0",
+    )
+    with pytest.raises(ValueError, match="got none"):
+        table_legend([])
+    with pytest.raises(ValueError, match="unknown environment 'trailer_env/Nope-v0'"):
+        table_legend(["trailer_env/Nope-v0"])
+
+
+def test_the_committed_results_page_has_the_report_legend() -> None:
+    page = Path(__file__).resolve().parents[3] / "docs" / "generated" / "results_tables.md"
+    first = page.read_text().splitlines()[0]
+    assert first == table_legend([env_id for env_id, _ in SCENARIOS])

@@ -11,7 +11,7 @@ import pytest
 import trailer_env  # noqa: F401  (registers the ids)
 from agents.oracles.ilqr import ILQRConfig, ILQRPlanner
 from agents.oracles.ilqr_costs import CostWeights, SceneCost
-from agents.oracles.ilqr_policy import dock_state_from_observation
+from agents.oracles.scenes import dock_state_from_observation
 from agents.policies.baselines import make_baseline
 from trailer_env.controllers import LQRController
 from trailer_env.core import ConvoyCore

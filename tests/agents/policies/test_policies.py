@@ -9,9 +9,17 @@ import pytest
 from stable_baselines3 import PPO, SAC
 
 from agents.envs import env_settings, make_sb3_env
-from agents.policies.baselines import BASELINES, make_baseline
+from agents.evaluation.tables import oracle_note, training_label
+from agents.policies.baselines import (
+    BASELINES,
+    Baseline,
+    Policy,
+    applicable_baselines,
+    make_baseline,
+)
 from agents.policies.registry import load_policy, policy_label
 from agents.policies.sb3 import detect_algo
+from trailer_env.settings import EnvSettings
 
 REVERSE = "trailer_env/Reverse-v0"
 
@@ -42,6 +50,31 @@ def test_baselines_are_batched_and_bounded() -> None:
         "mpc-replay",
         "ilqr",
     }
+
+
+def test_a_new_baseline_is_one_record(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A record that fits like the LQR runs wherever the LQR does, and the tables' note
+    is the record's; the scenes' default lists are untouched."""
+
+    def full_left(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
+        return lambda obs: np.full((np.atleast_2d(obs).shape[0], 1), -1.0, np.float32)
+
+    record = Baseline("full left", full_left, lambda steps: f"oracle, {steps} steps", "lqr")
+    monkeypatch.setitem(BASELINES, "left", record)
+    settings = env_settings({"n_trailers": 2})
+    assert make_baseline("left", settings, REVERSE)(np.zeros((3, 8))).tolist() == [[-1.0]] * 3
+    assert (
+        oracle_note("left", 300) == "oracle, 300 steps" and training_label({}, "left") == "oracle"
+    )
+    assert "left" not in applicable_baselines(REVERSE)
+    assert oracle_note("lqr") == "-" and oracle_note("no-such-policy") == "-"
+    assert oracle_note("mpc", 400) == (
+        "oracle (exact model and state), 768k simulated steps per episode"
+    )
+    assert [name for name, baseline in BASELINES.items() if baseline.fits_like] == [
+        "lqr-adaptive",
+        "left",
+    ]
 
 
 def test_saved_models_load_by_path_with_their_algorithm(tmp_path: Path) -> None:

@@ -12,6 +12,7 @@ from agents.training.config import (
     HYPERPARAMS_DIR,
     load_hyperparams,
     parse_policy_kwargs,
+    raw_entry,
     shaping_setting,
 )
 
@@ -50,7 +51,7 @@ def test_linear_schedule_and_unknown_entries(tmp_path: Path) -> None:
     schedule = hp.algo_kwargs["learning_rate"]
     assert schedule(1.0) == pytest.approx(1e-3) and schedule(0.5) == pytest.approx(5e-4)
     assert hp.n_timesteps == 10_000 and hp.normalize is None
-    with pytest.raises(KeyError, match="no entry for trailer_env/Dock-v0"):
+    with pytest.raises(KeyError, match="no entry for trailer_env/Dock-v0 and no 'default' entry"):
         load_hyperparams("ppo", "trailer_env/Dock-v0", tmp_path)
     with pytest.raises(FileNotFoundError, match=r"sac\.yml"):
         load_hyperparams("sac", "trailer_env/Reverse-v0", tmp_path)
@@ -94,3 +95,32 @@ def test_an_entry_may_name_the_multi_input_policy_and_the_encoder(tmp_path: Path
         "features_extractor_class": ConvoyEncoder,
         "net_arch": [16],
     }
+
+
+def test_an_id_without_an_entry_reads_the_default(tmp_path: Path) -> None:
+    (tmp_path / "ppo.yml").write_text(
+        "default: &default\n  n_timesteps: 5000\n  gamma: 0.9\n"
+        "trailer_env/Reverse-v0:\n  <<: *default\n  gamma: 0.999\n"
+    )
+    named = load_hyperparams("ppo", "trailer_env/Reverse-v0", tmp_path)
+    assert named.n_timesteps == 5000 and named.algo_kwargs == {"gamma": 0.999}
+    fallback = load_hyperparams("ppo", "trailer_env/Dock-v0", tmp_path)
+    assert fallback.n_timesteps == 5000 and fallback.algo_kwargs == {"gamma": 0.9}
+    assert raw_entry("ppo", "trailer_env/Dock-v0", tmp_path) == {
+        "n_timesteps": 5000,
+        "gamma": 0.9,
+    }
+    # A bad default is reported as the default entry's, not the id's.
+    (tmp_path / "ppo.yml").write_text("default:\n  n_envs: 0\n")
+    with pytest.raises(ValueError, match=r"entry default: n_envs must be an integer"):
+        load_hyperparams("ppo", "trailer_env/Dock-v0", tmp_path)
+    (tmp_path / "ppo.yml").write_text("trailer_env/Reverse-v0:\n  n_envs: 1\n")
+    with pytest.raises(KeyError, match="no entry for trailer_env/Dock-v0 and no 'default' entry"):
+        raw_entry("ppo", "trailer_env/Dock-v0", tmp_path)
+
+
+def test_a_scene_without_entries_trains_on_the_committed_defaults() -> None:
+    """Every committed file's default is what a scene without an entry of its own reads."""
+    for algo in ("ppo", "ppo_lag", "sac", "td3"):
+        assert raw_entry(algo, "trailer_env/NoSuchScene-v0") == raw_entry(algo, "default")
+        assert load_hyperparams(algo, "trailer_env/NoSuchScene-v0").env_kwargs == {"n_trailers": 2}

@@ -15,8 +15,9 @@ import gymnasium as gym
 from agents.artifacts.curves import read_curve
 from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS
 from agents.commands import evaluate, train
-from agents.policies.rllib import load_rllib_policy
-from agents.training.rllib import make_rllib_env
+from agents.policies.rllib import DEFAULT_MODULE, load_rllib_policy, module_class
+from agents.training.config import load_hyperparams
+from agents.training.rllib import RLLIB_ALGOS, make_rllib_env
 from trailer_env.vector import ConvoyVectorEnv
 
 REVERSE = "trailer_env/Reverse-v0"
@@ -72,6 +73,9 @@ def test_rllib_trains_with_a_remote_runner_and_its_checkpoint_evaluates(tmp_path
     checkpoint = run / "checkpoint"
     assert (checkpoint / "rllib_checkpoint.json").is_file()
     assert (checkpoint / POLICY_WEIGHTS).is_file() and (checkpoint / POLICY_CARD).is_file()
+    card = json.loads((checkpoint / POLICY_CARD).read_text())
+    assert card["module_path"] == RLLIB_ALGOS["ppo"].module == DEFAULT_MODULE
+    assert card["module"] == "DefaultPPOTorchRLModule"
 
     out = tmp_path / "eval"
     argv = ["--env", "trailer_env/Reverse-v0", "--n-trailers", "1", "--policy", str(checkpoint)]
@@ -98,6 +102,41 @@ def test_rllib_trains_with_a_remote_runner_and_its_checkpoint_evaluates(tmp_path
     obs = np.random.default_rng(0).uniform(-0.3, 0.3, (32, 6)).astype(np.float32)
     np.testing.assert_allclose(safe(obs), trusted(obs), rtol=0, atol=1e-6)
     assert np.all(np.abs(safe(obs)) <= 1.0)
+
+
+def test_the_ppo_record_carries_the_sb3_entry_over(tmp_path: Path) -> None:
+    (tmp_path / "ppo.yml").write_text(TINY_PPO)
+    hp = load_hyperparams("ppo", REVERSE, tmp_path)
+    record = RLLIB_ALGOS["ppo"]
+    config = record.build_config(REVERSE, {"n_trailers": 1}, hp, 3, 2, 4)
+    assert type(config).__name__ == "PPOConfig"
+    # 8 x 128 steps per update over 2 runners of 4 envs: fragments of 128 steps.
+    assert record.settings(config) == {
+        "train_batch_size": 1024,
+        "minibatch_size": 256,
+        "num_epochs": 2,
+        "lr": 1e-3,
+        "gamma": 0.99,
+        "lambda": 0.95,
+        "clip_param": 0.2,
+        "entropy_coeff": 0.0,
+        "fcnet_hiddens": [32, 32],
+    }
+    assert module_class(record.module).__name__ == "DefaultPPOTorchRLModule"
+
+
+@pytest.mark.parametrize(
+    ("path", "match"),
+    [
+        ("os:system", "is not 'ray.rllib.<module>:<Class>'"),
+        ("ray.rllib.core.columns", "is not 'ray.rllib.<module>:<Class>'"),
+        ("ray.rllib.no_such_module:Thing", "does not exist"),
+        ("ray.rllib.core.columns:Columns", "is not an RLModule"),
+    ],
+)
+def test_a_policy_card_names_only_an_rllib_module(path: str, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        module_class(path)
 
 
 def test_rllib_options_are_checked(capsys: pytest.CaptureFixture[str]) -> None:
