@@ -1,0 +1,200 @@
+"""The headline rate against the number of trailers: policies, specialists, the LQR and the
+certified ceiling on one scene, n by n.
+
+Usage::
+
+    python -m agents.evaluation.across_n --env trailer_env/Reverse-v1 --n 1-6 \\
+        --policy dagger_reverse_v1_sequence lqr lqr-adaptive \\
+        --specialist dagger_reverse_v1_n{n} --episodes 100 --out docs/generated/across_n
+
+Each ``--policy`` is evaluated on every n it accepts (a model padded to three trailers
+refuses four: its cell says so), ``--specialist`` names one model per n (``{n}`` in the
+spec), evaluated on its own n where it exists, and the ceiling is the committed
+certificate's share of the same starts (:func:`agents.oracles.certify.ceiling_fraction`).
+Every cell is the same episodes (``--episodes`` from ``--seed``, the test seeds by
+default). Writes ``across_n.md`` (the table), ``across_n.json`` (every figure) and
+``across_n.png`` (the chart) into ``--out``, atomically; existing files are replaced only
+with ``--overwrite``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from agents.artifacts import files
+from agents.artifacts.shipped import resolve_model
+from agents.commands import options as cli
+from agents.envs import HEADLINE_ENV_ID, headline_metric, scene_title
+from agents.evaluation.results import evaluate_policies, policy_label
+from agents.oracles.certify import ceiling_fraction
+from agents.progress import Progress, duration
+from agents.seeds import TEST_SEED
+
+OUTPUTS = ("across_n.md", "across_n.json", "across_n.png")
+#: The label of the specialists' line (one model per n).
+SPECIALIST = "specialist (own n)"
+CEILING = "ceiling (certified)"
+
+
+def _counts(text: str) -> list[int]:
+    """``"1-6"`` or ``"1,2,4"`` as a sorted list of counts of trailers (1 .. 16)."""
+    try:
+        if "-" in text:
+            low, high = (int(part) for part in text.split("-", 1))
+            counts = list(range(low, high + 1))
+        else:
+            counts = sorted({int(part) for part in text.split(",")})
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected N-M or N,M,...; got {text!r}") from None
+    if not counts or counts[0] < 1 or counts[-1] > 16:
+        raise argparse.ArgumentTypeError(f"counts of trailers must lie in 1..16; got {text!r}")
+    return counts
+
+
+def rates_across_n(
+    env_id: str,
+    counts: Sequence[int],
+    policies: Sequence[str],
+    specialist: str | None,
+    episodes: int,
+    seed: int,
+) -> dict[str, dict[int, float | str]]:
+    """Line label -> n -> headline rate in [0, 1], or the reason the cell is empty."""
+    metric = headline_metric(env_id)
+    lines: dict[str, dict[int, float | str]] = {policy_label(spec): {} for spec in policies}
+    if specialist is not None:
+        lines[SPECIALIST] = {}
+    lines[CEILING] = {}
+    with Progress(len(counts), f"{scene_title(env_id)} across n") as bar:
+        for n in counts:
+            kwargs = {"n_trailers": n}
+            for spec in policies:
+                lines[policy_label(spec)][n] = _rate(spec, env_id, kwargs, episodes, seed, metric)
+            if specialist is not None:
+                spec = specialist.format(n=n)
+                exists = resolve_model(spec) != spec or Path(spec).is_file()
+                lines[SPECIALIST][n] = (
+                    _rate(spec, env_id, kwargs, episodes, seed, metric)
+                    if exists
+                    else f"no model {spec}"
+                )
+            ceiling = ceiling_fraction(env_id, n, episodes, seed)
+            lines[CEILING][n] = "not certified" if ceiling is None else ceiling
+            bar.advance(f"n = {n}")
+    return lines
+
+
+def _rate(
+    spec: str, env_id: str, kwargs: dict[str, int], episodes: int, seed: int, metric: str
+) -> float | str:
+    try:
+        (evaluation,) = evaluate_policies(
+            [spec], env_id, kwargs, episodes, seed, with_seeds=False, progress=False
+        )
+    except ValueError as error:
+        # A policy built for other counts of trailers refuses this one: an empty cell.
+        return f"refused: {str(error).splitlines()[0][:80]}"
+    return float(evaluation.summary[metric])
+
+
+def markdown(lines: dict[str, dict[int, float | str]], counts: Sequence[int]) -> str:
+    """The table: one row per line, one column per n (rates in %, "-" for an empty cell)."""
+    header = "| policy | " + " | ".join(f"n = {n}" for n in counts) + " |"
+    rows = [header, "|---|" + "---|" * len(counts)]
+    for label, cells in lines.items():
+        values = [
+            f"{100 * value:.0f}" if isinstance(value, float) else "-"
+            for value in (cells[n] for n in counts)
+        ]
+        rows.append(f"| {label} | " + " | ".join(values) + " |")
+    return "\n".join(rows) + "\n"
+
+
+def plot(
+    lines: dict[str, dict[int, float | str]], counts: Sequence[int], out: Path, title: str
+) -> Path:
+    """The chart: the headline rate against n, one line per policy, the ceiling dashed."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axis = plt.subplots(figsize=(8.0, 4.5), layout="constrained")
+    for label, cells in lines.items():
+        xs = [n for n in counts if isinstance(cells[n], float)]
+        ys = [100 * float(cells[n]) for n in xs]
+        if not xs:
+            continue
+        style = {"ls": "--", "color": "#1b9e77", "lw": 2} if label == CEILING else {"marker": "o"}
+        axis.plot(xs, ys, label=label, **style)
+    axis.set_xticks(list(counts))
+    axis.set_xlabel("trailers n")
+    axis.set_ylabel("safe episodes %")
+    axis.set_ylim(-3, 103)
+    axis.grid(alpha=0.3)
+    axis.legend(fontsize=9, loc="lower left")
+    axis.set_title(title, fontsize=11)
+    with files.replacing(out) as temporary:
+        fig.savefig(temporary, dpi=100)
+    plt.close(fig)
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.evaluation.across_n",
+        description="The headline rate against the number of trailers (table, JSON, chart)",
+    )
+    cli.add_env(parser, HEADLINE_ENV_ID)
+    parser.add_argument("--n", type=_counts, default=_counts("1-6"), help="counts, e.g. 1-6")
+    parser.add_argument("--policy", nargs="+", default=["lqr", "lqr-adaptive"], metavar="SPEC")
+    parser.add_argument(
+        "--specialist", default=None, metavar="SPEC", help="one model per n: {n} in the spec"
+    )
+    cli.add_episodes(parser, 100, "episodes per cell (default 100)")
+    cli.add_seed(parser, TEST_SEED, f"first episode's seed (default {TEST_SEED}, the test seeds)")
+    parser.add_argument("--out", type=Path, default=Path("out") / "across_n")
+    cli.add_overwrite(parser, "replace the files of an earlier run in --out")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; bad arguments exit with 2 before any episode runs."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.specialist is not None and "{n}" not in args.specialist:
+        parser.error("argument --specialist: the spec must hold {n}, e.g. dagger_reverse_v1_n{n}")
+    cli.check_seeds(parser, args.seed, args.episodes)
+    cli.check_out_folder(parser, args.out, files_in=OUTPUTS)
+    existing = [name for name in OUTPUTS if (args.out / name).exists()]
+    if existing and not args.overwrite:
+        parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")
+    started = time.perf_counter()
+    lines = rates_across_n(args.env, args.n, args.policy, args.specialist, args.episodes, args.seed)
+    args.out.mkdir(parents=True, exist_ok=True)
+    seeds = f"seeds {args.seed}..{args.seed + args.episodes - 1}"
+    table = markdown(lines, args.n)
+    files.atomic_write_text(args.out / "across_n.md", table)
+    files.write_json(
+        args.out / "across_n.json",
+        {
+            "env_id": args.env, "episodes": args.episodes, "seed": args.seed,
+            "metric": headline_metric(args.env),
+            "lines": {label: {str(n): value for n, value in cells.items()}
+                      for label, cells in lines.items()},
+        },
+    )  # fmt: skip
+    title = f"{scene_title(args.env)}: {args.episodes} episodes per n ({seeds})"
+    plot(lines, args.n, args.out / "across_n.png", title)
+    print(table, end="")
+    print(f"wrote {', '.join(str(args.out / name) for name in OUTPUTS)} in "
+          f"{duration(time.perf_counter() - started)}")  # fmt: skip
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

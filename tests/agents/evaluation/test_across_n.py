@@ -1,0 +1,45 @@
+"""agents.evaluation.across_n: the rate against n, with empty cells where a policy refuses n."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import pytest
+
+from agents.evaluation.across_n import CEILING, SPECIALIST, _counts, main, markdown
+
+
+def test_counts_and_the_table_of_empty_cells() -> None:
+    assert _counts("1-6") == [1, 2, 3, 4, 5, 6] and _counts("4,2,2") == [2, 4]
+    for bad in ("0-3", "1-17", "a", ""):
+        with pytest.raises(argparse.ArgumentTypeError):
+            _counts(bad)
+    lines = {"lqr": {1: 0.91, 4: 0.5}, SPECIALIST: {1: 1.0, 4: "no model x_n4"}}
+    assert markdown(lines, [1, 4]).splitlines()[2:] == [
+        "| lqr | 91 | 50 |",
+        f"| {SPECIALIST} | 100 | - |",
+    ]
+
+
+def test_the_command_writes_table_json_and_chart(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "across"
+    args = ["--n", "1-2", "--policy", "zero", "--specialist", "dagger_reverse_v1_n{n}",
+            "--episodes", "3", "--out", str(out)]  # fmt: skip
+    assert main(args) == 0
+    document = json.loads((out / "across_n.json").read_text())
+    lines = document["lines"]
+    assert lines["zero"] == {"1": 0.0, "2": 0.0}  # the zero action folds every convoy
+    assert lines[CEILING] == {"1": 1.0, "2": 1.0}  # the certificates' test starts 1000-1002
+    assert all(isinstance(rate, float) for rate in lines[SPECIALIST].values())
+    assert (out / "across_n.png").stat().st_size > 10_000
+    assert "| zero | 0 | 0 |" in (out / "across_n.md").read_text()
+    with pytest.raises(SystemExit) as refused:
+        main(args)  # the files exist: refused without --overwrite, nothing rewritten
+    assert refused.value.code == 2 and "pass --overwrite" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:
+        main([*args[:4], "--specialist", "dagger_reverse_v1_n2", "--out", str(tmp_path / "b")])
+    assert refused.value.code == 2 and not (tmp_path / "b").exists()
