@@ -17,6 +17,7 @@ import math
 import numbers
 import operator
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 #: Largest number of trailers. The kernels are O(n) per row, but RK4's stability limit
@@ -113,6 +114,22 @@ def bounded_integer(name: str, value: object, low: int, high: int) -> int:
         shown = repr(value) if digits < 30 else f"an integer of {digits} digits"
         raise ValueError(f"{name} must be an integer in [{low}, {high}], got {shown}")
     return integer
+
+
+def one_of(name: str, value: object, choices: Sequence[str], *, none: bool = False) -> None:
+    """Check that ``value`` is one of the strings ``choices`` (or None, with ``none``).
+
+    Raises:
+        TypeError: If it is not a str (nor None where allowed), naming the choices.
+        ValueError: If it is another str, naming the choices.
+    """
+    if value is None and none:
+        return
+    allowed = f"None or one of {tuple(choices)}" if none else f"one of {tuple(choices)}"
+    if not isinstance(value, str):
+        raise TypeError(f"{name} must be {allowed}, got {type(value).__name__} {value!r}")
+    if value not in choices:
+        raise ValueError(f"{name} must be {allowed}, got {value!r}")
 
 
 @dataclass(frozen=True)

@@ -14,14 +14,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from dynamics.params import real_number
+from dynamics.params import one_of, real_number
 from trailer_env.core import ConvoyCore
 from trailer_env.mixed import build_core, observation_view
 from trailer_env.observation import Observation
-from trailer_env.rendering import PathTrace, core_frame, make_renderer
+from trailer_env.rendering import RENDER_MODES, PathTrace, core_frame, make_renderer
 from trailer_env.settings import EnvSettings
 
-RENDER_MODES = ("human", "rgb_array")
 #: Past cart positions kept for the rendered path.
 PATH_LENGTH = 2000
 #: ``reset(options=...)`` keys of every scene; each scene adds its ``task_keys``.
@@ -90,15 +89,7 @@ def check_render_mode(render_mode: object) -> None:
         TypeError: If it is neither None nor a str.
         ValueError: If it is a str naming another mode.
     """
-    if render_mode is None:
-        return
-    if not isinstance(render_mode, str):
-        raise TypeError(
-            f"render_mode must be None or one of {RENDER_MODES}, "
-            f"got {type(render_mode).__name__} {render_mode!r}"
-        )
-    if render_mode not in RENDER_MODES:
-        raise ValueError(f"render_mode must be None or one of {RENDER_MODES}, got {render_mode!r}")
+    one_of("render_mode", render_mode, RENDER_MODES, none=True)
 
 
 class RenderModes(list[str]):

@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
-from dynamics.params import MAX_TRAILERS, bounded_integer
+from dynamics.params import MAX_TRAILERS, bounded_integer, one_of
 
 #: The values of the ``observation`` keyword.
 OBSERVATIONS = ("flat", "trailers")
@@ -70,13 +70,7 @@ def checked_observation(observation: Any, max_trailers: Any, n_trailers: int) ->
         ValueError: If ``observation`` is not one of :data:`OBSERVATIONS` (naming them),
             ``max_trailers`` is given with "flat", or is outside ``n_trailers .. 256``.
     """
-    if not isinstance(observation, str):
-        raise TypeError(
-            f"observation must be one of {OBSERVATIONS}, got {type(observation).__name__} "
-            f"{observation!r}"
-        )
-    if observation not in OBSERVATIONS:
-        raise ValueError(f"observation must be one of {OBSERVATIONS}, got {observation!r}")
+    one_of("observation", observation, OBSERVATIONS)
     if observation == "flat":
         if max_trailers is not None:
             raise ValueError(

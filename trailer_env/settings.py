@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any, cast
 
 from dynamics import ConvoyParams
-from dynamics.params import MAX_TRAILERS, bounded_integer, bounded_real
+from dynamics.params import MAX_TRAILERS, bounded_integer, bounded_real, one_of
 from trailer_env.actuator import ACTUATORS, ActionMode, Actuator
 from trailer_env.fidelity import MAX_FIXED_SUBSTEPS, Fidelity
 from trailer_env.observation import checked_observation
@@ -115,12 +115,7 @@ class EnvSettings:
         object.__setattr__(self, "dt", bounded_real("dt", self.dt, *DT_RANGE))
         for name in ("rail_accel_max", "servo_bandwidth"):
             object.__setattr__(self, name, bounded_real(name, getattr(self, name), *RATE_RANGE))
-        if not isinstance(self.action_mode, str):
-            raise TypeError(
-                f"action_mode must be one of {ACTION_MODES}, got {type(self.action_mode).__name__}"
-            )
-        if self.action_mode not in ACTION_MODES:
-            raise ValueError(f"action_mode must be one of {ACTION_MODES}, got {self.action_mode!r}")
+        one_of("action_mode", self.action_mode, ACTION_MODES)
         if self.rail_accel_max * self.dt**2 > self.params.s_max:
             raise ValueError(
                 f"rail_accel_max * dt**2 = {self.rail_accel_max * self.dt**2:.4g} exceeds s_max = "
