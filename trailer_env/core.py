@@ -635,9 +635,18 @@ class ConvoyCore:
         draw_factors(rngs, picks, indices, columns, low, high, self.factors)
         if self._unscaled.size:
             self.factors[np.ix_(indices, self._unscaled)] = 1.0
-        apply_factors(indices, self.factors, self._packed, self.param_values, self._nominal_auto,
-                      self._row_auto, float(self._b), float(self._s_max), self.planar,
-                      self.z)  # fmt: skip
+        apply_factors(
+            indices,
+            self.factors,
+            self._packed,
+            self.param_values,
+            self._nominal_auto,
+            self._row_auto,
+            float(self._b),
+            float(self._s_max),
+            self.planar,
+            self.z,
+        )
         if self.n_param_features:
             offset = self.param_offset
             self.obs[indices, offset:] = np.log(self.factors[indices, : len(PARAMETERS)])
@@ -668,8 +677,16 @@ class ConvoyCore:
             raise ValueError("parameter values must be finite and > 0")
         if indices.size and (indices.min() < 0 or indices.max() >= self.batch_size):
             raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
-        apply_params(indices, values, self.param_values, self._nominal_auto, self._row_auto,
-                     float(self._b), float(self._s_max), self.planar)  # fmt: skip
+        apply_params(
+            indices,
+            values,
+            self.param_values,
+            self._nominal_auto,
+            self._row_auto,
+            float(self._b),
+            float(self._s_max),
+            self.planar,
+        )
         nominal = np.broadcast_to(self._packed, values.shape)
         self.factors[indices, : len(PARAMETERS)] = np.divide(
             values, nominal, out=np.ones_like(values), where=nominal != 0.0
@@ -680,8 +697,10 @@ class ConvoyCore:
         :class:`dynamics.ConvoyParams` fields' values and ``speed_factor``, the factor on
         the start's speed (1 where not randomised)."""
         values = self.param_values[i].tolist()
-        return {**dict(zip(PARAMETERS, values, strict=True)), "speed_factor": float(
-            self.factors[i, SPEED])}  # fmt: skip
+        return {
+            **dict(zip(PARAMETERS, values, strict=True)),
+            "speed_factor": float(self.factors[i, SPEED]),
+        }
 
     def params_batch(self) -> dict[str, np.ndarray]:
         """:meth:`params_info` of every row as arrays (B,) (copies)."""
@@ -718,8 +737,7 @@ class ConvoyCore:
                 return self.scene_kernel(
                     action, rows, prepare, self._config, self._state, self._outputs, scene
                 )
-            result = step_parallel(action, rows, prepare, self._config, self._state,
-                                   self._outputs)  # fmt: skip
+            result = step_parallel(action, rows, prepare, self._config, self._state, self._outputs)
             if result[0] == -1 and not result[1]:
                 self.scene_outcome(rows, self._outputs, scene)
             return result
@@ -874,8 +892,14 @@ class ConvoyCore:
         """The per-row arrays a completed step writes that the state alone does not give
         back (:meth:`save_step`): the step's results and flags. Scenes with per-step
         bookkeeping (counters) add theirs."""
-        return (self.reward, self.terminated, self.success, self.failed, self.jackknifed,
-                self.accuracy_exceeded)  # fmt: skip
+        return (
+            self.reward,
+            self.terminated,
+            self.success,
+            self.failed,
+            self.jackknifed,
+            self.accuracy_exceeded,
+        )
 
     def save_step(self) -> None:
         """Keep a copy of :meth:`_step_records` so that :meth:`undo_step` can take back the
@@ -973,9 +997,15 @@ class ShapedCore(ConvoyCore):
         self.previous_potential = np.zeros(self.batch_size)
         #: The constants of :func:`trailer_env.shaping.shaped_reward`, in its order.
         self.shaping_penalties = np.array(
-            [self.time_penalty, self.band_penalty, self.success_bonus, self.fold_penalty,
-             self.failure_penalty], dtype=np.float64,
-        )  # fmt: skip
+            [
+                self.time_penalty,
+                self.band_penalty,
+                self.success_bonus,
+                self.fold_penalty,
+                self.failure_penalty,
+            ],
+            dtype=np.float64,
+        )
 
     def _potential(self) -> np.ndarray:
         """Potential of every row's current state (higher is closer to the goal)."""
@@ -994,7 +1024,15 @@ class ShapedCore(ConvoyCore):
     def _reward(self) -> np.ndarray:
         potential = self._potential()
         reward = np.empty(self.batch_size)
-        shaped_rewards(potential, self.previous_potential, self.cost, self.success,
-                       self.jackknifed, self.failed, self.shaping_penalties, reward)  # fmt: skip
+        shaped_rewards(
+            potential,
+            self.previous_potential,
+            self.cost,
+            self.success,
+            self.jackknifed,
+            self.failed,
+            self.shaping_penalties,
+            reward,
+        )
         self.previous_potential[:] = potential
         return reward

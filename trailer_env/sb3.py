@@ -121,9 +121,16 @@ class ConvoySB3VecEnv(VecEnv):
         rewards = core.reward.astype(np.float32)
         dones = np.empty(self.num_envs, dtype=bool)
         truncated = np.empty(self.num_envs, dtype=bool)
-        ended = count_episodes(self.elapsed_steps, self.max_episode_steps, core.terminated,
-                               rewards, self._episode_returns, self._episode_lengths,
-                               dones, truncated)  # fmt: skip
+        ended = count_episodes(
+            self.elapsed_steps,
+            self.max_episode_steps,
+            core.terminated,
+            rewards,
+            self._episode_returns,
+            self._episode_lengths,
+            dones,
+            truncated,
+        )
         extras: dict[int, dict[str, Any]] = {}
         if ended:
             rows = np.flatnonzero(dones)
@@ -207,9 +214,12 @@ class PotentialShapingVecEnv(VecEnvWrapper):
     """
 
     def __init__(
-        self, venv: ConvoySB3VecEnv, potential: str = "lqr", gamma: float = 0.99,
+        self,
+        venv: ConvoySB3VecEnv,
+        potential: str = "lqr",
+        gamma: float = 0.99,
         **potential_kwargs: float,
-    ) -> None:  # fmt: skip
+    ) -> None:
         if not isinstance(venv, ConvoySB3VecEnv):
             raise TypeError(
                 f"PotentialShapingVecEnv wraps a ConvoySB3VecEnv, got {type(venv).__name__}"

@@ -99,9 +99,12 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
     """
 
     def __init__(
-        self, env: gym.Env[Any, Any], potential: str = "lqr", gamma: float = 0.99,
+        self,
+        env: gym.Env[Any, Any],
+        potential: str = "lqr",
+        gamma: float = 0.99,
         **potential_kwargs: float,
-    ) -> None:  # fmt: skip
+    ) -> None:
         base = _convoy_env("PotentialShaping", env)
         if base.settings.observation != "flat":
             raise ValueError(
@@ -126,8 +129,13 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         after = self.potential(obs)
-        shaped = shaped_return_step(np.array([float(reward)]), np.array([self._previous]),
-                                    after, np.array([terminated]), self.gamma)  # fmt: skip
+        shaped = shaped_return_step(
+            np.array([float(reward)]),
+            np.array([self._previous]),
+            after,
+            np.array([terminated]),
+            self.gamma,
+        )
         self._previous = float(after[0])
         return obs, float(shaped[0]), terminated, truncated, {**info, "unshaped_reward": reward}
 

@@ -104,8 +104,15 @@ def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
         task.success[i] = straight
         task.failed[i] = False
         task.terminated[i] = jackknifed[i] or straight
-        task.reward[i] = shaped_reward(potential, task.previous[i], step.cost[i], straight,
-                                       jackknifed[i], False, task.penalties)  # fmt: skip
+        task.reward[i] = shaped_reward(
+            potential,
+            task.previous[i],
+            step.cost[i],
+            straight,
+            jackknifed[i],
+            False,
+            task.penalties,
+        )
         task.previous[i] = potential
 
 

@@ -26,9 +26,12 @@ def reverse_failed(z: np.ndarray, jackknifed: np.ndarray, i: int, min_reverse_sp
 
 @cached_njit()
 def reverse_failed_rows(
-    z: np.ndarray, jackknifed: np.ndarray, rows: np.ndarray, min_reverse_speed: float,
+    z: np.ndarray,
+    jackknifed: np.ndarray,
+    rows: np.ndarray,
+    min_reverse_speed: float,
     out: np.ndarray,
-) -> None:  # fmt: skip
+) -> None:
     """:func:`reverse_failed` of ``rows[j]`` into ``out[j]`` (the reset's success flag)."""
     for j in range(rows.shape[0]):
         out[j] = reverse_failed(z, jackknifed, rows[j], min_reverse_speed)
@@ -94,9 +97,20 @@ def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
     """
     step = StepOutputs(*outputs)
     task = ReverseScene(*scene)
-    reverse_rows(task.z, step.hitch_trig, rows, task.n, step.cost, step.jackknifed,
-                 task.band_penalty, task.fold_penalty, task.min_reverse_speed, task.reward,
-                 task.terminated, task.success)  # fmt: skip
+    reverse_rows(
+        task.z,
+        step.hitch_trig,
+        rows,
+        task.n,
+        step.cost,
+        step.jackknifed,
+        task.band_penalty,
+        task.fold_penalty,
+        task.min_reverse_speed,
+        task.reward,
+        task.terminated,
+        task.success,
+    )
 
 
 @cached_njit()
@@ -188,8 +202,9 @@ class ReverseCore(ConvoyCore):
     def _starting_success(self, rows: np.ndarray) -> np.ndarray:
         failed = np.empty(rows.shape[0], dtype=bool)
         speed = float(self.min_reverse_speed)
-        reverse_failed_rows(self.z, self.jackknifed, rows.astype(np.int64, copy=False), speed,
-                            failed)  # fmt: skip
+        reverse_failed_rows(
+            self.z, self.jackknifed, rows.astype(np.int64, copy=False), speed, failed
+        )
         return ~failed
 
 
