@@ -173,8 +173,11 @@ def check_certificate(document: Any, where: str) -> dict[str, Any]:
             raise fail(f"starts[{index}].source must be a string, and only on a feasible start")
     if document.get("episodes") != len(starts):
         raise fail(f"episodes must be the number of starts ({len(starts)})")
-    for key, status in (("feasible", FEASIBLE), ("not_recoverable", NOT_RECOVERABLE),
-                        ("open", OPEN)):  # fmt: skip
+    for key, status in (
+        ("feasible", FEASIBLE),
+        ("not_recoverable", NOT_RECOVERABLE),
+        ("open", OPEN),
+    ):
         if not files.is_integer(document.get(key), 0) or document[key] != counts[status]:
             raise fail(f"{key} must be the number of {status!r} starts ({counts[status]})")
     sources = document.get("sources")

@@ -183,8 +183,9 @@ def safe_policy_kwargs(
     classes: dict[str, type] = {_class_text(cls): cls for cls in (extractors or {}).values()}
     import torch.nn
 
-    activations = {_class_text(getattr(torch.nn, name)): getattr(torch.nn, name)
-                   for name in _ACTIVATIONS}  # fmt: skip
+    activations = {
+        _class_text(getattr(torch.nn, name)): getattr(torch.nn, name) for name in _ACTIVATIONS
+    }
     kwargs: dict[str, Any] = {}
     for key, value in entry.items():
         if key in (":type:", ":serialized:"):

@@ -244,9 +244,10 @@ def check_out_folder(
     problem = files.writable_problem(out, folder=True)
     for name_in in files_in if problem is None else ():
         problem = problem or (
-            files.writable_problem(out / name_in) if (out / name_in).exists() or
-            (out / name_in).is_symlink() else None
-        )  # fmt: skip
+            files.writable_problem(out / name_in)
+            if (out / name_in).exists() or (out / name_in).is_symlink()
+            else None
+        )
     if problem is not None:
         parser.error(f"argument {name}: {problem}")
 

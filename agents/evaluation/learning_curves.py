@@ -234,8 +234,9 @@ def read_run(run_dir: Path) -> RunCurve:
         n_trailers, seed = config["env_kwargs"]["n_trailers"], config["seed"]
         metric = headline_metric(env_id)
     except (KeyError, TypeError, ValueError) as error:
-        raise ValueError(f"{config_path} lacks the run's environment, n, algorithm or seed: "
-                         f"{error}") from None  # fmt: skip
+        raise ValueError(
+            f"{config_path} lacks the run's environment, n, algorithm or seed: {error}"
+        ) from None
     if not (files.is_integer(n_trailers, 1) and files.is_integer(seed, 0)):
         raise ValueError(f"{config_path}: n_trailers and seed must be integers")
     rows = read_curve(curve_path, ("wall_s", metric))
@@ -343,8 +344,9 @@ def _chart_png(
 
     fig, axes = plt.subplots(len(groups), 2, figsize=(11, 3.4 * len(groups)), squeeze=False)
     for row, (key, runs) in enumerate(groups.items()):
-        for column, (axis, label) in enumerate(zip(AXES, ("env steps", "wall time (s)"),
-                                                   strict=True)):  # fmt: skip
+        for column, (axis, label) in enumerate(
+            zip(AXES, ("env steps", "wall time (s)"), strict=True)
+        ):
             ax = axes[row][column]
             band = seed_band(runs, axis)
             ax.plot(
@@ -354,8 +356,9 @@ def _chart_png(
                 label=f"mean of {band.seeds} seeds" if band.seeds > 1 else "one seed",
             )
             if band.seeds > 1:
-                ax.fill_between(band.x, band.low, band.high, color="C0", alpha=0.25,
-                                label="min-max over seeds")  # fmt: skip
+                ax.fill_between(
+                    band.x, band.low, band.high, color="C0", alpha=0.25, label="min-max over seeds"
+                )
             for k, (name, value) in enumerate(levels.get(key, {}).items()):
                 ax.axhline(value, color=f"C{k + 1}", linestyle="--", label=f"{name} {value:.2f}")
             ax.set_xlabel(label)

@@ -117,9 +117,13 @@ def evaluate_policies(
             if siblings[spec]:
                 seed_summaries = []
                 for sibling, sibling_policy in load_policies(
-                    [str(path) for path in siblings[spec]], env_id, env_kwargs, seed,
-                    trust_pickle=trust_pickle, force=force,
-                ):  # fmt: skip
+                    [str(path) for path in siblings[spec]],
+                    env_id,
+                    env_kwargs,
+                    seed,
+                    trust_pickle=trust_pickle,
+                    force=force,
+                ):
                     sibling_results = rollout(sibling_policy, env_id, episodes, seed, env_kwargs)
                     card = model_card(sibling)
                     seed_summaries.append((card.get("seed"), summarize(sibling_results)))

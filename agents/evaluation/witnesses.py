@@ -383,13 +383,21 @@ def warm_start(
             solved[seed] = (name, len(prefix))
             found += 1
             by_seed[seed].update(
-                status=FEASIBLE, source=f"ilqr+{name}", warm_start_steps=len(prefix),
-                witness_length=len(record), replay_success=True,
-            )  # fmt: skip
+                status=FEASIBLE,
+                source=f"ilqr+{name}",
+                warm_start_steps=len(prefix),
+                witness_length=len(record),
+                replay_success=True,
+            )
         attempts.append(
-            {"restart": restart, "horizon": retry.horizon or scene_horizon(core_class),
-             "iterations": retry.iterations, "rows": len(pending), "solved": found}
-        )  # fmt: skip
+            {
+                "restart": restart,
+                "horizon": retry.horizon or scene_horizon(core_class),
+                "iterations": retry.iterations,
+                "rows": len(pending),
+                "solved": found,
+            }
+        )
     if closed_loop and solved:
         _warm_closed_loop(env_id, env_kwargs, config, policies, solved, by_seed)
     earlier = certificate.get("witnesses")

@@ -116,10 +116,11 @@ def certify(
     core = core_class(settings, count)
     core.reset_rows(np.arange(count), seed_generators(seeds, count, None))
     strokes = [
-        screen_start(settings, core.z[i], s=core.act[i, 1], s_dot=core.act[i, 3],
-                     horizon=screen_horizon).stroke_fraction
+        screen_start(
+            settings, core.z[i], s=core.act[i, 1], s_dot=core.act[i, 3], horizon=screen_horizon
+        ).stroke_fraction
         for i in range(count)
-    ]  # fmt: skip
+    ]
     screen_time = time.perf_counter() - started
     config = config or PlannerConfig()
     planner = SamplingPlanner(core_class, settings, count, config)

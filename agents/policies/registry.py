@@ -170,8 +170,9 @@ def _trailers_model(
             "evaluate it anyway"
         )
     try:
-        slots = bounded_integer("max_trailers", card["env_kwargs"].get("max_trailers"), 1,
-                                MAX_TRAILERS)  # fmt: skip
+        slots = bounded_integer(
+            "max_trailers", card["env_kwargs"].get("max_trailers"), 1, MAX_TRAILERS
+        )
     except TypeError as error:
         raise ValueError(f"{path}: its card's env_kwargs: {error}") from None
     wanted = _wanted_trailers(kwargs)

@@ -117,8 +117,9 @@ class TrailersPolicy:
         self.padded = padded
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        batch = trailers_observation(np.atleast_2d(obs), self.n, self.max_trailers,
-                                     padded=self.padded)  # fmt: skip
+        batch = trailers_observation(
+            np.atleast_2d(obs), self.n, self.max_trailers, padded=self.padded
+        )
         return np.asarray(self.policy(batch), dtype=np.float32)
 
 

@@ -62,18 +62,54 @@ MAX_BUFFER_SIZE = 10_000_000
 #: The largest rollout (PPO's n_steps times the batch's environments).
 MAX_ROLLOUT_STEPS = 10_000_000
 #: rl-zoo3's keys of an entry that are not the algorithm's arguments.
-_ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "env_kwargs", "normalize", "noise_type",
-             "noise_std", "shaping")  # fmt: skip
+_ZOO_KEYS = (
+    "n_envs",
+    "n_timesteps",
+    "policy",
+    "env_kwargs",
+    "normalize",
+    "noise_type",
+    "noise_std",
+    "shaping",
+)
 #: Algorithm arguments that must be integers, and those that must be numbers.
-_INT_KEYS = ("n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
-             "gradient_steps", "policy_delay", "target_update_interval", "sde_sample_freq",
-             "stats_window_size")  # fmt: skip
-_NUMBER_KEYS = ("gamma", "gae_lambda", "vf_coef", "max_grad_norm", "tau",
-                "target_policy_noise", "target_noise_clip", "target_kl", "cost_limit",
-                "lambda_lr", "lambda_init")  # fmt: skip
+_INT_KEYS = (
+    "n_steps",
+    "batch_size",
+    "n_epochs",
+    "buffer_size",
+    "learning_starts",
+    "gradient_steps",
+    "policy_delay",
+    "target_update_interval",
+    "sde_sample_freq",
+    "stats_window_size",
+)
+_NUMBER_KEYS = (
+    "gamma",
+    "gae_lambda",
+    "vf_coef",
+    "max_grad_norm",
+    "tau",
+    "target_policy_noise",
+    "target_noise_clip",
+    "target_kl",
+    "cost_limit",
+    "lambda_lr",
+    "lambda_init",
+)
 #: Arguments the trainer sets itself (an entry may not).
-_RESERVED = ("self", "policy", "env", "verbose", "seed", "device", "_init_setup_model",
-             "tensorboard_log", "action_noise")  # fmt: skip
+_RESERVED = (
+    "self",
+    "policy",
+    "env",
+    "verbose",
+    "seed",
+    "device",
+    "_init_setup_model",
+    "tensorboard_log",
+    "action_noise",
+)
 #: Keyword arguments of VecNormalize an entry's ``normalize`` may set.
 _NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon")
 
@@ -378,9 +414,11 @@ def _check_keys(algo: str, raw: dict[str, Any], where: str) -> None:
     """Refuse an entry key that is neither rl-zoo3's nor an argument of the algorithm."""
     accepted = init_arguments(algo_class(algo)) - set(_RESERVED)
     for key in raw:
-        if key not in accepted and key not in _ZOO_KEYS and key not in (
-            "env_wrapper", "vec_env_wrapper", "frame_stack", "callback"
-        ):  # fmt: skip
+        if (
+            key not in accepted
+            and key not in _ZOO_KEYS
+            and key not in ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback")
+        ):
             raise ValueError(
                 f"{where}: unknown key {key!r:.60} (neither rl-zoo3's nor an argument of {algo})"
             )

@@ -246,8 +246,11 @@ class ImitationConfig:
         labelling env's keywords with the observation."""
         if self.observation == "flat":
             return self.env_kwargs
-        return {**self.env_kwargs, "observation": self.observation,
-                "max_trailers": self.max_trailers}  # fmt: skip
+        return {
+            **self.env_kwargs,
+            "observation": self.observation,
+            "max_trailers": self.max_trailers,
+        }
 
     def student(self, model: Any, stats: Any) -> Any:
         """The student as a policy of the (flat) labelling and validation envs."""
@@ -328,8 +331,9 @@ def fit(
     policy.set_training_mode(True)
     optimizer = torch.optim.Adam(policy.parameters(), lr=config.learning_rate)
     if isinstance(obs, dict):
-        inputs: Any = {key: torch.as_tensor(value, dtype=torch.float32)
-                       for key, value in obs.items()}  # fmt: skip
+        inputs: Any = {
+            key: torch.as_tensor(value, dtype=torch.float32) for key, value in obs.items()
+        }
     else:
         inputs = torch.as_tensor(obs, dtype=torch.float32)
     targets = torch.as_tensor(labels, dtype=torch.float32)
@@ -371,8 +375,9 @@ def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
     if config.observation == "trailers":
         policy_kwargs["features_extractor_class"] = feature_extractor("ConvoyEncoder")
         venv = make_sb3_env(config.env_id, hp.n_envs, config.student_kwargs, seed=config.seed)
-        model = PPO("MultiInputPolicy", venv, seed=config.seed, device="cpu", verbose=0,
-                    **algo_kwargs)  # fmt: skip
+        model = PPO(
+            "MultiInputPolicy", venv, seed=config.seed, device="cpu", verbose=0, **algo_kwargs
+        )
         return model, None, {"n_envs": hp.n_envs, **algo_kwargs}
     venv = make_sb3_env(config.env_id, hp.n_envs, config.env_kwargs, seed=config.seed)
     gamma = algo_kwargs.get("gamma", 0.99)
@@ -405,22 +410,32 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
         "imitation": {
             key: (list(value) if isinstance(value, tuple) else value)
             for key, value in asdict(config).items()
-            if key not in ("env_id", "n_trailers", "seed", "planner", "randomize", "expert",
-                           "observation", "max_trailers")
+            if key
+            not in (
+                "env_id",
+                "n_trailers",
+                "seed",
+                "planner",
+                "randomize",
+                "expert",
+                "observation",
+                "max_trailers",
+            )
         },
         "planner": asdict(planner.config),
-        "hyperparams": {
-            key: value for key, value in hyperparams.items() if key != "policy_kwargs"
-        }
-        | {"policy_kwargs": {
-            key: value for key, value in hyperparams["policy_kwargs"].items()
-            if isinstance(value, (int, float, str, list, tuple))
-        }},
+        "hyperparams": {key: value for key, value in hyperparams.items() if key != "policy_kwargs"}
+        | {
+            "policy_kwargs": {
+                key: value
+                for key, value in hyperparams["policy_kwargs"].items()
+                if isinstance(value, (int, float, str, list, tuple))
+            }
+        },
         "normalize": None if stats is None else {"norm_obs": True, "norm_reward": False},
         "policy": "MlpPolicy" if stats is not None else "MultiInputPolicy",
         "training_seed": TRAINING_SEED,
         "budget": config.iterations * config.episodes * envs.max_episode_steps,
-    }  # fmt: skip
+    }
     write_config(run_dir, record)
     data_obs: list[np.ndarray] = []
     data_labels: list[np.ndarray] = []
@@ -474,8 +489,13 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
                 f"({row['wall_s']:.0f} s)",
                 flush=True,
             )
-        card = {**record, "validation": summary, "selected_at_iteration": iteration,
-                "selected_at_timesteps": samples, "timesteps": samples}  # fmt: skip
+        card = {
+            **record,
+            "validation": summary,
+            "selected_at_iteration": iteration,
+            "selected_at_timesteps": samples,
+            "timesteps": samples,
+        }
         if best is None or score(summary) > best:
             best = score(summary)
             if stats is not None:

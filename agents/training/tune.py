@@ -298,8 +298,10 @@ def search_problem(out: Path, settings: TuneSettings, overwrite: bool) -> str | 
         current = settings.document()
         changed = sorted(key for key in current if saved.get(key) != current[key])
         if changed:
-            return (f"{out} holds a search with other settings ({', '.join(changed)}); "
-                    "use another --out")  # fmt: skip
+            return (
+                f"{out} holds a search with other settings ({', '.join(changed)}); "
+                "use another --out"
+            )
         for name in (BEST_TRIALS, BEST_HYPERPARAMS):
             if (out / name).exists() and not overwrite:
                 return f"{out / name} exists (a finished search); pass --overwrite to go on"
@@ -383,8 +385,11 @@ def tune(
             eta = elapsed / done_here * (trials - finished)
             best = _best_text(study, optuna)
             shown = f"{value:.3f}" if value is not None else state
-            _print(f"trial {finished}/{trials} (#{trial.number}): {shown}; best {best}; "
-                   f"{duration(elapsed)} so far, ETA {duration(eta)}", verbose)  # fmt: skip
+            _print(
+                f"trial {finished}/{trials} (#{trial.number}): {shown}; best {best}; "
+                f"{duration(elapsed)} so far, ETA {duration(eta)}",
+                verbose,
+            )
         write_results(study, settings, base, out)
     return study
 
@@ -415,15 +420,25 @@ def _run_trial(
     try:
         hp = load_hyperparams(settings.algo, settings.env_id, run_dir)
         config = TrainConfig.resolve(
-            settings.env_id, settings.algo, settings.n_trailers, settings.seed, hp,
-            timesteps=settings.budget, n_envs=settings.n_envs,
+            settings.env_id,
+            settings.algo,
+            settings.n_trailers,
+            settings.seed,
+            hp,
+            timesteps=settings.budget,
+            n_envs=settings.n_envs,
             command=settings.command,
-        )  # fmt: skip
+        )
         train(
-            config, run_dir, eval_freq=settings.evaluation_every,
-            eval_episodes=settings.eval_episodes, checkpoint_freq=settings.budget,
-            progress_bar=False, verbose=0, hooks=[report],
-        )  # fmt: skip
+            config,
+            run_dir,
+            eval_freq=settings.evaluation_every,
+            eval_episodes=settings.eval_episodes,
+            checkpoint_freq=settings.budget,
+            progress_bar=False,
+            verbose=0,
+            hooks=[report],
+        )
     except (ValueError, KeyError, FileNotFoundError, RuntimeError) as error:
         # A sampled combination the trainer refuses (or a diverging run) fails the trial,
         # not the search.
