@@ -14,18 +14,20 @@ calls a parallel one).
 
 Scalar settings and arrays are packed once into the named tuples :class:`StepConfig`,
 :class:`StepState` and :class:`StepOutputs` (see :class:`trailer_env.core.ConvoyCore`), so
-a call for one environment costs about a microsecond. Compiled code reads their fields
-by name. Called from Python, the entry points (:func:`step_serial`, :func:`step_parallel`,
-:func:`prepare_step`, :func:`observe` and the scenes' kernels) take them either as the
-named tuples or as plain tuples of their fields, ``tuple(config)``, which is what the
-core passes: numba unboxes a plain tuple about 0.7 us faster per argument than a named
-one, and rebuilding the named tuple inside compiled code (``StepConfig(*config)``) costs
-nothing. Large batches
-(``PARALLEL_MIN_ROWS`` rows or more, the threshold of :mod:`dynamics.jit` that
-``dynamics.Stepper`` uses too) use the parallel variant, which splits the rows into
-chunks of ``ROWS_PER_CHUNK``, grouped into blocks by ``dynamics.jit.block_end`` as RK4's
-own driver does; every row's arithmetic is the same either way (the blocks share loops, not
-operations), so results do not depend on the batch size or the number of threads.
+a call crosses into compiled code with three arguments whatever the batch (the cost of
+a call: benchmarks/README.md, "Figures quoted from the code"). Compiled code reads
+their fields by name. Called from Python, the entry points (:func:`step_serial`,
+:func:`step_parallel`, :func:`prepare_step`, :func:`observe` and the scenes' kernels)
+take them either as the named tuples or as plain tuples of their fields,
+``tuple(config)``, which is what the core passes: numba unboxes a plain tuple faster
+than a named one (by how much: the same section of benchmarks/README.md), and
+rebuilding the named tuple inside compiled code (``StepConfig(*config)``) costs
+nothing. Large batches (``PARALLEL_MIN_ROWS`` rows or more, the threshold of
+:mod:`dynamics.jit` that ``dynamics.Stepper`` uses too) use the parallel variant, which
+splits the rows into chunks of ``ROWS_PER_CHUNK``, grouped into blocks by
+``dynamics.jit.block_end`` as RK4's own driver does; every row's arithmetic is the same
+either way (the blocks share loops, not operations), so results do not depend on the batch
+size or the number of threads.
 """
 
 from __future__ import annotations
