@@ -60,6 +60,7 @@ from typing import Any
 
 import numpy as np
 
+from trailer_env.json_types import JSONObject
 from trailer_env.observation import flat_observation
 
 PROTOCOL = "trailer_env-benchmark/1"
@@ -176,7 +177,7 @@ def rollout(
     env_id: str,
     episodes: int,
     seed: int,
-    env_kwargs: dict[str, Any] | None = None,
+    env_kwargs: JSONObject | None = None,
     observe: Callable[[Any, np.ndarray], Any] | None = None,
 ) -> EpisodeResults:
     """Play ``episodes`` seeded episodes of ``policy`` at once on the native vector env.
@@ -275,7 +276,7 @@ def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float
     return float(max(0.0, centre - half)), float(min(1.0, centre + half))
 
 
-def summarize(results: EpisodeResults) -> dict[str, Any]:
+def summarize(results: EpisodeResults) -> JSONObject:
     """Aggregate metrics (plain Python numbers, rounded so JSON files diff cleanly).
 
     Keys: ``episodes``, ``mean_return``, ``std_return``, ``mean_length``,
@@ -311,11 +312,11 @@ def summarize(results: EpisodeResults) -> dict[str, Any]:
 class Score:
     """A policy's score on one task of the protocol."""
 
-    document: dict[str, Any]
+    document: JSONObject
     results: EpisodeResults
 
     @property
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> JSONObject:
         """The metrics (:func:`summarize`)."""
         return dict(self.document["metrics"])
 

@@ -39,10 +39,10 @@ the mass's speed scale) has diverged too (u = 1.3 -> 5.9e6 m/s in one step was s
 Slower growth below the bound is not detected.
 
 Cost: one step's work, substeps x (n + 1) bodies summed over the rows stepped, is
-bounded by :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps, ~15 s on one
-core): fixed substeps beyond it (or ``(n + 1) B`` beyond it with "auto") are refused at
-construction (ValueError), and an auto step whose chosen substeps exceed it raises
-FloatingPointError before anything is integrated.
+bounded by :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps; its time:
+benchmarks/README.md): fixed substeps beyond it (or ``(n + 1) B`` beyond it with
+"auto") are refused at construction (ValueError), and an auto step whose chosen substeps
+exceed it raises FloatingPointError before anything is integrated.
 
 Scenes override the hooks (``_reset_row``, ``_update_task``, ``_advance``,
 ``_is_success``, ``_is_terminated``, ``_reward``, ``_after_reset``,
@@ -89,6 +89,7 @@ import numpy as np
 from dynamics.jit import pack_params
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.generators import GeneratorBank, typed_generators
+from trailer_env.json_types import JSONObject
 from trailer_env.kernels import (
     DIVERGENCE_BOUND,
     OBS_BOUND,
@@ -461,7 +462,7 @@ class ConvoyCore:
         """Lower and upper bounds of the task features (default unbounded)."""
         return np.full(self.n_task_features, -np.inf), np.full(self.n_task_features, np.inf)
 
-    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+    def check_task(self, task: JSONObject) -> JSONObject:
         """The task values :meth:`set_task` would set, validated, changing nothing.
 
         Scenes with task values override it (and :meth:`set_task`); scenes without any
@@ -479,10 +480,10 @@ class ConvoyCore:
         """Set row ``i``'s task values by hand (e.g. a target); scenes without any refuse all."""
         self.check_task(task)
 
-    def task_values(self, i: int) -> dict[str, Any]:
+    def task_values(self, i: int) -> JSONObject:
         """Row ``i``'s task values as :meth:`set_task` takes them (copies): each key of
         :attr:`task_keys` is an array attribute of the scene's core, one entry per row."""
-        values: dict[str, Any] = {}
+        values: JSONObject = {}
         for key in self.task_keys:
             value = np.array(getattr(self, key)[i], dtype=np.float64)
             values[key] = float(value) if value.ndim == 0 else value
@@ -943,10 +944,10 @@ class ConvoyCore:
             ]
         return self._info_arrays
 
-    def info_row(self, i: int) -> dict[str, Any]:
+    def info_row(self, i: int) -> JSONObject:
         """The ``info`` dict of environment ``i`` (Python scalars), keys :data:`INFO_FIELDS`,
         and ``params`` (:meth:`params_info`, a dict) when the physics are randomised."""
-        info: dict[str, Any] = {
+        info: JSONObject = {
             key: self.energy.item(i) - self.energy0.item(i) if array is None else array.item(i)
             for key, array in self._info_sources()
         }
@@ -954,17 +955,17 @@ class ConvoyCore:
             info["params"] = self.params_info(i)
         return info
 
-    def info_batch(self) -> dict[str, Any]:
+    def info_batch(self) -> JSONObject:
         """The same quantities as arrays (B,) (copies); ``params`` is a dict of arrays
         (:meth:`params_batch`)."""
-        infos: dict[str, Any] = {}
+        infos: JSONObject = {}
         for key, array in self._info_sources():
             infos[key] = np.subtract(self.energy, self.energy0) if array is None else array.copy()
         if self.randomization is not None:
             infos["params"] = self.params_batch()
         return infos
 
-    def info_rows(self) -> list[dict[str, Any]]:
+    def info_rows(self) -> list[JSONObject]:
         """One ``info`` dict per environment (Python scalars), as SB3's ``VecEnv`` wants."""
         batch = self.info_batch()
         batch.pop("params", None)

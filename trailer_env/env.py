@@ -28,7 +28,7 @@ PATH_LENGTH = 2000
 STATE_OPTIONS = ("state", "s", "s_dot")
 
 
-def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, Any]:
+def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, object]:
     """``options`` as a dict (None -> {}), its keys checked against the scene's.
 
     Raises:
@@ -234,8 +234,8 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         self._has_reset = False
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[Observation, dict[str, Any]]:
+        self, *, seed: int | None = None, options: dict[str, object] | None = None
+    ) -> tuple[Observation, dict[str, object]]:
         """Start an episode; ``seed`` seeds the generator that draws the starting state.
 
         Args:
@@ -283,7 +283,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
             self.render()
         return self._view.row(self.core.obs, 0), self.core.info_row(0)
 
-    def step(self, action: Any) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Observation, float, bool, bool, dict[str, object]]:
         """Advance by ``dt``. Out-of-range actions are clipped to [-1, 1].
 
         ``action`` must have exactly the action space's shape, (1,) or (2,) in planar
@@ -359,7 +359,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         self._record_path()
         return self._view.row(self.core.obs, 0)
 
-    def get_state(self) -> dict[str, Any]:
+    def get_state(self) -> dict[str, object]:
         """The current state, as :meth:`set_state` takes it: ``env.set_state(**env.get_state())``
         puts this env, or another one made with the same keywords, in the same state.
 
@@ -428,7 +428,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
                     keys[combination] = np.array([first, second], np.float32)
         return keys
 
-    def __getstate__(self) -> dict[str, Any]:
+    def __getstate__(self) -> dict[str, object]:
         """Pickle everything but the renderer (it holds pygame objects); it is recreated by
         the next :meth:`render`."""
         state = self.__dict__.copy()

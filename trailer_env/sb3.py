@@ -131,7 +131,7 @@ class ConvoySB3VecEnv(VecEnv):
             dones,
             truncated,
         )
-        extras: dict[int, dict[str, Any]] = {}
+        extras: dict[int, dict[str, object]] = {}
         if ended:
             rows = np.flatnonzero(dones)
             elapsed = round(time.time() - self._start_time, 6)

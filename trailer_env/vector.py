@@ -63,6 +63,7 @@ from trailer_env.env import (
 )
 from trailer_env.episodes import count_step
 from trailer_env.generators import GeneratorBank
+from trailer_env.json_types import JSONObject
 from trailer_env.mixed import build_core, observation_view
 from trailer_env.observation import Observation
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
@@ -285,8 +286,8 @@ class ConvoyVectorEnv(VectorEnv):
         self,
         *,
         seed: int | Sequence[int | None] | None = None,
-        options: dict[str, Any] | None = None,
-    ) -> tuple[Observation, dict[str, Any]]:
+        options: JSONObject | None = None,
+    ) -> tuple[Observation, JSONObject]:
         """Reset every environment, or those of ``options["reset_mask"]``.
 
         ``seed`` seeds environment i with ``seed + i`` (see the module docstring); with a
@@ -381,7 +382,7 @@ class ConvoyVectorEnv(VectorEnv):
 
     def step(
         self, actions: Any
-    ) -> tuple[Observation, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    ) -> tuple[Observation, np.ndarray, np.ndarray, np.ndarray, JSONObject]:
         """Step every environment (autoreset as ``autoreset_mode`` says).
 
         Raises:
@@ -431,7 +432,7 @@ class ConvoyVectorEnv(VectorEnv):
         )
         if self._paths is not None:
             self._record_paths(self._all_rows)
-        final: dict[str, Any] | None = None
+        final: JSONObject | None = None
         if ended is not None:
             self._start(ended)
             reward[ended] = 0.0
@@ -482,7 +483,7 @@ class ConvoyVectorEnv(VectorEnv):
             frames.append(self._renderer.draw(core_frame(self.core, i, self._paths.path(i))))
         return tuple(frames)
 
-    def __getstate__(self) -> dict[str, Any]:
+    def __getstate__(self) -> JSONObject:
         """Pickle (and deep-copy) everything but the renderer (it holds pygame objects); it
         is recreated by the next :meth:`render`."""
         state = self.__dict__.copy()
@@ -495,9 +496,9 @@ class ConvoyVectorEnv(VectorEnv):
             self._renderer.close()
             self._renderer = None
 
-    def _infos(self, mask: np.ndarray | None = None) -> dict[str, Any]:
+    def _infos(self, mask: np.ndarray | None = None) -> JSONObject:
         """The step's infos as arrays (copies), each key ``k`` with its mask ``_k``."""
-        infos: dict[str, Any] = self.core.info_batch()
+        infos: JSONObject = self.core.info_batch()
         if mask is None:
             if self._info_masks is None:
                 self._info_masks = {f"_{key}": self._mask for key in infos}

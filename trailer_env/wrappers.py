@@ -25,6 +25,7 @@ import gymnasium as gym
 import numpy as np
 
 from trailer_env.env import ConvoyEnv
+from trailer_env.json_types import JSONObject
 from trailer_env.scenes.dock import SUCCESS_HEADING, SUCCESS_RADIUS, DockCore
 from trailer_env.scenes.heading import HEADING_TOLERANCE, HeadingCore
 from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
@@ -72,7 +73,7 @@ class SafetyStep(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArg
 
     def step(  # type: ignore[override]
         self, action: Any
-    ) -> tuple[Any, SupportsFloat, float, bool, bool, dict[str, Any]]:
+    ) -> tuple[Any, SupportsFloat, float, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return obs, reward, float(info["cost"]), terminated, truncated, info
 
@@ -113,20 +114,20 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
             )
         gamma = check_gamma(gamma)
         self.potential = make_potential(potential, base.settings, **potential_kwargs)
-        recorded: dict[str, Any] = {"potential": potential, "gamma": gamma, **potential_kwargs}
+        recorded: JSONObject = {"potential": potential, "gamma": gamma, **potential_kwargs}
         gym.utils.RecordConstructorArgs.__init__(self, **recorded)
         gym.Wrapper.__init__(self, env)
         self.gamma = gamma
         self._previous = 0.0
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[Any, dict[str, Any]]:
+        self, *, seed: int | None = None, options: JSONObject | None = None
+    ) -> tuple[Any, JSONObject]:
         obs, info = self.env.reset(seed=seed, options=options)
         self._previous = float(self.potential(obs)[0])
         return obs, info
 
-    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         after = self.potential(obs)
         shaped = shaped_return_step(
@@ -279,12 +280,12 @@ class GoalConditioned(
         return array.astype(np.float64, copy=False)
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        self, *, seed: int | None = None, options: JSONObject | None = None
+    ) -> tuple[dict[str, np.ndarray], JSONObject]:
         obs, info = self.env.reset(seed=seed, options=options)
         return self._observation(obs), info
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         goal_obs = self._observation(obs)
         info = {**info, "scene_reward": float(reward)}

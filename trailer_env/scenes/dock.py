@@ -10,6 +10,7 @@ from dynamics import body_poses
 from dynamics.jit import cached_njit
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.json_types import JSONObject
 from trailer_env.rendering import Marker
 from trailer_env.scenes.heading import wrap_angle
 
@@ -102,7 +103,7 @@ class DockCore(ShapedCore):
     def _start_arguments(self) -> tuple[int, float, np.ndarray]:
         return (self.n, float(self.params.l), self.target)
 
-    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+    def check_task(self, task: JSONObject) -> JSONObject:
         """Accepts ``target`` = (x, y, heading) of the dock: 3 real numbers (not bools or
         strings), each within +-1e6 (m, m, rad; :data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
         unknown = sorted(set(task) - {"target"}, key=str)

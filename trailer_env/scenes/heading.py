@@ -10,6 +10,7 @@ from dynamics.jit import cached_njit
 from dynamics.params import bounded_real
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.json_types import JSONObject
 from trailer_env.rendering import Marker
 
 SPEED_RANGE = (0.8, 1.2)
@@ -72,7 +73,7 @@ class HeadingCore(ShapedCore):
     def _start_arguments(self) -> tuple[int, np.ndarray]:
         return (self.n, self.target_heading)
 
-    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+    def check_task(self, task: JSONObject) -> JSONObject:
         """Accepts ``target_heading`` (rad), a real number (not a bool or a string) in
         [-1e6, 1e6] (:data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
         unknown = sorted(set(task) - {"target_heading"}, key=str)
