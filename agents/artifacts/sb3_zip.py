@@ -30,6 +30,7 @@ from gymnasium.spaces import Dict, flatdim
 from agents.algorithms import ALGOS, algo_class, algorithm
 from agents.artifacts import files, limits
 from agents.artifacts.files import UnsafeFileError
+from trailer_env.json_types import JSONObject
 
 #: Entries of an SB3 ``data`` that hold runtime state, rebuilt by SB3 when they are None.
 _RUNTIME_STATE = (
@@ -79,7 +80,7 @@ def check_zip(path: Path) -> None:
         )
 
 
-def read_sb3_data(path: Path) -> dict[str, Any]:
+def read_sb3_data(path: Path) -> JSONObject:
     """The JSON ``data`` entry of an SB3 zip, as text values (nothing unpickled).
 
     Raises:
@@ -101,7 +102,7 @@ def read_sb3_data(path: Path) -> dict[str, Any]:
     return data
 
 
-def check_network(path: Path, data: dict[str, Any], observation_space: Any = None) -> None:
+def check_network(path: Path, data: JSONObject, observation_space: Any = None) -> None:
     """Refuse a model whose ``policy_kwargs.net_arch`` is past the network bound.
 
     Raises:
@@ -127,7 +128,7 @@ def _is_serialized(value: Any) -> bool:
     return isinstance(value, dict) and ":serialized:" in value
 
 
-def saved_shape(data: dict[str, Any], key: str) -> tuple[int, ...] | None:
+def saved_shape(data: JSONObject, key: str) -> tuple[int, ...] | None:
     """The shape of a saved space, from the JSON ``_shape`` SB3 writes beside the pickle
     (a list of ints, or its text), or None when it is not there."""
     entry = data.get(key)
@@ -162,8 +163,8 @@ def _class_text(cls: type) -> str:
 
 
 def safe_policy_kwargs(
-    path: Path, entry: dict[str, Any], extractors: Mapping[str, type] | None = None
-) -> dict[str, Any]:
+    path: Path, entry: JSONObject, extractors: Mapping[str, type] | None = None
+) -> JSONObject:
     """A pickled ``policy_kwargs`` entry rebuilt from its JSON text (nothing unpickled).
 
     SB3 writes beside the pickle each item as JSON, or as its ``str`` when it is not
@@ -186,7 +187,7 @@ def safe_policy_kwargs(
     activations = {
         _class_text(getattr(torch.nn, name)): getattr(torch.nn, name) for name in _ACTIVATIONS
     }
-    kwargs: dict[str, Any] = {}
+    kwargs: JSONObject = {}
     for key, value in entry.items():
         if key in (":type:", ":serialized:"):
             continue
@@ -209,9 +210,9 @@ def safe_custom_objects(
     algo: str,
     observation_space: Any,
     action_space: Any,
-    algo_kwargs: dict[str, Any] | None = None,
+    algo_kwargs: JSONObject | None = None,
     extractors: Mapping[str, type] | None = None,
-) -> dict[str, Any]:
+) -> JSONObject:
     """Replacements for every ``:serialized:`` entry of an SB3 zip (SB3's ``custom_objects``).
 
     Args:
@@ -253,7 +254,7 @@ def safe_custom_objects(
     # A Dict observation (observation="trailers") needs the algorithm's MultiInputPolicy,
     # recorded under the same module.
     policy = "MultiInputPolicy" if isinstance(observation_space, Dict) else "MlpPolicy"
-    replacements: dict[str, Any] = {
+    replacements: JSONObject = {
         "policy_class": algo_class(algo).policy_aliases[policy],
         "observation_space": observation_space,
         "action_space": action_space,
@@ -293,7 +294,7 @@ def load_sb3(
     action_space: Any,
     *,
     env: Any = None,
-    algo_kwargs: dict[str, Any] | None = None,
+    algo_kwargs: JSONObject | None = None,
     trust_pickle: bool = False,
     extractors: Mapping[str, type] | None = None,
 ) -> Any:

@@ -33,7 +33,6 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import limits
 from agents.artifacts.certificates import (
@@ -64,6 +63,7 @@ from agents.oracles.certify_goals import (
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
 from agents.policies.registry import load_policy
+from trailer_env.json_types import JSONObject
 
 #: The defaults of --env, --n-trailers and --seeds.
 DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = "trailer_env/Reverse-v1", 2, "1000-1099"
@@ -238,7 +238,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def load_certificate(path: Path) -> dict[str, Any]:
+def load_certificate(path: Path) -> JSONObject:
     """A certificate file and its action records (``actions``), checked.
 
     Raises:
@@ -265,7 +265,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    base: dict[str, Any] | None = None
+    base: JSONObject | None = None
     if args.from_certificate is not None:
         if args.seeds is not None:
             parser.error("argument --seeds: not with --from-certificate (its seeds are kept)")

@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
@@ -56,6 +55,7 @@ from agents.policies.baselines import applicable_baselines
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
+from trailer_env.json_types import JSONObject
 
 #: The pictures the report writes (under ``<out>/img`` or ``<docs>/img``).
 PICTURES = (
@@ -94,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def write_leaderboards(documents: list[dict[str, Any]], img: Path) -> list[Path]:
+def write_leaderboards(documents: list[JSONObject], img: Path) -> list[Path]:
     """The leaderboard of every scenario (``agents_leaderboard.png``, the results page's
     first picture) and of the headline scene alone (``agents_leaderboard_reverse_v1.png``,
     the README's), from the report's results documents."""

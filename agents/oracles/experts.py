@@ -127,7 +127,7 @@ class ILQRExpert:
         return self.planner.plan(core.z, core.act, task)
 
 
-def _randomised_parameters(randomize: Randomization | str | dict[str, Any] | None) -> bool:
+def _randomised_parameters(randomize: Randomization | str | dict[str, object] | None) -> bool:
     """Whether ``randomize`` (settings' or a config's) draws a physical parameter."""
     ranges = Randomization.coerce(randomize)
     return ranges is not None and any(name in PARAMETERS for name in ranges.names)
@@ -169,7 +169,7 @@ class Expert:
         self,
         env_id: str,
         n_trailers: int | tuple[int, int],
-        randomize: str | dict[str, Any] | None,
+        randomize: str | dict[str, object] | None,
     ) -> str | None:
         """Why this expert cannot label the env (None when it can); ``randomize`` must
         already be valid (:meth:`Randomization.coerce`)."""

@@ -57,6 +57,7 @@ from agents.oracles.ilqr_kernels import backward_pass, feedback
 from trailer_env.controllers import LQRController
 from trailer_env.core import ConvoyCore
 from trailer_env.fidelity import Fidelity
+from trailer_env.json_types import JSONObject
 from trailer_env.settings import EnvSettings
 
 
@@ -417,7 +418,7 @@ class ILQRPlanner:
 
     # ------------------------------------------------------------------ plan
     def _check(
-        self, z: np.ndarray, act: np.ndarray, task: dict[str, Any] | None
+        self, z: np.ndarray, act: np.ndarray, task: JSONObject | None
     ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         count, width = self.batch_size, self.width
         z = np.asarray(z, dtype=np.float64)
@@ -447,9 +448,7 @@ class ILQRPlanner:
             values[key] = value
         return state, act, values
 
-    def plan(
-        self, z: np.ndarray, act: np.ndarray, task: dict[str, Any] | None = None
-    ) -> np.ndarray:
+    def plan(self, z: np.ndarray, act: np.ndarray, task: JSONObject | None = None) -> np.ndarray:
         """Actions (E, 1), float64 in [-1, 1], for the environments' exact states.
 
         Args:

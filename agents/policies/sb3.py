@@ -128,7 +128,7 @@ def load_model(
     algo: str | None = None,
     *,
     env_id: str | None = None,
-    env_kwargs: dict[str, Any] | None = None,
+    env_kwargs: dict[str, object] | None = None,
     trust_pickle: bool = False,
 ) -> Any:
     """Load a saved model on the CPU (the algorithm detected unless given) without pickles.

@@ -52,6 +52,7 @@ import yaml
 from agents.algorithms import algo_class
 from agents.artifacts import files, limits
 from agents.policies.extractors import FEATURE_EXTRACTORS, feature_extractor
+from trailer_env.json_types import JSONObject
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
 
@@ -144,11 +145,11 @@ class Hyperparams:
     n_envs: int = 1
     n_timesteps: int = 100_000
     policy: str = "MlpPolicy"
-    env_kwargs: dict[str, Any] = field(default_factory=dict)
-    normalize: dict[str, Any] | None = None
+    env_kwargs: JSONObject = field(default_factory=dict)
+    normalize: JSONObject | None = None
     action_noise_std: float | None = None
-    shaping: dict[str, Any] | None = None
-    algo_kwargs: dict[str, Any] = field(default_factory=dict)
+    shaping: JSONObject | None = None
+    algo_kwargs: JSONObject = field(default_factory=dict)
 
 
 def _literal(node: ast.expr) -> Any:
@@ -182,7 +183,7 @@ def _literal(node: ast.expr) -> Any:
     raise ValueError(f"unsupported expression in policy_kwargs: {ast.unparse(node)!r}")
 
 
-def parse_policy_kwargs(text: str | dict[str, Any]) -> dict[str, Any]:
+def parse_policy_kwargs(text: str | JSONObject) -> JSONObject:
     """Parse an rl-zoo3 ``policy_kwargs`` string such as ``"dict(net_arch=[64, 64])"`` or
     ``"dict(features_extractor_class=ConvoyEncoder, features_extractor_kwargs=dict(hidden=32))"``.
 
@@ -241,7 +242,7 @@ def hyperparams_file(algo: str, directory: Path = HYPERPARAMS_DIR) -> Path:
 DEFAULT_ENTRY = "default"
 
 
-def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> dict[str, Any]:
+def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> JSONObject:
     """``env_id``'s entry of ``<directory>/<algo>.yml`` as the YAML holds it (anchors
     merged, nothing checked but the file's size and shape), or the file's ``default:``
     entry when ``env_id`` has none.
@@ -255,7 +256,7 @@ def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> dict
     return _entry(path, env_id)[1]
 
 
-def _entry(path: Path, env_id: str) -> tuple[str, dict[str, Any]]:
+def _entry(path: Path, env_id: str) -> tuple[str, JSONObject]:
     """The name of the entry ``env_id`` reads in ``path`` and that entry (see :func:`raw_entry`)."""
     size = path.stat().st_size
     if size > MAX_HYPERPARAMS_BYTES:
@@ -351,7 +352,7 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
     return result
 
 
-def shaping_setting(value: object, where: str) -> dict[str, Any] | None:
+def shaping_setting(value: object, where: str) -> JSONObject | None:
     """An entry's (or ``--shaping``'s) ``shaping`` as the wrapper's keywords, or None.
 
     ``None``, ``False`` and ``"none"`` mean no shaping; a name of
@@ -366,7 +367,7 @@ def shaping_setting(value: object, where: str) -> dict[str, Any] | None:
     if value is None or value is False or value == "none":
         return None
     if isinstance(value, str) and not value.lstrip().startswith("dict("):
-        setting: dict[str, Any] = {"potential": value.strip()}
+        setting: JSONObject = {"potential": value.strip()}
     elif isinstance(value, (str, dict)):
         setting = parse_policy_kwargs(value) if isinstance(value, str) else dict(value)
     else:
@@ -410,7 +411,7 @@ def init_arguments(cls: type) -> set[str]:
     return names
 
 
-def _check_keys(algo: str, raw: dict[str, Any], where: str) -> None:
+def _check_keys(algo: str, raw: JSONObject, where: str) -> None:
     """Refuse an entry key that is neither rl-zoo3's nor an argument of the algorithm."""
     accepted = init_arguments(algo_class(algo)) - set(_RESERVED)
     for key in raw:
@@ -512,17 +513,17 @@ class TrainConfig:
         )
 
     @property
-    def env_kwargs(self) -> dict[str, Any]:
+    def env_kwargs(self) -> JSONObject:
         """The environment's keyword arguments: the file's, with this run's ``n_trailers``."""
         return {**self.hyperparams.env_kwargs, "n_trailers": self.n_trailers}
 
-    def document(self) -> dict[str, Any]:
+    def document(self) -> JSONObject:
         """The run's record (JSON-ready) for ``config.json`` and the model cards.
 
         An SB3 run records the file's policy, algorithm arguments and normalisation; an
         RLlib run records ``backend`` (its trainer adds the RLlib settings it resolved).
         """
-        record: dict[str, Any] = {
+        record: JSONObject = {
             "algo": self.algo,
             "env_id": self.env_id,
             "env_kwargs": self.env_kwargs,

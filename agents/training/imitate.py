@@ -86,6 +86,7 @@ from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
 from agents.training.config import load_hyperparams, parse_policy_kwargs
+from trailer_env.json_types import JSONObject
 from trailer_env.mixed import is_trailer_range, mixed_settings, trailer_range
 from trailer_env.observation import checked_observation, flat_observation, trailers_observation
 from trailer_env.randomize import PRESETS, Randomization
@@ -162,7 +163,7 @@ class ImitationConfig:
     net_arch: tuple[int, ...] | None = None
     validation_episodes: int = 100
     planner: ExpertConfig | None = None
-    randomize: str | dict[str, Any] | None = None
+    randomize: str | JSONObject | None = None
     expert: str | None = None
     observation: str = "flat"
     max_trailers: int | None = None
@@ -229,8 +230,8 @@ class ImitationConfig:
         return self.planner
 
     @property
-    def env_kwargs(self) -> dict[str, Any]:
-        kwargs: dict[str, Any] = {"n_trailers": self.n_trailers}
+    def env_kwargs(self) -> JSONObject:
+        kwargs: JSONObject = {"n_trailers": self.n_trailers}
         if self.randomize is not None:
             kwargs["randomize"] = self.randomize
         return kwargs
@@ -241,7 +242,7 @@ class ImitationConfig:
         return self.n_trailers[1] if isinstance(self.n_trailers, tuple) else self.n_trailers
 
     @property
-    def student_kwargs(self) -> dict[str, Any]:
+    def student_kwargs(self) -> JSONObject:
         """The environment the student's spaces come from (and its card records): the
         labelling env's keywords with the observation."""
         if self.observation == "flat":
@@ -360,7 +361,7 @@ def fit(
     return loss_sum
 
 
-def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
+def _build_model(config: ImitationConfig) -> tuple[Any, Any, JSONObject]:
     """The PPO model (untrained), its frozen VecNormalize (None with "trailers") and the
     hyperparameters used."""
     from stable_baselines3 import PPO
@@ -386,7 +387,7 @@ def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
     return model, stats, {"n_envs": hp.n_envs, **algo_kwargs}
 
 
-def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[str, Any]:
+def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> JSONObject:
     """Run DAgger (see the module); returns the run's record (also its ``config.json``)."""
     started = time.perf_counter()
     settings = config.settings_by_count()
@@ -399,7 +400,7 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     expert = EXPERTS[str(config.expert)]
     planner = expert.build(core_class, settings, config.episodes, config.expert_config, config.seed)
     rng = np.random.default_rng(config.seed)
-    record: dict[str, Any] = {
+    record: JSONObject = {
         "algo": "ppo",
         "recipe": "dagger",
         "expert": expert.name,
@@ -441,7 +442,7 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     data_labels: list[np.ndarray] = []
     curve: list[dict[str, float]] = []
     best: tuple[float, float, float] | None = None
-    summary: dict[str, Any] = {}
+    summary: JSONObject = {}
     for iteration in range(config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
         driver = None if iteration == 0 else config.student(model, stats)

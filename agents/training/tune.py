@@ -59,6 +59,7 @@ from agents.training.config import (
     parse_policy_kwargs,
     raw_entry,
 )
+from trailer_env.json_types import JSONObject
 
 #: The search spaces shipped with the package.
 SEARCH_SPACES = HYPERPARAMS_DIR / "search.yml"
@@ -159,9 +160,9 @@ def read_space(algo: str, path: Path = SEARCH_SPACES) -> dict[str, Distribution]
     return space
 
 
-def sample(trial: Any, space: Mapping[str, Distribution]) -> dict[str, Any]:
+def sample(trial: Any, space: Mapping[str, Distribution]) -> JSONObject:
     """One point of ``space`` from an Optuna trial (its parameters, as Optuna records them)."""
-    params: dict[str, Any] = {}
+    params: JSONObject = {}
     for key, distribution in space.items():
         low, high = distribution.values[0], distribution.values[-1]
         if distribution.kind == "categorical":
@@ -187,7 +188,7 @@ def _policy_text(kwargs: Mapping[str, Any]) -> str:
     return text(dict(kwargs))
 
 
-def trial_entry(base: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, Any]:
+def trial_entry(base: Mapping[str, Any], params: Mapping[str, Any]) -> JSONObject:
     """The rl-zoo3 entry of a trial: ``base`` (the algorithm's file) with ``params`` over it.
 
     ``net_arch`` and ``log_std_init`` go into ``policy_kwargs``; a ``batch_size`` larger
@@ -258,7 +259,7 @@ class TuneSettings:
         """Steps between evaluations (default: a tenth of the budget)."""
         return self.eval_freq or max(self.budget // 10, 1)
 
-    def document(self) -> dict[str, Any]:
+    def document(self) -> JSONObject:
         """The record of ``search.json`` (without the command, which may differ on resume)."""
         record = asdict(self)
         record.pop("command")
@@ -266,7 +267,7 @@ class TuneSettings:
         record["space"] = str(self.space)
         return record
 
-    def base_entry(self) -> dict[str, Any]:
+    def base_entry(self) -> JSONObject:
         """The algorithm file's entry for the environment, raw (the trials' base).
 
         Raises:
