@@ -113,7 +113,7 @@ class EpisodeResults:
         return self.band_steps / np.maximum(self.lengths, 1)
 
 
-def privileged_view(policy: Any) -> Callable[[Any, np.ndarray], Any] | None:
+def privileged_view(policy: object) -> Callable[[Any, np.ndarray], Any] | None:
     """The policy's ``observe(core, obs)`` method, or None.
 
     A privileged policy (``lqr-adaptive``, which re-designs its regulator for each
@@ -133,21 +133,21 @@ def per_observation(act: Callable[[np.ndarray], Any]) -> Policy:
     return batched
 
 
-def _integer(name: str, value: Any) -> int:
+def _integer(name: str, value: object) -> int:
     """``value`` as a Python int (NumPy integers accepted; bools and floats refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
     return int(value)
 
 
-def _flag(name: str, value: Any) -> bool:
+def _flag(name: str, value: object) -> bool:
     """``value`` as a Python bool (a NumPy bool accepted; 0, 1 or "no" refused)."""
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
     return bool(value)
 
 
-def _check_episodes_and_seed(episodes: Any, seed: Any) -> tuple[int, int]:
+def _check_episodes_and_seed(episodes: object, seed: object) -> tuple[int, int]:
     """``(episodes, seed)`` as Python ints, checked.
 
     Raises:
@@ -162,7 +162,7 @@ def _check_episodes_and_seed(episodes: Any, seed: Any) -> tuple[int, int]:
     return episodes, seed
 
 
-def _trailer_count(value: Any) -> int | tuple[int, int]:
+def _trailer_count(value: object) -> int | tuple[int, int]:
     """``n_trailers`` with Python ints: one count, or a (low, high) range
     (:mod:`trailer_env.mixed`); the values are checked by ``gym.make``."""
     if isinstance(value, (tuple, list)):
@@ -452,7 +452,7 @@ def score(
 SCORE_FILES = ("score.json", "score.md")
 
 
-def _out_folder(out: Any, overwrite: bool) -> Path | None:
+def _out_folder(out: object, overwrite: bool) -> Path | None:
     """``out`` as a folder :func:`score` may write :data:`SCORE_FILES` into, checked for
     every file before anything is written (None: no folder)."""
     if out is None:

@@ -489,7 +489,7 @@ class ConvoyCore:
             values[key] = float(value) if value.ndim == 0 else value
         return values
 
-    def check_row_state(self, z: Any, s: float = 0.0, s_dot: float = 0.0) -> np.ndarray:
+    def check_row_state(self, z: object, s: float = 0.0, s_dot: float = 0.0) -> np.ndarray:
         """The state :meth:`set_row_state` would set, as float64, checked; changes nothing.
 
         Raises:
@@ -514,7 +514,7 @@ class ConvoyCore:
         return state
 
     def set_row_state(
-        self, i: int, z: Any, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
+        self, i: int, z: object, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
     ) -> None:
         """Put row ``i`` in a hand-built state and start a new episode there.
 

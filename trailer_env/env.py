@@ -28,7 +28,7 @@ PATH_LENGTH = 2000
 STATE_OPTIONS = ("state", "s", "s_dot")
 
 
-def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, object]:
+def check_reset_options(options: object, task_keys: tuple[str, ...]) -> dict[str, object]:
     """``options`` as a dict (None -> {}), its keys checked against the scene's.
 
     Raises:
@@ -48,7 +48,7 @@ def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, o
     return options
 
 
-def checked_seed(seed: Any) -> int | None:
+def checked_seed(seed: object) -> int | None:
     """A ``reset(seed=...)`` value as a Python int (or None), never truncated.
 
     Raises:
@@ -66,7 +66,7 @@ def checked_seed(seed: Any) -> int | None:
     return int(seed)
 
 
-def refuse_masked(value: Any, name: str) -> Any:
+def refuse_masked(value: object, name: str) -> Any:
     """``value`` itself, or its data if it is a numpy masked array with nothing masked.
 
     Raises:
@@ -117,7 +117,11 @@ class RenderModes(list[str]):
 
 
 def as_action_array(
-    action: Any, shape: tuple[int, ...], name: str = "action", *, alternative: tuple[int, ...] = ()
+    action: object,
+    shape: tuple[int, ...],
+    name: str = "action",
+    *,
+    alternative: tuple[int, ...] = (),
 ) -> np.ndarray:
     """``action`` as a numeric array of exactly ``shape`` (or ``alternative``), or a clear error.
 
@@ -158,7 +162,7 @@ def as_action_array(
 MAX_STATE_MAGNITUDE = 1e30
 
 
-def checked_state(z: Any, s: Any, s_dot: Any) -> tuple[np.ndarray, float, float]:
+def checked_state(z: object, s: object, s_dot: object) -> tuple[np.ndarray, float, float]:
     """A hand-built state as a float64 vector and the mass's position and velocity as floats.
 
     The shape and the rail are checked by :meth:`ConvoyCore.set_row_state`.
@@ -283,7 +287,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
             self.render()
         return self._view.row(self.core.obs, 0), self.core.info_row(0)
 
-    def step(self, action: Any) -> tuple[Observation, float, bool, bool, dict[str, object]]:
+    def step(self, action: object) -> tuple[Observation, float, bool, bool, dict[str, object]]:
         """Advance by ``dt``. Out-of-range actions are clipped to [-1, 1].
 
         ``action`` must have exactly the action space's shape, (1,) or (2,) in planar
@@ -330,7 +334,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
 
     def set_state(
         self,
-        z: Any,
+        z: object,
         *,
         s: float = 0.0,
         s_dot: float = 0.0,

@@ -58,7 +58,7 @@ from trailer_env.settings import EnvSettings, settings_from_kwargs
 MAX_COUNTS = 8
 
 
-def is_trailer_range(value: Any) -> bool:
+def is_trailer_range(value: object) -> bool:
     """Whether ``n_trailers`` was given as a range (a tuple or list) rather than one count."""
     return isinstance(value, (tuple, list))
 

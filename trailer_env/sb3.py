@@ -168,7 +168,7 @@ class ConvoySB3VecEnv(VecEnv):
         value = getattr(self, attr_name)
         return [value for _ in self._indices(indices)]
 
-    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+    def set_attr(self, attr_name: str, value: object, indices: VecEnvIndices = None) -> None:
         raise AttributeError(
             "the batch's settings are fixed at construction; build a new ConvoySB3VecEnv"
         )

@@ -127,7 +127,7 @@ def checked_seeds(
     return [checked_seed(value) for value in seeds]
 
 
-def parse_autoreset_mode(mode: Any) -> AutoresetMode:
+def parse_autoreset_mode(mode: object) -> AutoresetMode:
     """An :class:`AutoresetMode` from itself, its value ("NextStep") or name ("next_step").
 
     Raises:
@@ -143,7 +143,7 @@ def parse_autoreset_mode(mode: Any) -> AutoresetMode:
 
 
 def as_action_batch(
-    actions: Any, count: int, action_dim: int, out: np.ndarray | None = None
+    actions: object, count: int, action_dim: int, out: np.ndarray | None = None
 ) -> np.ndarray:
     """Actions as a float64 (count, action_dim) array; (count,) is accepted when action_dim == 1.
 
@@ -317,7 +317,7 @@ class ConvoyVectorEnv(VectorEnv):
         self._start(rows, states)
         return self._view.batch(self.core.obs), self._infos()
 
-    def _reset_options(self, options: Any) -> tuple[np.ndarray, np.ndarray | None]:
+    def _reset_options(self, options: object) -> tuple[np.ndarray, np.ndarray | None]:
         """The rows to reset and their given states (None: draw them) from ``options``."""
         if options is None:
             return self._all_rows, None
@@ -381,7 +381,7 @@ class ConvoyVectorEnv(VectorEnv):
             self._record_paths(rows)
 
     def step(
-        self, actions: Any
+        self, actions: object
     ) -> tuple[Observation, np.ndarray, np.ndarray, np.ndarray, JSONObject]:
         """Step every environment (autoreset as ``autoreset_mode`` says).
 

@@ -31,7 +31,7 @@ from trailer_env.scenes.heading import HEADING_TOLERANCE, HeadingCore
 from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
 
 
-def _convoy_env(wrapper: str, env: Any) -> ConvoyEnv:
+def _convoy_env(wrapper: str, env: object) -> ConvoyEnv:
     """The trailer_env environment under ``env`` (what ``wrapper`` may wrap).
 
     Raises:
@@ -72,7 +72,7 @@ class SafetyStep(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArg
         gym.Wrapper.__init__(self, env)
 
     def step(  # type: ignore[override]
-        self, action: Any
+        self, action: object
     ) -> tuple[Any, SupportsFloat, float, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return obs, reward, float(info["cost"]), terminated, truncated, info
@@ -127,7 +127,7 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
         self._previous = float(self.potential(obs)[0])
         return obs, info
 
-    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, JSONObject]:
+    def step(self, action: object) -> tuple[Any, SupportsFloat, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         after = self.potential(obs)
         shaped = shaped_return_step(
@@ -232,7 +232,7 @@ class GoalConditioned(
         return {key: value[0] for key, value in batch.items()}
 
     def compute_reward(
-        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: object
     ) -> np.ndarray:
         """0 where the goals agree within the scene's tolerance, else -1 (float32).
 
@@ -263,7 +263,7 @@ class GoalConditioned(
             close = _angle_between(achieved, desired) < HEADING_TOLERANCE
         return np.where(close, 0.0, -1.0).astype(np.float32)
 
-    def _goals(self, name: str, value: Any) -> np.ndarray:
+    def _goals(self, name: str, value: object) -> np.ndarray:
         """``value`` as float64 goals of shape (..., goal_size), or a clear error."""
         width = self.goal_size
         expected = f"goals of shape (..., {width})"
@@ -285,7 +285,7 @@ class GoalConditioned(
         obs, info = self.env.reset(seed=seed, options=options)
         return self._observation(obs), info
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, JSONObject]:
+    def step(self, action: object) -> tuple[dict[str, np.ndarray], float, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         goal_obs = self._observation(obs)
         info = {**info, "scene_reward": float(reward)}
