@@ -9,7 +9,6 @@ A card that breaks this is refused with a :class:`ValueError` naming the key.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files
 from agents.artifacts.paths import card_path
@@ -42,7 +41,7 @@ CARD_TYPES: dict[str, tuple[type, ...]] = {
 }
 
 
-def is_count_range(value: Any) -> bool:
+def is_count_range(value: object) -> bool:
     """Whether a card's ``n_trailers`` is a range ``[low, high]`` (a generalist's)."""
     return (
         isinstance(value, (list, tuple))
@@ -52,7 +51,7 @@ def is_count_range(value: Any) -> bool:
     )
 
 
-def check_card(card: Any, where: str) -> JSONObject:
+def check_card(card: object, where: str) -> JSONObject:
     """``card`` if it is a card object whose known keys have their types.
 
     Raises:

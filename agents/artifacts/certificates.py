@@ -129,7 +129,7 @@ def start_source(certificate: JSONObject, start: JSONObject) -> str | None:
     return source if isinstance(source, str) else planner_name(certificate)
 
 
-def check_certificate(document: Any, where: str) -> JSONObject:
+def check_certificate(document: object, where: str) -> JSONObject:
     """``document`` if it is a certificate (schema, finite numbers, known statuses).
 
     Raises:

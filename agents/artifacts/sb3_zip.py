@@ -124,7 +124,7 @@ def save_model(model: Any, path: Path) -> Path:
     return files.atomic_write_bytes(path, buffer.getvalue())
 
 
-def _is_serialized(value: Any) -> bool:
+def _is_serialized(value: object) -> bool:
     return isinstance(value, dict) and ":serialized:" in value
 
 
@@ -140,7 +140,7 @@ def saved_shape(data: JSONObject, key: str) -> tuple[int, ...] | None:
     return None
 
 
-def _constant(value: Any, fallback: float) -> float:
+def _constant(value: object, fallback: float) -> float:
     """A schedule's constant from its text ``ConstantSchedule(val=x)``, else ``fallback``."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return float(value)
@@ -290,10 +290,10 @@ def safe_custom_objects(
 def load_sb3(
     path: Path,
     algo: str,
-    observation_space: Any,
-    action_space: Any,
+    observation_space: object,
+    action_space: object,
     *,
-    env: Any = None,
+    env: object = None,
     algo_kwargs: JSONObject | None = None,
     trust_pickle: bool = False,
     extractors: Mapping[str, type] | None = None,

@@ -38,7 +38,7 @@ def stats_document(vecnormalize: Any) -> JSONObject:
     }
 
 
-def save_stats(vecnormalize: Any, path: Path) -> Path:
+def save_stats(vecnormalize: object, path: Path) -> Path:
     """Write a ``VecNormalize``'s statistics as JSON (Python's float repr round-trips exactly)."""
     return files.atomic_write_text(path, json.dumps(stats_document(vecnormalize), indent=1) + "\n")
 
@@ -56,7 +56,7 @@ _SETTINGS = {
 MAX_STATS_SIZE = 100_000
 
 
-def _vector(value: Any, where: str) -> np.ndarray:
+def _vector(value: object, where: str) -> np.ndarray:
     """A non-empty flat list of finite numbers as float64 (booleans refused)."""
     if (
         not isinstance(value, list)
@@ -70,7 +70,7 @@ def _vector(value: Any, where: str) -> np.ndarray:
     return vector
 
 
-def check_stats(document: Any, where: str) -> JSONObject:
+def check_stats(document: object, where: str) -> JSONObject:
     """``document`` if it is a statistics document of :func:`stats_document`'s form.
 
     Raises:
@@ -145,7 +145,7 @@ def restore_stats(vecnormalize: Any, document: JSONObject) -> Any:
     return vecnormalize
 
 
-def frozen_normalizer(document: JSONObject, observation_space: Any) -> Any:
+def frozen_normalizer(document: JSONObject, observation_space: object) -> Any:
     """A read-only ``VecNormalize`` without an env, for ``normalize_obs`` at evaluation.
 
     It is built the way SB3's own unpickling builds one (``__setstate__``, no venv), so

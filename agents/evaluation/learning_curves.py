@@ -26,7 +26,6 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -120,7 +119,7 @@ class Band:
     seeds: int
 
 
-def _check_window(window: Any, eps: Any) -> tuple[int, float]:
+def _check_window(window: object, eps: object) -> tuple[int, float]:
     if isinstance(window, bool) or not isinstance(window, (int, np.integer)):
         raise TypeError(f"window must be an integer, got {type(window).__name__}")
     if window < 2:

@@ -30,7 +30,6 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -446,7 +445,7 @@ def _closed_loop_fidelity() -> JSONObject:
     return {"integrator": WITNESS_CLOSED_LOOP, "tolerance": CLOSED_LOOP_TOLERANCE}
 
 
-def _merged_runs(earlier: Any, runs: list[JSONObject]) -> list[JSONObject]:
+def _merged_runs(earlier: object, runs: list[JSONObject]) -> list[JSONObject]:
     """An earlier witness pass's runs followed by this one's (a certificate upgraded twice
     keeps both)."""
     if isinstance(earlier, dict) and isinstance(earlier.get("runs"), list):

@@ -60,7 +60,7 @@ class Labeller(Protocol):
         """Forget the warm starts of ``rows`` (default all)."""
         ...
 
-    def label(self, core: Any) -> np.ndarray:
+    def label(self, core: object) -> np.ndarray:
         """Actions (E, 1) for every row of ``core`` from its exact states."""
         ...
 

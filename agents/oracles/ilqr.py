@@ -48,7 +48,6 @@ from __future__ import annotations
 
 import dataclasses
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -61,7 +60,7 @@ from trailer_env.json_types import JSONObject
 from trailer_env.settings import EnvSettings
 
 
-def _positive_int(name: str, value: Any, minimum: int) -> int:
+def _positive_int(name: str, value: object, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an int, got {type(value).__name__}")
     if value < minimum:

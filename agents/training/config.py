@@ -214,7 +214,7 @@ def linear_schedule(initial: float) -> Any:
     return schedule
 
 
-def _schedule(key: str, value: Any) -> Any:
+def _schedule(key: str, value: object) -> Any:
     if isinstance(value, str):
         kind, _, initial = value.partition("_")
         if kind != "lin":
@@ -425,7 +425,7 @@ def _check_keys(algo: str, raw: JSONObject, where: str) -> None:
             )
 
 
-def jsonable(value: Any) -> Any:
+def jsonable(value: object) -> Any:
     """Hyperparameter values as JSON (schedules and classes by name)."""
     if isinstance(value, dict):
         return {str(key): jsonable(item) for key, item in value.items()}

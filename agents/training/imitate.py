@@ -59,7 +59,7 @@ import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -92,6 +92,10 @@ from trailer_env.observation import checked_observation, flat_observation, trail
 from trailer_env.randomize import PRESETS, Randomization
 from trailer_env.registry import core_class_of
 from trailer_env.vector import ConvoyVectorEnv
+
+if TYPE_CHECKING:
+    from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.vec_env import VecNormalize
 
 #: Keys of the run's record that the best model's card takes at the end of the run.
 RUN_TOTALS = ("timesteps", "wall_time_s", "simulated_steps")
@@ -253,7 +257,9 @@ class ImitationConfig:
             "max_trailers": self.max_trailers,
         }
 
-    def student(self, model: Any, stats: Any) -> Any:
+    def student(
+        self, model: BaseAlgorithm, stats: VecNormalize | None
+    ) -> ModelPolicy | TrailersPolicy:
         """The student as a policy of the (flat) labelling and validation envs."""
         if self.max_trailers is None:
             return ModelPolicy(model, stats)

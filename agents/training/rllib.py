@@ -116,7 +116,7 @@ def _raise_on_sigterm() -> Any:
     """Make SIGTERM raise SystemExit (so that ``finally`` shuts Ray down); returns the
     handler it replaced (None off the main thread, where it does nothing)."""
 
-    def handler(signum: int, frame: Any) -> None:
+    def handler(signum: int, frame: object) -> None:
         raise SystemExit(128 + signum)
 
     try:

@@ -100,7 +100,7 @@ class Distribution:
     values: tuple[Any, ...]
 
 
-def _distribution(key: str, spec: Any, where: str) -> Distribution:
+def _distribution(key: str, spec: object, where: str) -> Distribution:
     if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in KINDS:
         raise ValueError(f"{where}: {key} must be one of {{{', '.join(KINDS)}: ...}}")
     kind, values = next(iter(spec.items()))
@@ -122,7 +122,7 @@ def _distribution(key: str, spec: Any, where: str) -> Distribution:
     return Distribution(kind, tuple(values))
 
 
-def net_arch(choice: Any) -> list[int]:
+def net_arch(choice: object) -> list[int]:
     """A net_arch choice ``"64x64"`` as ``[64, 64]``.
 
     Raises:
@@ -178,7 +178,7 @@ def sample(trial: Any, space: Mapping[str, Distribution]) -> JSONObject:
 def _policy_text(kwargs: Mapping[str, Any]) -> str:
     """policy_kwargs as rl-zoo3's text (``"dict(net_arch=[64, 64], log_std_init=-1.0)"``)."""
 
-    def text(value: Any) -> str:
+    def text(value: object) -> str:
         if isinstance(value, type):
             return f"nn.{value.__name__}"
         if isinstance(value, dict):
@@ -500,5 +500,5 @@ def write_results(study: Any, settings: TuneSettings, base: Mapping[str, Any], o
     files.atomic_write_text(out / BEST_HYPERPARAMS, text)
 
 
-def _short(value: Any) -> str:
+def _short(value: object) -> str:
     return f"{value:.3g}" if isinstance(value, float) else str(value)
