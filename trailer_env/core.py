@@ -113,6 +113,7 @@ from trailer_env.randomize import (
     apply_params,
     draw_factors,
 )
+from trailer_env.rendering import Marker
 from trailer_env.settings import EnvSettings
 from trailer_env.shaping import shaped_rewards
 from trailer_env.substeps import GROWTH_LIMIT, MAX_STEP_WORK
@@ -547,7 +548,7 @@ class ConvoyCore:
         self._after_reset(rows)
         self.success[i] = self._starting_success(rows)[0]
 
-    def render_markers(self, i: int) -> tuple[Any, ...]:
+    def render_markers(self, i: int) -> tuple[Marker, ...]:
         """Row ``i``'s targets to draw (:class:`~trailer_env.rendering.Marker`); default none."""
         return ()
 
@@ -603,7 +604,9 @@ class ConvoyCore:
         else:
             self._start_episodes(rows, bank.typed, rows)
 
-    def _start_episodes(self, rows: np.ndarray, rngs: Any, picks: np.ndarray | None) -> None:
+    def _start_episodes(
+        self, rows: np.ndarray, rngs: Sequence[np.random.Generator], picks: np.ndarray | None
+    ) -> None:
         """Draw the starts of ``rows`` (``rngs[picks[j]]`` for ``rows[j]``; without picks,
         ``rngs`` is aligned with ``rows`` and the Python hook draws), then derive the rest."""
         self.z[rows] = 0.0
@@ -624,7 +627,9 @@ class ConvoyCore:
         self._after_reset(rows)
         self.success[rows] = self._starting_success(rows)
 
-    def _draw_physics(self, rows: np.ndarray, rngs: Any, picks: np.ndarray | None) -> None:
+    def _draw_physics(
+        self, rows: np.ndarray, rngs: Sequence[np.random.Generator], picks: np.ndarray | None
+    ) -> None:
         """The episode's factors of ``rows`` from their generators, after the start's draws
         (:mod:`trailer_env.randomize`), and what they set: parameters, auto settings, speed
         and the parameter features."""

@@ -1,6 +1,6 @@
 """Convoys of different lengths in one environment: ``n_trailers=(low, high)``.
 
-Any scene accepts a range of trailer counts instead of one::
+Every scene accepts a range of trailer counts instead of one::
 
     env = gym.make("trailer_env/Reverse-v1", n_trailers=(1, 3))
     envs = gym.make_vec("trailer_env/Reverse-v1", num_envs=256,
@@ -122,7 +122,13 @@ def pad_observations(obs: np.ndarray, n: int, top: int) -> np.ndarray:
 
 
 @cached_njit()
-def draw_counts(generators: Any, picks: np.ndarray, low: int, count: int, out: np.ndarray) -> None:
+def draw_counts(
+    generators: Sequence[np.random.Generator],
+    picks: np.ndarray,
+    low: int,
+    count: int,
+    out: np.ndarray,
+) -> None:
     """``out[j] = low + floor(U * count)``, U drawn from ``generators[picks[j]]``."""
     for j in range(picks.size):
         out[j] = low + math.floor(generators[picks[j]].random() * count)

@@ -34,7 +34,6 @@ import math
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -193,7 +192,7 @@ def checked_observe_params(value: object) -> bool:
 
 @cached_njit()
 def draw_factors(
-    generators: Any,
+    generators: Sequence[np.random.Generator],
     picks: np.ndarray,
     rows: np.ndarray,
     columns: np.ndarray,

@@ -243,7 +243,7 @@ def settings_from_kwargs(
         dt, fidelity, action_mode, rail_accel_max, servo_bandwidth: See :class:`EnvSettings`.
         singular_band, fold_angle, randomize, observe_params: See :class:`EnvSettings`.
         observation, max_trailers: See :class:`EnvSettings`.
-        **param_overrides: Any ConvoyParams field, e.g. ``mu=0.4``.
+        **param_overrides: ConvoyParams fields, e.g. ``mu=0.4``.
 
     Raises:
         TypeError: On an unknown keyword (the Python convention, which wrappers such as
