@@ -13,11 +13,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from agents.envs import ENV_IDS, headline_metric, scene_title
 from agents.evaluation.metrics import wilson_interval
 from agents.oracles.certify import ceiling_fraction
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 #: Dot colours by kind of policy: the learned agents stand out, the oracles are marked.
 KIND_COLOURS = {"learned": "#d95f02", "oracle": "#7570b3", "lqr": "#1f78b4", "other": "#888888"}
@@ -102,7 +105,7 @@ def ordered(panels: Sequence[Panel], headline_env: str) -> list[Panel]:
     return sorted(panels, key=key)
 
 
-def _draw_panel(axis: Any, panel: Panel, *, small: bool = False) -> None:
+def _draw_panel(axis: Axes, panel: Panel, *, small: bool = False) -> None:
     names = [standing.name for standing in panel.standings]
     rows = range(len(names))
     font = LEADERBOARD_FONT_PT - (1 if small else 0)

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -17,6 +17,9 @@ from agents.evaluation.metrics import EpisodeResults
 from agents.policies.baselines import Policy
 from trailer_env.benchmark import privileged_view
 from trailer_env.json_types import JSONObject
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 #: Axis labels of the curve metrics.
 METRIC_LABELS = {
@@ -36,7 +39,7 @@ def _pyplot() -> Any:
 
 
 def _draw_curves(
-    axis: Any,
+    axis: Axes,
     curves: Mapping[str, Path],
     metric: str,
     baselines: Mapping[str, float] | None,

@@ -60,7 +60,7 @@ class Labeller(Protocol):
         """Forget the warm starts of ``rows`` (default all)."""
         ...
 
-    def label(self, core: object) -> np.ndarray:
+    def label(self, core: ConvoyCore) -> np.ndarray:
         """Actions (E, 1) for every row of ``core`` from its exact states."""
         ...
 
@@ -112,7 +112,7 @@ class ILQRExpert:
     def reset(self, rows: np.ndarray | None = None) -> None:
         self.planner.reset(rows)
 
-    def label(self, core: Any) -> np.ndarray:
+    def label(self, core: ConvoyCore) -> np.ndarray:
         """The planner's actions (E, 1) for every row of ``core`` (a core of this scene
         and count), from its exact states and its task arrays.
 
