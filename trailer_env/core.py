@@ -113,7 +113,6 @@ from trailer_env.randomize import (
     apply_params,
     draw_factors,
 )
-from trailer_env.rendering import Marker
 from trailer_env.settings import EnvSettings
 from trailer_env.shaping import shaped_rewards
 from trailer_env.substeps import GROWTH_LIMIT, MAX_STEP_WORK
@@ -548,7 +547,7 @@ class ConvoyCore:
         self._after_reset(rows)
         self.success[i] = self._starting_success(rows)[0]
 
-    def render_markers(self, i: int) -> tuple[Marker, ...]:
+    def render_markers(self, i: int) -> tuple[Any, ...]:
         """Row ``i``'s targets to draw (:class:`~trailer_env.rendering.Marker`); default none."""
         return ()
 
