@@ -81,7 +81,7 @@ per row from them at each reset (exact per row, not conservative).
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -462,7 +462,7 @@ class ConvoyCore:
         """Lower and upper bounds of the task features (default unbounded)."""
         return np.full(self.n_task_features, -np.inf), np.full(self.n_task_features, np.inf)
 
-    def check_task(self, task: JSONObject) -> JSONObject:
+    def check_task(self, task: Mapping[str, object]) -> JSONObject:
         """The task values :meth:`set_task` would set, validated, changing nothing.
 
         Scenes with task values override it (and :meth:`set_task`); scenes without any

@@ -40,7 +40,7 @@ are bounded by one n. Measured cost: benchmarks/README.md. Not supported with a 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -308,7 +308,7 @@ class MixedCore:
     def check_row_state(self, *args: Any, **kwargs: Any) -> np.ndarray:
         raise ValueError("a hand-built state needs one number of trailers, not a range")
 
-    def check_task(self, task: JSONObject) -> JSONObject:
+    def check_task(self, task: Mapping[str, object]) -> JSONObject:
         if task:
             raise ValueError("task values in reset options need one number of trailers")
         return {}

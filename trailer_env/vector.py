@@ -41,7 +41,7 @@ actions.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -286,7 +286,7 @@ class ConvoyVectorEnv(VectorEnv):
         self,
         *,
         seed: int | Sequence[int | None] | None = None,
-        options: JSONObject | None = None,
+        options: Mapping[str, object] | None = None,
     ) -> tuple[Observation, JSONObject]:
         """Reset every environment, or those of ``options["reset_mask"]``.
 

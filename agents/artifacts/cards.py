@@ -8,6 +8,7 @@ A card that breaks this is refused with a :class:`ValueError` naming the key.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
 
 from agents.artifacts import files
@@ -94,6 +95,6 @@ def read_card(model_path: Path) -> JSONObject:
     return check_card(files.read_json(path, "model card", allow_nan=True), str(path))
 
 
-def write_card(model_path: Path, card: JSONObject) -> Path:
+def write_card(model_path: Path, card: Mapping[str, object]) -> Path:
     """Write the model card (JSON beside the model) that :func:`read_card` reads."""
     return files.write_json(card_path(model_path), card)

@@ -15,6 +15,7 @@ import io
 import json
 import math
 import re
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -111,7 +112,7 @@ def write_certificate(certificate: JSONObject, out: Path, overwrite: bool) -> No
     files.atomic_write_text(out / CERTIFICATE_JSON, json.dumps(document, indent=2) + "\n")
 
 
-def planner_name(certificate: JSONObject) -> str:
+def planner_name(certificate: Mapping[str, object]) -> str:
     """The planner that made a certificate: ``planner.name`` (``ilqr``), else ``mpc`` (the
     sampling planner's certificates were written before planners had names)."""
     planner = certificate.get("planner")
@@ -119,7 +120,7 @@ def planner_name(certificate: JSONObject) -> str:
     return name if isinstance(name, str) else "mpc"
 
 
-def start_source(certificate: JSONObject, start: JSONObject) -> str | None:
+def start_source(certificate: Mapping[str, object], start: Mapping[str, object]) -> str | None:
     """Who found a start's record: its ``source`` (a witness's label, or the planner's
     name), the planner's name for a feasible start of a certificate written before
     sources were kept, None for a start that is not feasible."""
@@ -305,7 +306,7 @@ def _screen_text(certificate: JSONObject) -> str:
     return f"{screen['wall_time_s']} s"
 
 
-def _closed_loop_lines(certificate: JSONObject) -> list[str]:
+def _closed_loop_lines(certificate: Mapping[str, object]) -> list[str]:
     closed = certificate.get("closed_loop")
     if not isinstance(closed, dict):
         return []

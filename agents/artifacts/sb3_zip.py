@@ -102,7 +102,7 @@ def read_sb3_data(path: Path) -> JSONObject:
     return data
 
 
-def check_network(path: Path, data: JSONObject, observation_space: Any = None) -> None:
+def check_network(path: Path, data: Mapping[str, object], observation_space: Any = None) -> None:
     """Refuse a model whose ``policy_kwargs.net_arch`` is past the network bound.
 
     Raises:
@@ -128,7 +128,7 @@ def _is_serialized(value: object) -> bool:
     return isinstance(value, dict) and ":serialized:" in value
 
 
-def saved_shape(data: JSONObject, key: str) -> tuple[int, ...] | None:
+def saved_shape(data: Mapping[str, object], key: str) -> tuple[int, ...] | None:
     """The shape of a saved space, from the JSON ``_shape`` SB3 writes beside the pickle
     (a list of ints, or its text), or None when it is not there."""
     entry = data.get(key)
@@ -163,7 +163,7 @@ def _class_text(cls: type) -> str:
 
 
 def safe_policy_kwargs(
-    path: Path, entry: JSONObject, extractors: Mapping[str, type] | None = None
+    path: Path, entry: Mapping[str, object], extractors: Mapping[str, type] | None = None
 ) -> JSONObject:
     """A pickled ``policy_kwargs`` entry rebuilt from its JSON text (nothing unpickled).
 
@@ -210,7 +210,7 @@ def safe_custom_objects(
     algo: str,
     observation_space: Any,
     action_space: Any,
-    algo_kwargs: JSONObject | None = None,
+    algo_kwargs: Mapping[str, object] | None = None,
     extractors: Mapping[str, type] | None = None,
 ) -> JSONObject:
     """Replacements for every ``:serialized:`` entry of an SB3 zip (SB3's ``custom_objects``).
@@ -294,7 +294,7 @@ def load_sb3(
     action_space: object,
     *,
     env: object = None,
-    algo_kwargs: JSONObject | None = None,
+    algo_kwargs: Mapping[str, object] | None = None,
     trust_pickle: bool = False,
     extractors: Mapping[str, type] | None = None,
 ) -> Any:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -139,7 +139,7 @@ def evaluate_policies(
 def results_document(
     evaluations: Sequence[Evaluation],
     env_id: str,
-    env_kwargs: JSONObject,
+    env_kwargs: Mapping[str, object],
     episodes: int,
     seed: int,
 ) -> JSONObject:

@@ -27,7 +27,7 @@ planner's closed-loop re-planning.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -252,10 +252,10 @@ def _closed_loop_summary(starts: list[JSONObject]) -> JSONObject:
 
 
 def _settled(
-    certificate: JSONObject,
+    certificate: Mapping[str, object],
     starts: list[JSONObject],
     actions: dict[int, np.ndarray],
-    witnesses: JSONObject,
+    witnesses: Mapping[str, object],
 ) -> JSONObject:
     """``certificate`` with ``starts``, ``actions`` and ``witnesses``, its counts recounted."""
     count = len(starts)

@@ -47,6 +47,7 @@ times the copies per step (:attr:`ILQRPlanner.steps_per_decision`).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -56,7 +57,6 @@ from agents.oracles.ilqr_kernels import backward_pass, feedback
 from trailer_env.controllers import LQRController
 from trailer_env.core import ConvoyCore
 from trailer_env.fidelity import Fidelity
-from trailer_env.json_types import JSONObject
 from trailer_env.settings import EnvSettings
 
 
@@ -417,7 +417,7 @@ class ILQRPlanner:
 
     # ------------------------------------------------------------------ plan
     def _check(
-        self, z: np.ndarray, act: np.ndarray, task: JSONObject | None
+        self, z: np.ndarray, act: np.ndarray, task: Mapping[str, object] | None
     ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         count, width = self.batch_size, self.width
         z = np.asarray(z, dtype=np.float64)
@@ -447,7 +447,9 @@ class ILQRPlanner:
             values[key] = value
         return state, act, values
 
-    def plan(self, z: np.ndarray, act: np.ndarray, task: JSONObject | None = None) -> np.ndarray:
+    def plan(
+        self, z: np.ndarray, act: np.ndarray, task: Mapping[str, object] | None = None
+    ) -> np.ndarray:
         """Actions (E, 1), float64 in [-1, 1], for the environments' exact states.
 
         Args:

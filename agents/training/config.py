@@ -43,6 +43,7 @@ from __future__ import annotations
 import ast
 import inspect
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -411,7 +412,7 @@ def init_arguments(cls: type) -> set[str]:
     return names
 
 
-def _check_keys(algo: str, raw: JSONObject, where: str) -> None:
+def _check_keys(algo: str, raw: Mapping[str, object], where: str) -> None:
     """Refuse an entry key that is neither rl-zoo3's nor an argument of the algorithm."""
     accepted = init_arguments(algo_class(algo)) - set(_RESERVED)
     for key in raw:

@@ -156,7 +156,7 @@ def register_trailer_env() -> str:
 
 def ppo_config(
     env_id: str,
-    env_kwargs: JSONObject,
+    env_kwargs: Mapping[str, object],
     hp: Hyperparams,
     seed: int,
     num_env_runners: int,
@@ -468,7 +468,7 @@ def learner_policy_state(algorithm: Any) -> JSONObject:
 def export_policy(
     algorithm: Any,
     checkpoint: Path,
-    card: JSONObject,
+    card: Mapping[str, object],
     module_path: str = RLLIB_ALGOS["ppo"].module,
 ) -> None:
     """Write the pickle-free policy export (weights + card) into ``checkpoint``; the card

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -108,7 +108,7 @@ class DockCore(ShapedCore):
     def _start_arguments(self) -> tuple[int, float, np.ndarray]:
         return (self.n, float(self.params.l), self.target)
 
-    def check_task(self, task: JSONObject) -> JSONObject:
+    def check_task(self, task: Mapping[str, object]) -> JSONObject:
         """Accepts ``target`` = (x, y, heading) of the dock: 3 real numbers (not bools or
         strings), each within +-1e6 (m, m, rad; :data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
         unknown = sorted(set(task) - {"target"}, key=str)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -78,7 +78,7 @@ class HeadingCore(ShapedCore):
     def _start_arguments(self) -> tuple[int, np.ndarray]:
         return (self.n, self.target_heading)
 
-    def check_task(self, task: JSONObject) -> JSONObject:
+    def check_task(self, task: Mapping[str, object]) -> JSONObject:
         """Accepts ``target_heading`` (rad), a real number (not a bool or a string) in
         [-1e6, 1e6] (:data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
         unknown = sorted(set(task) - {"target_heading"}, key=str)
