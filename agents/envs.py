@@ -6,6 +6,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from trailer_env.json_types import JSONObject
 from trailer_env.registry import ENVIRONMENTS, core_class_of, env_class_of
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 from trailer_env.vector import ConvoyVectorEnv
@@ -54,13 +55,13 @@ def scene_baselines(env_id: str) -> tuple[str, ...]:
     return core_class_of(env_id).baselines
 
 
-def env_settings(env_kwargs: dict[str, Any] | None = None) -> EnvSettings:
+def env_settings(env_kwargs: JSONObject | None = None) -> EnvSettings:
     """The settings that ``gym.make(id, **env_kwargs)`` would build (validated)."""
     return settings_from_kwargs(**(env_kwargs or {}))
 
 
 def make_vector_env(
-    env_id: str, num_envs: int, env_kwargs: dict[str, Any] | None = None
+    env_id: str, num_envs: int, env_kwargs: JSONObject | None = None
 ) -> ConvoyVectorEnv:
     """The native batched env (one kernel call per step for all ``num_envs``)."""
     envs = gym.make_vec(
@@ -76,7 +77,7 @@ def make_vector_env(
 
 
 def make_sb3_env(
-    env_id: str, num_envs: int, env_kwargs: dict[str, Any] | None = None, seed: int | None = None
+    env_id: str, num_envs: int, env_kwargs: JSONObject | None = None, seed: int | None = None
 ) -> Any:
     """The SB3 ``VecEnv`` over the native batch (it records episode statistics itself).
 

@@ -133,8 +133,10 @@ def table(totals: dict[str, float]) -> str:
             f"| {key} | {seconds:.2f} | {100 * seconds / totals['learn']:.1f}% "
             f"| {1e6 * seconds / totals['steps']:.2f} |"
         )
-    lines.append(f"| **all of learn** | {totals['learn']:.2f} | 100% | "
-                 f"{1e6 * totals['learn'] / totals['steps']:.2f} |")  # fmt: skip
+    lines.append(
+        f"| **all of learn** | {totals['learn']:.2f} | 100% | "
+        f"{1e6 * totals['learn'] / totals['steps']:.2f} |"
+    )
     return "\n".join(lines) + "\n"
 
 

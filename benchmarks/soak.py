@@ -119,18 +119,22 @@ def main(argv: list[str] | None = None) -> int:
     per_case = -(-total // len(cases))
     rows = []
     start = time.perf_counter()
-    print(f"{'scene':8} {'n':>2} {'mode':6} {'steps':>8} {'!obs':>5} {'!rew':>5} "
-          f"{'!info':>5} {'exc':>4} {'folds':>6} {'max k':>5} {'s':>6}")  # fmt: skip
+    print(
+        f"{'scene':8} {'n':>2} {'mode':6} {'steps':>8} {'!obs':>5} {'!rew':>5} "
+        f"{'!info':>5} {'exc':>4} {'folds':>6} {'max k':>5} {'s':>6}"
+    )
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for index, (scene, n, mode) in enumerate(cases):
             row = soak_case(scene, n, mode, per_case, args.num_envs, args.seed + index)
             rows.append(row)
-            print(f"{row['scene']:8} {n:>2} {mode:6} {row['env_steps']:>8} "
-                  f"{row['nonfinite_obs']:>5} "
-                  f"{row['nonfinite_reward']:>5} {row['nonfinite_info']:>5} "
-                  f"{row['exceptions']:>4} {row['folds']:>6} {row['max_substeps']:>5} "
-                  f"{row['seconds']:>6.2f}")  # fmt: skip
+            print(
+                f"{row['scene']:8} {n:>2} {mode:6} {row['env_steps']:>8} "
+                f"{row['nonfinite_obs']:>5} "
+                f"{row['nonfinite_reward']:>5} {row['nonfinite_info']:>5} "
+                f"{row['exceptions']:>4} {row['folds']:>6} {row['max_substeps']:>5} "
+                f"{row['seconds']:>6.2f}"
+            )
     steps = sum(row["env_steps"] for row in rows)
     bad = {
         key: sum(row[key] for row in rows)

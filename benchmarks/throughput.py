@@ -129,9 +129,11 @@ def bare_substep_runner(n: int, num_envs: int, seed: int = 0) -> Callable[[int],
     from dynamics import Stepper
 
     envs = gym.make_vec(
-        find_convoy_id() or SCENE, num_envs=num_envs, vectorization_mode="vector_entry_point",
+        find_convoy_id() or SCENE,
+        num_envs=num_envs,
+        vectorization_mode="vector_entry_point",
         n_trailers=n,
-    )  # fmt: skip
+    )
     envs.reset(seed=seed)
     core = envs.unwrapped.core
     z, act = core.z.copy(), core.act.copy()
@@ -334,36 +336,52 @@ def targets(rows: list[dict[str, Any]]) -> list[tuple[str, float, str]]:
     for threads in sorted({default_threads, 1}, reverse=True):
         single = _rate(rows, kind="single", env=convoy, threads=threads)
         out.append(
-            (f"single env Reverse-v0 n = 2 / Acrobot-v1 ({threads} thread(s))", single / acrobot,
-             ">= 3"),
-        )  # fmt: skip
+            (
+                f"single env Reverse-v0 n = 2 / Acrobot-v1 ({threads} thread(s))",
+                single / acrobot,
+                ">= 3",
+            ),
+        )
         out.append(
-            (f"single env Reverse-v0 n = 2 / CartPole-v1 ({threads} thread(s))",
-             single / cartpole, "(none)"),
-        )  # fmt: skip
+            (
+                f"single env Reverse-v0 n = 2 / CartPole-v1 ({threads} thread(s))",
+                single / cartpole,
+                "(none)",
+            ),
+        )
     cartpole_vector = _rate(rows, kind="vector", env="CartPole-v1", num_envs=4096)
     for threads in sorted({default_threads, 1}, reverse=True):
         vector = _rate(rows, kind="vector", env=convoy, num_envs=4096, threads=threads)
         out.append(
-            (f"vector env N = 4096, n = 3 / CartPole vector env ({threads} thread(s))",
-             vector / cartpole_vector, ">= 0.12"),
-        )  # fmt: skip
+            (
+                f"vector env N = 4096, n = 3 / CartPole vector env ({threads} thread(s))",
+                vector / cartpole_vector,
+                ">= 0.12",
+            ),
+        )
     bare = _rate(rows, kind="substep", env=convoy)
     vector_one = _rate(rows, kind="vector", env=convoy, num_envs=4096, threads=1)
     out.append(
-        ("vector env step / bare RK4 substep, time per env (N = 4096, n = 3, 1 thread)",
-         bare / vector_one, "<= 1.5 (at worst 2)"),
-    )  # fmt: skip
+        (
+            "vector env step / bare RK4 substep, time per env (N = 4096, n = 3, 1 thread)",
+            bare / vector_one,
+            "<= 1.5 (at worst 2)",
+        ),
+    )
     if default_threads > 1:
         for size in VECTOR_SIZES:
-            parallel = _rate(rows, kind="vector", env=convoy, num_envs=size,
-                             threads=default_threads)  # fmt: skip
+            parallel = _rate(
+                rows, kind="vector", env=convoy, num_envs=size, threads=default_threads
+            )
             serial = _rate(rows, kind="vector", env=convoy, num_envs=size, threads=1)
             if not np.isnan(parallel / serial):
                 out.append(
-                    (f"vector env N = {size}: {default_threads} threads / 1 thread",
-                     parallel / serial, "(measured)"),
-                )  # fmt: skip
+                    (
+                        f"vector env N = {size}: {default_threads} threads / 1 thread",
+                        parallel / serial,
+                        "(measured)",
+                    ),
+                )
     for num_envs in (1, 4096):
         for fidelity in ("auto", "1"):
             cost_2 = 1.0 / _rate(rows, kind="cost_n", n=2, num_envs=num_envs, fidelity=fidelity)
@@ -431,16 +449,22 @@ def plot(rows: list[dict[str, Any]], path: Path) -> Path:
     bare = [row for row in rows if row["kind"] == "substep"]
     if bare:
         ax_vector.axhline(
-            bare[0]["steps_per_second"], color="k", lw=0.8, ls=":",
+            bare[0]["steps_per_second"],
+            color="k",
+            lw=0.8,
+            ls=":",
             label="bare RK4 substep (env-substeps/s), n = 3, 1 thread",
-        )  # fmt: skip
+        )
     ax_vector.set_xlabel("number of environments N")
     ax_vector.set_ylabel("env steps per second")
     ax_vector.set_title("Vector env")
     ax_vector.legend(fontsize=8)
     for num_envs, fidelity, style in (
-        (1, "auto", "o-"), (1, "1", "o:"), (4096, "auto", "s-"), (4096, "1", "s:")
-    ):  # fmt: skip
+        (1, "auto", "o-"),
+        (1, "1", "o:"),
+        (4096, "auto", "s-"),
+        (4096, "1", "s:"),
+    ):
         points = sorted(
             (row["n"], row["steps_per_second"])
             for row in rows

@@ -208,9 +208,11 @@ def markdown(records: Sequence[dict[str, Any]]) -> str:
     ]
     for command in COMMANDS:
         record = by_name.get(command.name)
-        shown = f"`{shlex.join(command.argv)}`" if command.name != "first-step" else (
-            "`gym.make(\"trailer_env/Reverse-v1\")`, `reset`, `step` (`python -c`)"
-        )  # fmt: skip
+        shown = (
+            f"`{shlex.join(command.argv)}`"
+            if command.name != "first-step"
+            else ('`gym.make("trailer_env/Reverse-v1")`, `reset`, `step` (`python -c`)')
+        )
         if record is None:
             pending = f"not measured yet: `python -m benchmarks.timings --only {command.name}`"
             lines.append(f"| {shown} | {command.what} | {pending} | - | - |")
@@ -256,17 +258,23 @@ def build_parser() -> argparse.ArgumentParser:
     )
     choice = parser.add_mutually_exclusive_group()
     choice.add_argument(
-        "--only", nargs="+", choices=NAMES, metavar="NAME",
+        "--only",
+        nargs="+",
+        choices=NAMES,
+        metavar="NAME",
         help=f"these commands ({', '.join(NAMES)}); default: the quick ones",
-    )  # fmt: skip
+    )
     choice.add_argument("--all", action="store_true", help="every command (about 25 minutes)")
     parser.add_argument(
         "--out", type=Path, default=Path("out"), help="timings.json and timings.md (default out)"
     )
     parser.add_argument(
-        "--docs", type=Path, default=None, metavar="DIR",
+        "--docs",
+        type=Path,
+        default=None,
+        metavar="DIR",
         help="write DIR/generated/timings.json and .md instead (e.g. docs)",
-    )  # fmt: skip
+    )
     parser.add_argument(
         "--timeout", type=float, default=3600.0, help="seconds per run (default 3600)"
     )

@@ -176,9 +176,18 @@ def sincos(x: float) -> tuple:
 
 #: Hitch accumulators of one row (see :func:`_hitch_step`).
 (
-    H_PREFIX_C2, H_PREFIX_C, H_SUM_PREFIX_C2, H_G_S, H_SUM_G_S, H_G_T, H_TAIL_C2,
-    H_SUM_TAIL_C2, H_C_PREV, H_S_PREV, H_C1S1,
-) = range(11)  # fmt: skip
+    H_PREFIX_C2,
+    H_PREFIX_C,
+    H_SUM_PREFIX_C2,
+    H_G_S,
+    H_SUM_G_S,
+    H_G_T,
+    H_TAIL_C2,
+    H_SUM_TAIL_C2,
+    H_C_PREV,
+    H_S_PREV,
+    H_C1S1,
+) = range(11)
 N_HITCH = 11
 
 
@@ -195,8 +204,19 @@ def _hitch_step(k: int, s: float, c: float, l: float, acc: tuple) -> tuple:
     prod_(j<=k-2) c_j, sum_(j<=k) P_j, G_j, sum_j G_j, H_j, prod_(i=2..j) c_i^2
     (for S_1 and T_1), its running sum, c_(k-1), s_(k-1) and c_1 s_1.
     """
-    (prefix_c2, prefix_c, sum_prefix_c2, g_weighted_s, sum_g_s, g_weighted_t, tail_c2,
-     sum_tail_c2, c_prev, s_prev, c1s1) = acc  # fmt: skip
+    (
+        prefix_c2,
+        prefix_c,
+        sum_prefix_c2,
+        g_weighted_s,
+        sum_g_s,
+        g_weighted_t,
+        tail_c2,
+        sum_tail_c2,
+        c_prev,
+        s_prev,
+        c1s1,
+    ) = acc
     c2 = c * c
     if k == 0:
         a_k = -s / l
@@ -212,8 +232,19 @@ def _hitch_step(k: int, s: float, c: float, l: float, acc: tuple) -> tuple:
     g_weighted_t = c2 * g_weighted_t + g
     prefix_c2 *= c2
     sum_prefix_c2 += prefix_c2
-    return a_k, (prefix_c2, prefix_c, sum_prefix_c2, g_weighted_s, sum_g_s, g_weighted_t,
-                 tail_c2, sum_tail_c2, c, s, c1s1)  # fmt: skip
+    return a_k, (
+        prefix_c2,
+        prefix_c,
+        sum_prefix_c2,
+        g_weighted_s,
+        sum_g_s,
+        g_weighted_t,
+        tail_c2,
+        sum_tail_c2,
+        c,
+        s,
+        c1s1,
+    )
 
 
 @cached_njit(nogil=True)
@@ -236,9 +267,20 @@ def _hitch_totals(pv: np.ndarray, lane: int, acc: tuple) -> tuple:
 
 @cached_njit(nogil=True)
 def _accelerations(
-    pv: np.ndarray, lane: int, r_trailers: float, dr_dalpha1: float, sum_a_dr: float, u: float,
-    w: float, xi: float, eta: float, xi_dot: float, eta_dot: float, xi_ddot: float, eta_ddot: float,
-) -> tuple:  # fmt: skip
+    pv: np.ndarray,
+    lane: int,
+    r_trailers: float,
+    dr_dalpha1: float,
+    sum_a_dr: float,
+    u: float,
+    w: float,
+    xi: float,
+    eta: float,
+    xi_dot: float,
+    eta_dot: float,
+    xi_ddot: float,
+    eta_ddot: float,
+) -> tuple:
     """(u_dot, omega_dot) for the planar moving mass (physics.md sections 3, 5 and 9)."""
     M = lane_value(pv, P_M, lane)
     a = lane_value(pv, P_A, lane)
@@ -263,9 +305,16 @@ def _accelerations(
 
 @cached_njit(nogil=True)
 def _energy(
-    pv: np.ndarray, lane: int, r_trailers: float, u: float, w: float, eta: float, xi_dot: float,
-    eta_dot: float, xi: float,
-) -> float:  # fmt: skip
+    pv: np.ndarray,
+    lane: int,
+    r_trailers: float,
+    u: float,
+    w: float,
+    eta: float,
+    xi_dot: float,
+    eta_dot: float,
+    xi: float,
+) -> float:
     """Kinetic energy, the mass included (physics.md section 9)."""
     M = lane_value(pv, P_M, lane)
     a = lane_value(pv, P_A, lane)
@@ -343,9 +392,18 @@ def rhs_batch(
     out = np.empty_like(z)
     for i in range(z.shape[0]):
         field_row(
-            pv, z[i], n, with_pose, act[i, 0], act[i, 1], act[i, 2], act[i, 3], act[i, 4],
-            act[i, 5], out[i],
-        )  # fmt: skip
+            pv,
+            z[i],
+            n,
+            with_pose,
+            act[i, 0],
+            act[i, 1],
+            act[i, 2],
+            act[i, 3],
+            act[i, 4],
+            act[i, 5],
+            out[i],
+        )
     return out
 
 
@@ -389,9 +447,19 @@ def sincos_block(x: np.ndarray, sin_out: np.ndarray, cos_out: np.ndarray, nb: in
 
 @cached_njit(nogil=True)
 def _accumulators(work: np.ndarray, lane: int) -> tuple:
-    return (work[0, lane], work[1, lane], work[2, lane], work[3, lane], work[4, lane],
-            work[5, lane], work[6, lane], work[7, lane], work[8, lane], work[9, lane],
-            work[10, lane])  # fmt: skip
+    return (
+        work[0, lane],
+        work[1, lane],
+        work[2, lane],
+        work[3, lane],
+        work[4, lane],
+        work[5, lane],
+        work[6, lane],
+        work[7, lane],
+        work[8, lane],
+        work[9, lane],
+        work[10, lane],
+    )
 
 
 @cached_njit(nogil=True)
@@ -403,21 +471,30 @@ def _hitch_start_block(work: np.ndarray, nb: int) -> None:
 
 
 @cached_njit(nogil=True)
-def _hitch_accumulate(pv: np.ndarray, k: int, sin_k: np.ndarray, cos_k: np.ndarray,
-                      deriv: np.ndarray, work: np.ndarray, nb: int) -> None:  # fmt: skip
+def _hitch_accumulate(
+    pv: np.ndarray,
+    k: int,
+    sin_k: np.ndarray,
+    cos_k: np.ndarray,
+    deriv: np.ndarray,
+    work: np.ndarray,
+    nb: int,
+) -> None:
     """Hitch k of every lane (:func:`_hitch_step` on ``work``); A_k into ``deriv[2 + k]``."""
     l = pv[P_L]  # a shared scalar, or the lanes' lengths (:func:`lane_at`)
     for lane in range(nb):
-        a_k, acc = _hitch_step(k, sin_k[lane], cos_k[lane], lane_at(l, lane),
-                               _accumulators(work, lane))  # fmt: skip
+        a_k, acc = _hitch_step(
+            k, sin_k[lane], cos_k[lane], lane_at(l, lane), _accumulators(work, lane)
+        )
         deriv[2 + k, lane] = a_k
         for j in range(N_HITCH):
             work[j, lane] = acc[j]
 
 
 @cached_njit(nogil=True)
-def _hitch_block(pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work: np.ndarray,
-                 nb: int) -> None:  # fmt: skip
+def _hitch_block(
+    pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work: np.ndarray, nb: int
+) -> None:
     """Hitch accumulators of every lane into ``work[:N_HITCH]``; A_k into ``deriv[2 + k]``."""
     _hitch_start_block(work, nb)
     sin_k = work[_W_SIN]
@@ -454,14 +531,20 @@ def field_block(
         eta_ddot = mass0[5, lane]
         r_trailers, dr_dalpha1, sum_a_dr = _hitch_totals(pv, lane, _accumulators(work, lane))
         deriv[0, lane], deriv[1, lane] = _accelerations(
-            pv, lane, r_trailers, dr_dalpha1, sum_a_dr, u, w,
+            pv,
+            lane,
+            r_trailers,
+            dr_dalpha1,
+            sum_a_dr,
+            u,
+            w,
             mass0[0, lane] + mass0[2, lane] * tau + 0.5 * xi_ddot * tau * tau,
             mass0[1, lane] + mass0[3, lane] * tau + 0.5 * eta_ddot * tau * tau,
             mass0[2, lane] + xi_ddot * tau,
             mass0[3, lane] + eta_ddot * tau,
             xi_ddot,
             eta_ddot,
-        )  # fmt: skip
+        )
     for k in range(n):
         for lane in range(nb):
             deriv[2 + k, lane] *= y[0, lane]
@@ -480,30 +563,61 @@ def field_block(
 
 @cached_njit(nogil=True)
 def energy_block(
-    pv: np.ndarray, y: np.ndarray, n: int, mass0: np.ndarray, deriv: np.ndarray,
-    work: np.ndarray, out: np.ndarray, nb: int,
-) -> None:  # fmt: skip
+    pv: np.ndarray,
+    y: np.ndarray,
+    n: int,
+    mass0: np.ndarray,
+    deriv: np.ndarray,
+    work: np.ndarray,
+    out: np.ndarray,
+    nb: int,
+) -> None:
     """Energy of the first ``nb`` lanes, the mass as in ``mass0`` (``deriv`` is overwritten)."""
     _hitch_block(pv, y, n, deriv, work, nb)
     for lane in range(nb):
         r_trailers, _, _ = _hitch_totals(pv, lane, _accumulators(work, lane))
-        out[lane] = _energy(pv, lane, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
-                            mass0[2, lane], mass0[3, lane], mass0[0, lane])  # fmt: skip
+        out[lane] = _energy(
+            pv,
+            lane,
+            r_trailers,
+            y[0, lane],
+            y[1, lane],
+            mass0[1, lane],
+            mass0[2, lane],
+            mass0[3, lane],
+            mass0[0, lane],
+        )
 
 
 @cached_njit(nogil=True)
 def energy_block_from_trig(
-    pv: np.ndarray, y: np.ndarray, n: int, mass0: np.ndarray, trig: np.ndarray,
-    deriv: np.ndarray, work: np.ndarray, out: np.ndarray, nb: int,
-) -> None:  # fmt: skip
+    pv: np.ndarray,
+    y: np.ndarray,
+    n: int,
+    mass0: np.ndarray,
+    trig: np.ndarray,
+    deriv: np.ndarray,
+    work: np.ndarray,
+    out: np.ndarray,
+    nb: int,
+) -> None:
     """:func:`energy_block` given sin(alpha_k) in ``trig[k]``, cos(alpha_k) in ``trig[n + k]``."""
     _hitch_start_block(work, nb)
     for k in range(n):
         _hitch_accumulate(pv, k, trig[k], trig[n + k], deriv, work, nb)
     for lane in range(nb):
         r_trailers, _, _ = _hitch_totals(pv, lane, _accumulators(work, lane))
-        out[lane] = _energy(pv, lane, r_trailers, y[0, lane], y[1, lane], mass0[1, lane],
-                            mass0[2, lane], mass0[3, lane], mass0[0, lane])  # fmt: skip
+        out[lane] = _energy(
+            pv,
+            lane,
+            r_trailers,
+            y[0, lane],
+            y[1, lane],
+            mass0[1, lane],
+            mass0[2, lane],
+            mass0[3, lane],
+            mass0[0, lane],
+        )
 
 
 #: Bytes the workspace's arrays are aligned to: a cache line, and an AVX-512 vector.
@@ -528,8 +642,17 @@ def new_workspace(width: int) -> tuple:
     speed, changed from one process to the next by up to a third).
     """
     block = width * LANES  # a multiple of 8 doubles: every carved array stays aligned
-    sizes = (block, block, block, block, 6 * LANES, _W_ROWS * LANES, 3 * LANES,
-             2 * block, 3 * width)  # fmt: skip
+    sizes = (
+        block,
+        block,
+        block,
+        block,
+        6 * LANES,
+        _W_ROWS * LANES,
+        3 * LANES,
+        2 * block,
+        3 * width,
+    )
     total = 0
     for size in sizes:
         total += size
@@ -562,8 +685,9 @@ def _wrapped_folded(alpha: float, fold_angle: float) -> bool:
 
 
 @cached_njit(nogil=True)
-def gather_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int,
-                 workspace: tuple) -> None:  # fmt: skip
+def gather_block(
+    z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int, workspace: tuple
+) -> None:
     """Copy rows ``rows[:nb]`` of ``z`` and ``act`` into the workspace (structure of arrays)."""
     y = workspace[0]
     mass0 = workspace[4]
@@ -576,8 +700,9 @@ def gather_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int,
 
 
 @cached_njit(nogil=True)
-def scatter_block(z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int, dt: float,
-                  workspace: tuple) -> None:  # fmt: skip
+def scatter_block(
+    z: np.ndarray, act: np.ndarray, rows: np.ndarray, nb: int, dt: float, workspace: tuple
+) -> None:
     """Write the block back into ``z``; advance the mass state in ``act`` by ``dt`` exactly."""
     y = workspace[0]
     for j in range(z.shape[1]):
@@ -607,13 +732,24 @@ ROW_PATH_MAX_ROWS = 4
 
 
 @cached_njit(nogil=True)
-def _field_at(pv: np.ndarray, row: np.ndarray, n: int, with_pose: bool, act: np.ndarray,
-              i: int, tau: float, out: np.ndarray) -> None:  # fmt: skip
+def _field_at(
+    pv: np.ndarray,
+    row: np.ndarray,
+    n: int,
+    with_pose: bool,
+    act: np.ndarray,
+    i: int,
+    tau: float,
+    out: np.ndarray,
+) -> None:
     """:func:`field_row` at time ``tau`` into the call (the mass's exact quadratic motion)."""
     xi_ddot = act[i, 4]
     eta_ddot = act[i, 5]
     field_row(
-        pv, row, n, with_pose,
+        pv,
+        row,
+        n,
+        with_pose,
         act[i, 0] + act[i, 2] * tau + 0.5 * xi_ddot * tau * tau,
         act[i, 1] + act[i, 3] * tau + 0.5 * eta_ddot * tau * tau,
         act[i, 2] + xi_ddot * tau,
@@ -621,7 +757,7 @@ def _field_at(pv: np.ndarray, row: np.ndarray, n: int, with_pose: bool, act: np.
         xi_ddot,
         eta_ddot,
         out,
-    )  # fmt: skip
+    )
 
 
 @cached_njit(nogil=True)
@@ -797,8 +933,20 @@ def rk4_block(
     """Classical RK4 on the ``nb`` rows ``rows[:nb]`` of ``z`` and ``act``, in place
     (:func:`gather_block`, :func:`advance_block`, :func:`scatter_block`)."""
     gather_block(z, act, rows, nb, workspace)
-    advance_block(pv, rows, nb, n, with_pose, dt, substeps, preserve_energy, target_energy,
-                  fold_angle, folded, workspace)  # fmt: skip
+    advance_block(
+        pv,
+        rows,
+        nb,
+        n,
+        with_pose,
+        dt,
+        substeps,
+        preserve_energy,
+        target_energy,
+        fold_angle,
+        folded,
+        workspace,
+    )
     scatter_block(z, act, rows, nb, dt, workspace)
 
 
@@ -857,12 +1005,39 @@ def rk4_ordered_rows(
         j = block_end(order, i, stop, substeps)
         if j - i <= ROW_PATH_MAX_ROWS:
             for row in order[i:j]:
-                advance_row(pv, z, act, row, n, with_pose, dt, count, preserve_energy,
-                            target_energy, fold_angle, folded, workspace[8])  # fmt: skip
+                advance_row(
+                    pv,
+                    z,
+                    act,
+                    row,
+                    n,
+                    with_pose,
+                    dt,
+                    count,
+                    preserve_energy,
+                    target_energy,
+                    fold_angle,
+                    folded,
+                    workspace[8],
+                )
                 advance_mass_row(act, row, dt)
         else:
-            rk4_block(pv, z, act, order[i:j], j - i, n, with_pose, dt, count, preserve_energy,
-                      target_energy, fold_angle, folded, workspace)  # fmt: skip
+            rk4_block(
+                pv,
+                z,
+                act,
+                order[i:j],
+                j - i,
+                n,
+                with_pose,
+                dt,
+                count,
+                preserve_energy,
+                target_energy,
+                fold_angle,
+                folded,
+                workspace,
+            )
         i = j
 
 
@@ -889,9 +1064,23 @@ def rk4_batch_serial(
     """Same as :func:`rk4_batch` on the calling thread (single envs, small batches)."""
     order = block_order(substeps)
     folded = np.zeros(0, dtype=np.bool_)
-    rk4_ordered_rows(pv, z, act, order, 0, z.shape[0], n, with_pose, dt, substeps,
-                     preserve_energy, target_energy, math.inf, folded,
-                     new_workspace(z.shape[1]))  # fmt: skip
+    rk4_ordered_rows(
+        pv,
+        z,
+        act,
+        order,
+        0,
+        z.shape[0],
+        n,
+        with_pose,
+        dt,
+        substeps,
+        preserve_energy,
+        target_energy,
+        math.inf,
+        folded,
+        new_workspace(z.shape[1]),
+    )
 
 
 @cached_njit(parallel=True)
@@ -921,9 +1110,23 @@ def rk4_batch(
     n_rows = z.shape[0]
     for chunk in prange((n_rows + ROWS_PER_CHUNK - 1) // ROWS_PER_CHUNK):
         stop = min(n_rows, (chunk + 1) * ROWS_PER_CHUNK)
-        rk4_ordered_rows(pv, z, act, order, chunk * ROWS_PER_CHUNK, stop, n, with_pose, dt,
-                         substeps, preserve_energy, target_energy, math.inf, folded,
-                         new_workspace(z.shape[1]))  # fmt: skip
+        rk4_ordered_rows(
+            pv,
+            z,
+            act,
+            order,
+            chunk * ROWS_PER_CHUNK,
+            stop,
+            n,
+            with_pose,
+            dt,
+            substeps,
+            preserve_energy,
+            target_energy,
+            math.inf,
+            folded,
+            new_workspace(z.shape[1]),
+        )
 
 
 @cached_njit(nogil=True)

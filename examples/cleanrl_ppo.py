@@ -37,9 +37,12 @@ class Agent(nn.Module):
 def train(env_id: str, n_trailers: int, total_steps: int, num_envs: int, seed: int) -> Agent:
     torch.manual_seed(seed)
     envs = gym.make_vec(
-        env_id, num_envs=num_envs, vectorization_mode="vector_entry_point",
-        autoreset_mode="same_step", n_trailers=n_trailers,
-    )  # fmt: skip
+        env_id,
+        num_envs=num_envs,
+        vectorization_mode="vector_entry_point",
+        autoreset_mode="same_step",
+        n_trailers=n_trailers,
+    )
     obs_dim = envs.single_observation_space.shape[0]
     action_dim = envs.single_action_space.shape[0]
     agent = Agent(obs_dim, action_dim)

@@ -51,8 +51,9 @@ def main(argv: list[str] | None = None) -> dict:
             return np.clip(output[Columns.ACTION_DIST_INPUTS].numpy()[:, :1], -1.0, 1.0)
 
         print(f"rllib_ppo: scoring {args.episodes} episodes ...", file=sys.stderr, flush=True)
-        summary = score(act, ENV.partition(":")[2], args.n_trailers, name="rllib-ppo",
-                        episodes=args.episodes)  # fmt: skip
+        summary = score(
+            act, ENV.partition(":")[2], args.n_trailers, name="rllib-ppo", episodes=args.episodes
+        )
         print(summary.markdown)
         algorithm.stop()
         return summary.summary

@@ -35,8 +35,11 @@ class PrintProgress(BaseCallback):
     def _on_step(self) -> bool:
         if self.num_timesteps % self.every == 0:
             elapsed = time.perf_counter() - self.started
-            print(f"sb3_her: {self.num_timesteps}/{self.total} steps, {elapsed:.0f} s",
-                  file=sys.stderr, flush=True)  # fmt: skip
+            print(
+                f"sb3_her: {self.num_timesteps}/{self.total} steps, {elapsed:.0f} s",
+                file=sys.stderr,
+                flush=True,
+            )
         return True
 
 
@@ -66,9 +69,13 @@ def main(argv: list[str] | None = None) -> dict:
         return model.predict(obs, deterministic=True)[0]
 
     result = score(
-        act, args.env, args.n_trailers, name="sac-her", episodes=args.episodes,
+        act,
+        args.env,
+        args.n_trailers,
+        name="sac-her",
+        episodes=args.episodes,
         goal_conditioned=True,
-    )  # fmt: skip
+    )
     print(result.markdown)
     return result.summary
 

@@ -44,10 +44,14 @@ def wheel_venv(tmp_path: Path, extras: str, *, torch: bool) -> tuple[Path, Path,
     python = venv / "bin" / "python"
     constraints = str(ROOT / "constraints.txt")
     if torch:  # the CPU build first: an unpinned torch would fetch the CUDA wheels
-        run([str(python), "-m", "pip", "install", "-q", "-c", constraints, "torch==2.13.0"],
-            tmp_path)  # fmt: skip
-    run([str(python), "-m", "pip", "install", "-q", "-c", constraints, f"{wheel}[{extras}]"],
-        tmp_path)  # fmt: skip
+        run(
+            [str(python), "-m", "pip", "install", "-q", "-c", constraints, "torch==2.13.0"],
+            tmp_path,
+        )
+    run(
+        [str(python), "-m", "pip", "install", "-q", "-c", constraints, f"{wheel}[{extras}]"],
+        tmp_path,
+    )
     work = tmp_path / "elsewhere"
     work.mkdir()
     return venv, python, work
@@ -61,12 +65,21 @@ def test_the_wheel_works_outside_the_clone(tmp_path: Path) -> None:
     assert "score 5" in run([str(python), "-c", SNIPPET], work)
     run(
         [
-            str(venv / "bin" / "trailer-env-evaluate"), "--policy", "dagger_reverse_v1_n2",
-            "--episodes", "3", "--no-plots", "--out", "eval", "--video", "x.mp4",
-            "--video-steps", "30",
+            str(venv / "bin" / "trailer-env-evaluate"),
+            "--policy",
+            "dagger_reverse_v1_n2",
+            "--episodes",
+            "3",
+            "--no-plots",
+            "--out",
+            "eval",
+            "--video",
+            "x.mp4",
+            "--video-steps",
+            "30",
         ],
         work,
-    )  # fmt: skip
+    )
     assert (work / "x.mp4").stat().st_size > 1000
     assert json.loads((work / "eval" / "results.json").read_text())["episodes"] == 3
     printed = run([str(python), "-m", "agents.main", "--out", "main", "--episodes", "10"], work)

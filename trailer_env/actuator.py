@@ -114,42 +114,76 @@ def servo_target_for_accel(
 
 
 @cached_njit(nogil=True, inline="always")
-def servo_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
-              accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
+def servo_row(
+    action: np.ndarray,
+    i: int,
+    act: np.ndarray,
+    b: float,
+    s_max: float,
+    accel_max: float,
+    dt: float,
+    frequency: float,
+) -> None:
     """ "servo": the action is the target position ``a s_max`` on the rail."""
     command = min(max(action[i, 0], -1.0), 1.0)
-    act[i, 5] = servo_accel(command * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt,
-                            frequency)  # fmt: skip
+    act[i, 5] = servo_accel(command * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt, frequency)
 
 
 @cached_njit(nogil=True, inline="always")
-def accel_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
-              accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
+def accel_row(
+    action: np.ndarray,
+    i: int,
+    act: np.ndarray,
+    b: float,
+    s_max: float,
+    accel_max: float,
+    dt: float,
+    frequency: float,
+) -> None:
     """ "accel": the action is the rail acceleration ``a A``, through the guard."""
     command = min(max(action[i, 0], -1.0), 1.0)
     act[i, 5] = guard_accel(command * accel_max, act[i, 1], act[i, 3], s_max, accel_max, dt)
 
 
 @cached_njit(nogil=True, inline="always")
-def planar_row(action: np.ndarray, i: int, act: np.ndarray, b: float, s_max: float,
-               accel_max: float, dt: float, frequency: float) -> None:  # fmt: skip
+def planar_row(
+    action: np.ndarray,
+    i: int,
+    act: np.ndarray,
+    b: float,
+    s_max: float,
+    accel_max: float,
+    dt: float,
+    frequency: float,
+) -> None:
     """ "planar": axis 0 is a target ``xi - b = a_0 s_max``, axis 1 ``eta = a_1 s_max``."""
     command = min(max(action[i, 0], -1.0), 1.0)
     act[i, 4] = servo_accel(
         command * s_max, act[i, 0] - b, act[i, 2], s_max, accel_max, dt, frequency
     )
     lateral = min(max(action[i, 1], -1.0), 1.0)
-    act[i, 5] = servo_accel(lateral * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt,
-                            frequency)  # fmt: skip
+    act[i, 5] = servo_accel(lateral * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt, frequency)
 
 
-def _servo_command(accel: np.ndarray, s: np.ndarray, v: np.ndarray, s_max: float,
-                   accel_max: float, frequency: float) -> np.ndarray:  # fmt: skip
+def _servo_command(
+    accel: np.ndarray,
+    s: np.ndarray,
+    v: np.ndarray,
+    s_max: float,
+    accel_max: float,
+    frequency: float,
+) -> np.ndarray:
     return servo_target_for_accel(accel, s, v, frequency) / s_max
 
 
-def _accel_command(accel: np.ndarray, s: np.ndarray, v: np.ndarray, s_max: float,
-                   accel_max: float, frequency: float) -> np.ndarray:  # fmt: skip
+def _accel_command(
+    accel: np.ndarray,
+    s: np.ndarray,
+    v: np.ndarray,
+    s_max: float,
+    accel_max: float,
+    frequency: float,
+) -> np.ndarray:
     return accel / accel_max
 
 

@@ -1,13 +1,13 @@
 """Per-environment info dicts built only when read (SB3's list-of-dicts ``infos``).
 
-SB3's ``VecEnv.step`` returns one info dict per environment. Building N dicts every
-step cost the SB3 adapter two thirds of its throughput (one dict of six Python scalars
-per environment, ~0.5 us each). :class:`BatchInfos` is a sequence that holds the step's
-info arrays (copies) and the extra entries of the environments that ended, and builds
-environment i's dict the first time it is read (then keeps it: SB3 and VecNormalize
-write into them). Reading all of them costs what building them did; reading a few (the
-environments that ended, which is what SB3's algorithms and wrappers do outside their
-episode-statistics loop) costs only those.
+SB3's ``VecEnv.step`` returns one info dict per environment, and building N dicts of
+Python scalars every step cost the SB3 adapter most of its throughput (the figures:
+benchmarks/README.md, "Figures quoted from the code"). :class:`BatchInfos` is a sequence
+that holds the step's info arrays (copies) and the extra entries of the environments that
+ended, and builds environment i's dict the first time it is read (then keeps it: SB3 and
+VecNormalize write into them). Reading all of them costs what building them did; reading a
+few (the environments that ended, which is what SB3's algorithms and wrappers do outside
+their episode-statistics loop) costs only those.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from collections.abc import Iterator, Sequence
 from typing import Any, overload
 
 
-class BatchInfos(Sequence[dict[str, Any]]):
+class BatchInfos(Sequence[dict[str, object]]):
     """The infos of one step of N environments, as a read-mostly sequence of dicts.
 
     Args:
@@ -27,11 +27,13 @@ class BatchInfos(Sequence[dict[str, Any]]):
 
     __slots__ = ("_columns", "_count", "_dicts", "_extras", "_lists")
 
-    def __init__(self, columns: dict[str, Any], extras: dict[int, dict[str, Any]], count: int):
+    def __init__(
+        self, columns: dict[str, object], extras: dict[int, dict[str, object]], count: int
+    ):
         self._columns = columns
         self._extras = extras
         self._count = count
-        self._dicts: list[dict[str, Any] | None] = [None] * count
+        self._dicts: list[dict[str, object] | None] = [None] * count
         self._lists: list[list[Any]] | None = None
 
     def __len__(self) -> int:
@@ -47,7 +49,7 @@ class BatchInfos(Sequence[dict[str, Any]]):
         """
         return self._columns[key]
 
-    def _build(self, i: int) -> dict[str, Any]:
+    def _build(self, i: int) -> dict[str, object]:
         if self._lists is None:  # Python scalars, as the dicts held before
             self._lists = [_per_row(column) for column in self._columns.values()]
         info = {key: values[i] for key, values in zip(self._columns, self._lists, strict=True)}
@@ -58,12 +60,12 @@ class BatchInfos(Sequence[dict[str, Any]]):
         return info
 
     @overload
-    def __getitem__(self, index: int) -> dict[str, Any]: ...
+    def __getitem__(self, index: int) -> dict[str, object]: ...
 
     @overload
-    def __getitem__(self, index: slice) -> list[dict[str, Any]]: ...
+    def __getitem__(self, index: slice) -> list[dict[str, object]]: ...
 
-    def __getitem__(self, index: int | slice) -> dict[str, Any] | list[dict[str, Any]]:
+    def __getitem__(self, index: int | slice) -> dict[str, object] | list[dict[str, object]]:
         if isinstance(index, slice):
             return [self[i] for i in range(*index.indices(self._count))]
         i = index.__index__()
@@ -74,7 +76,7 @@ class BatchInfos(Sequence[dict[str, Any]]):
         info = self._dicts[i]
         return info if info is not None else self._build(i)
 
-    def __iter__(self) -> Iterator[dict[str, Any]]:
+    def __iter__(self) -> Iterator[dict[str, object]]:
         for i in range(self._count):
             info = self._dicts[i]
             yield info if info is not None else self._build(i)

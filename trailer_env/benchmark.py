@@ -60,6 +60,7 @@ from typing import Any
 
 import numpy as np
 
+from trailer_env.json_types import JSONObject
 from trailer_env.observation import flat_observation
 
 PROTOCOL = "trailer_env-benchmark/1"
@@ -112,7 +113,7 @@ class EpisodeResults:
         return self.band_steps / np.maximum(self.lengths, 1)
 
 
-def privileged_view(policy: Any) -> Callable[[Any, np.ndarray], Any] | None:
+def privileged_view(policy: object) -> Callable[[Any, np.ndarray], Any] | None:
     """The policy's ``observe(core, obs)`` method, or None.
 
     A privileged policy (``lqr-adaptive``, which re-designs its regulator for each
@@ -132,21 +133,21 @@ def per_observation(act: Callable[[np.ndarray], Any]) -> Policy:
     return batched
 
 
-def _integer(name: str, value: Any) -> int:
+def _integer(name: str, value: object) -> int:
     """``value`` as a Python int (NumPy integers accepted; bools and floats refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an integer, got {type(value).__name__} {value!r}")
     return int(value)
 
 
-def _flag(name: str, value: Any) -> bool:
+def _flag(name: str, value: object) -> bool:
     """``value`` as a Python bool (a NumPy bool accepted; 0, 1 or "no" refused)."""
     if not isinstance(value, (bool, np.bool_)):
         raise TypeError(f"{name} must be a bool, got {type(value).__name__} {value!r}")
     return bool(value)
 
 
-def _check_episodes_and_seed(episodes: Any, seed: Any) -> tuple[int, int]:
+def _check_episodes_and_seed(episodes: object, seed: object) -> tuple[int, int]:
     """``(episodes, seed)`` as Python ints, checked.
 
     Raises:
@@ -161,7 +162,7 @@ def _check_episodes_and_seed(episodes: Any, seed: Any) -> tuple[int, int]:
     return episodes, seed
 
 
-def _trailer_count(value: Any) -> int | tuple[int, int]:
+def _trailer_count(value: object) -> int | tuple[int, int]:
     """``n_trailers`` with Python ints: one count, or a (low, high) range
     (:mod:`trailer_env.mixed`); the values are checked by ``gym.make``."""
     if isinstance(value, (tuple, list)):
@@ -176,7 +177,7 @@ def rollout(
     env_id: str,
     episodes: int,
     seed: int,
-    env_kwargs: dict[str, Any] | None = None,
+    env_kwargs: JSONObject | None = None,
     observe: Callable[[Any, np.ndarray], Any] | None = None,
 ) -> EpisodeResults:
     """Play ``episodes`` seeded episodes of ``policy`` at once on the native vector env.
@@ -275,7 +276,7 @@ def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float
     return float(max(0.0, centre - half)), float(min(1.0, centre + half))
 
 
-def summarize(results: EpisodeResults) -> dict[str, Any]:
+def summarize(results: EpisodeResults) -> JSONObject:
     """Aggregate metrics (plain Python numbers, rounded so JSON files diff cleanly).
 
     Keys: ``episodes``, ``mean_return``, ``std_return``, ``mean_length``,
@@ -311,11 +312,11 @@ def summarize(results: EpisodeResults) -> dict[str, Any]:
 class Score:
     """A policy's score on one task of the protocol."""
 
-    document: dict[str, Any]
+    document: JSONObject
     results: EpisodeResults
 
     @property
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> JSONObject:
         """The metrics (:func:`summarize`)."""
         return dict(self.document["metrics"])
 
@@ -451,7 +452,7 @@ def score(
 SCORE_FILES = ("score.json", "score.md")
 
 
-def _out_folder(out: Any, overwrite: bool) -> Path | None:
+def _out_folder(out: object, overwrite: bool) -> Path | None:
     """``out`` as a folder :func:`score` may write :data:`SCORE_FILES` into, checked for
     every file before anything is written (None: no folder)."""
     if out is None:

@@ -39,10 +39,10 @@ the mass's speed scale) has diverged too (u = 1.3 -> 5.9e6 m/s in one step was s
 Slower growth below the bound is not detected.
 
 Cost: one step's work, substeps x (n + 1) bodies summed over the rows stepped, is
-bounded by :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps, ~15 s on one
-core): fixed substeps beyond it (or ``(n + 1) B`` beyond it with "auto") are refused at
-construction (ValueError), and an auto step whose chosen substeps exceed it raises
-FloatingPointError before anything is integrated.
+bounded by :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps; its time:
+benchmarks/README.md): fixed substeps beyond it (or ``(n + 1) B`` beyond it with
+"auto") are refused at construction (ValueError), and an auto step whose chosen substeps
+exceed it raises FloatingPointError before anything is integrated.
 
 Scenes override the hooks (``_reset_row``, ``_update_task``, ``_advance``,
 ``_is_success``, ``_is_terminated``, ``_reward``, ``_after_reset``,
@@ -81,7 +81,7 @@ per row from them at each reset (exact per row, not conservative).
 from __future__ import annotations
 
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -89,6 +89,7 @@ import numpy as np
 from dynamics.jit import pack_params
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.generators import GeneratorBank, typed_generators
+from trailer_env.json_types import JSONObject
 from trailer_env.kernels import (
     DIVERGENCE_BOUND,
     OBS_BOUND,
@@ -461,7 +462,7 @@ class ConvoyCore:
         """Lower and upper bounds of the task features (default unbounded)."""
         return np.full(self.n_task_features, -np.inf), np.full(self.n_task_features, np.inf)
 
-    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+    def check_task(self, task: Mapping[str, object]) -> JSONObject:
         """The task values :meth:`set_task` would set, validated, changing nothing.
 
         Scenes with task values override it (and :meth:`set_task`); scenes without any
@@ -479,16 +480,16 @@ class ConvoyCore:
         """Set row ``i``'s task values by hand (e.g. a target); scenes without any refuse all."""
         self.check_task(task)
 
-    def task_values(self, i: int) -> dict[str, Any]:
+    def task_values(self, i: int) -> JSONObject:
         """Row ``i``'s task values as :meth:`set_task` takes them (copies): each key of
         :attr:`task_keys` is an array attribute of the scene's core, one entry per row."""
-        values: dict[str, Any] = {}
+        values: JSONObject = {}
         for key in self.task_keys:
             value = np.array(getattr(self, key)[i], dtype=np.float64)
             values[key] = float(value) if value.ndim == 0 else value
         return values
 
-    def check_row_state(self, z: Any, s: float = 0.0, s_dot: float = 0.0) -> np.ndarray:
+    def check_row_state(self, z: object, s: float = 0.0, s_dot: float = 0.0) -> np.ndarray:
         """The state :meth:`set_row_state` would set, as float64, checked; changes nothing.
 
         Raises:
@@ -513,7 +514,7 @@ class ConvoyCore:
         return state
 
     def set_row_state(
-        self, i: int, z: Any, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
+        self, i: int, z: object, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
     ) -> None:
         """Put row ``i`` in a hand-built state and start a new episode there.
 
@@ -602,7 +603,9 @@ class ConvoyCore:
         else:
             self._start_episodes(rows, bank.typed, rows)
 
-    def _start_episodes(self, rows: np.ndarray, rngs: Any, picks: np.ndarray | None) -> None:
+    def _start_episodes(
+        self, rows: np.ndarray, rngs: Sequence[np.random.Generator], picks: np.ndarray | None
+    ) -> None:
         """Draw the starts of ``rows`` (``rngs[picks[j]]`` for ``rows[j]``; without picks,
         ``rngs`` is aligned with ``rows`` and the Python hook draws), then derive the rest."""
         self.z[rows] = 0.0
@@ -623,7 +626,9 @@ class ConvoyCore:
         self._after_reset(rows)
         self.success[rows] = self._starting_success(rows)
 
-    def _draw_physics(self, rows: np.ndarray, rngs: Any, picks: np.ndarray | None) -> None:
+    def _draw_physics(
+        self, rows: np.ndarray, rngs: Sequence[np.random.Generator], picks: np.ndarray | None
+    ) -> None:
         """The episode's factors of ``rows`` from their generators, after the start's draws
         (:mod:`trailer_env.randomize`), and what they set: parameters, auto settings, speed
         and the parameter features."""
@@ -635,9 +640,18 @@ class ConvoyCore:
         draw_factors(rngs, picks, indices, columns, low, high, self.factors)
         if self._unscaled.size:
             self.factors[np.ix_(indices, self._unscaled)] = 1.0
-        apply_factors(indices, self.factors, self._packed, self.param_values, self._nominal_auto,
-                      self._row_auto, float(self._b), float(self._s_max), self.planar,
-                      self.z)  # fmt: skip
+        apply_factors(
+            indices,
+            self.factors,
+            self._packed,
+            self.param_values,
+            self._nominal_auto,
+            self._row_auto,
+            float(self._b),
+            float(self._s_max),
+            self.planar,
+            self.z,
+        )
         if self.n_param_features:
             offset = self.param_offset
             self.obs[indices, offset:] = np.log(self.factors[indices, : len(PARAMETERS)])
@@ -668,8 +682,16 @@ class ConvoyCore:
             raise ValueError("parameter values must be finite and > 0")
         if indices.size and (indices.min() < 0 or indices.max() >= self.batch_size):
             raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
-        apply_params(indices, values, self.param_values, self._nominal_auto, self._row_auto,
-                     float(self._b), float(self._s_max), self.planar)  # fmt: skip
+        apply_params(
+            indices,
+            values,
+            self.param_values,
+            self._nominal_auto,
+            self._row_auto,
+            float(self._b),
+            float(self._s_max),
+            self.planar,
+        )
         nominal = np.broadcast_to(self._packed, values.shape)
         self.factors[indices, : len(PARAMETERS)] = np.divide(
             values, nominal, out=np.ones_like(values), where=nominal != 0.0
@@ -680,8 +702,10 @@ class ConvoyCore:
         :class:`dynamics.ConvoyParams` fields' values and ``speed_factor``, the factor on
         the start's speed (1 where not randomised)."""
         values = self.param_values[i].tolist()
-        return {**dict(zip(PARAMETERS, values, strict=True)), "speed_factor": float(
-            self.factors[i, SPEED])}  # fmt: skip
+        return {
+            **dict(zip(PARAMETERS, values, strict=True)),
+            "speed_factor": float(self.factors[i, SPEED]),
+        }
 
     def params_batch(self) -> dict[str, np.ndarray]:
         """:meth:`params_info` of every row as arrays (B,) (copies)."""
@@ -718,8 +742,7 @@ class ConvoyCore:
                 return self.scene_kernel(
                     action, rows, prepare, self._config, self._state, self._outputs, scene
                 )
-            result = step_parallel(action, rows, prepare, self._config, self._state,
-                                   self._outputs)  # fmt: skip
+            result = step_parallel(action, rows, prepare, self._config, self._state, self._outputs)
             if result[0] == -1 and not result[1]:
                 self.scene_outcome(rows, self._outputs, scene)
             return result
@@ -874,8 +897,14 @@ class ConvoyCore:
         """The per-row arrays a completed step writes that the state alone does not give
         back (:meth:`save_step`): the step's results and flags. Scenes with per-step
         bookkeeping (counters) add theirs."""
-        return (self.reward, self.terminated, self.success, self.failed, self.jackknifed,
-                self.accuracy_exceeded)  # fmt: skip
+        return (
+            self.reward,
+            self.terminated,
+            self.success,
+            self.failed,
+            self.jackknifed,
+            self.accuracy_exceeded,
+        )
 
     def save_step(self) -> None:
         """Keep a copy of :meth:`_step_records` so that :meth:`undo_step` can take back the
@@ -919,10 +948,10 @@ class ConvoyCore:
             ]
         return self._info_arrays
 
-    def info_row(self, i: int) -> dict[str, Any]:
+    def info_row(self, i: int) -> JSONObject:
         """The ``info`` dict of environment ``i`` (Python scalars), keys :data:`INFO_FIELDS`,
         and ``params`` (:meth:`params_info`, a dict) when the physics are randomised."""
-        info: dict[str, Any] = {
+        info: JSONObject = {
             key: self.energy.item(i) - self.energy0.item(i) if array is None else array.item(i)
             for key, array in self._info_sources()
         }
@@ -930,17 +959,17 @@ class ConvoyCore:
             info["params"] = self.params_info(i)
         return info
 
-    def info_batch(self) -> dict[str, Any]:
+    def info_batch(self) -> JSONObject:
         """The same quantities as arrays (B,) (copies); ``params`` is a dict of arrays
         (:meth:`params_batch`)."""
-        infos: dict[str, Any] = {}
+        infos: JSONObject = {}
         for key, array in self._info_sources():
             infos[key] = np.subtract(self.energy, self.energy0) if array is None else array.copy()
         if self.randomization is not None:
             infos["params"] = self.params_batch()
         return infos
 
-    def info_rows(self) -> list[dict[str, Any]]:
+    def info_rows(self) -> list[JSONObject]:
         """One ``info`` dict per environment (Python scalars), as SB3's ``VecEnv`` wants."""
         batch = self.info_batch()
         batch.pop("params", None)
@@ -973,9 +1002,15 @@ class ShapedCore(ConvoyCore):
         self.previous_potential = np.zeros(self.batch_size)
         #: The constants of :func:`trailer_env.shaping.shaped_reward`, in its order.
         self.shaping_penalties = np.array(
-            [self.time_penalty, self.band_penalty, self.success_bonus, self.fold_penalty,
-             self.failure_penalty], dtype=np.float64,
-        )  # fmt: skip
+            [
+                self.time_penalty,
+                self.band_penalty,
+                self.success_bonus,
+                self.fold_penalty,
+                self.failure_penalty,
+            ],
+            dtype=np.float64,
+        )
 
     def _potential(self) -> np.ndarray:
         """Potential of every row's current state (higher is closer to the goal)."""
@@ -994,7 +1029,15 @@ class ShapedCore(ConvoyCore):
     def _reward(self) -> np.ndarray:
         potential = self._potential()
         reward = np.empty(self.batch_size)
-        shaped_rewards(potential, self.previous_potential, self.cost, self.success,
-                       self.jackknifed, self.failed, self.shaping_penalties, reward)  # fmt: skip
+        shaped_rewards(
+            potential,
+            self.previous_potential,
+            self.cost,
+            self.success,
+            self.jackknifed,
+            self.failed,
+            self.shaping_penalties,
+            reward,
+        )
         self.previous_potential[:] = potential
         return reward

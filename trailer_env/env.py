@@ -27,7 +27,7 @@ PATH_LENGTH = 2000
 STATE_OPTIONS = ("state", "s", "s_dot")
 
 
-def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, Any]:
+def check_reset_options(options: object, task_keys: tuple[str, ...]) -> dict[str, object]:
     """``options`` as a dict (None -> {}), its keys checked against the scene's.
 
     Raises:
@@ -47,7 +47,7 @@ def check_reset_options(options: Any, task_keys: tuple[str, ...]) -> dict[str, A
     return options
 
 
-def checked_seed(seed: Any) -> int | None:
+def checked_seed(seed: object) -> int | None:
     """A ``reset(seed=...)`` value as a Python int (or None), never truncated.
 
     Raises:
@@ -65,7 +65,7 @@ def checked_seed(seed: Any) -> int | None:
     return int(seed)
 
 
-def refuse_masked(value: Any, name: str) -> Any:
+def refuse_masked(value: object, name: str) -> Any:
     """``value`` itself, or its data if it is a numpy masked array with nothing masked.
 
     Raises:
@@ -108,7 +108,11 @@ class RenderModes(list[str]):
 
 
 def as_action_array(
-    action: Any, shape: tuple[int, ...], name: str = "action", *, alternative: tuple[int, ...] = ()
+    action: object,
+    shape: tuple[int, ...],
+    name: str = "action",
+    *,
+    alternative: tuple[int, ...] = (),
 ) -> np.ndarray:
     """``action`` as a numeric array of exactly ``shape`` (or ``alternative``), or a clear error.
 
@@ -149,7 +153,7 @@ def as_action_array(
 MAX_STATE_MAGNITUDE = 1e30
 
 
-def checked_state(z: Any, s: Any, s_dot: Any) -> tuple[np.ndarray, float, float]:
+def checked_state(z: object, s: object, s_dot: object) -> tuple[np.ndarray, float, float]:
     """A hand-built state as a float64 vector and the mass's position and velocity as floats.
 
     The shape and the rail are checked by :meth:`ConvoyCore.set_row_state`.
@@ -225,8 +229,8 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         self._has_reset = False
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[Observation, dict[str, Any]]:
+        self, *, seed: int | None = None, options: dict[str, object] | None = None
+    ) -> tuple[Observation, dict[str, object]]:
         """Start an episode; ``seed`` seeds the generator that draws the starting state.
 
         Args:
@@ -274,7 +278,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
             self.render()
         return self._view.row(self.core.obs, 0), self.core.info_row(0)
 
-    def step(self, action: Any) -> tuple[Observation, float, bool, bool, dict[str, Any]]:
+    def step(self, action: object) -> tuple[Observation, float, bool, bool, dict[str, object]]:
         """Advance by ``dt``. Out-of-range actions are clipped to [-1, 1].
 
         ``action`` must have exactly the action space's shape, (1,) or (2,) in planar
@@ -321,7 +325,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
 
     def set_state(
         self,
-        z: Any,
+        z: object,
         *,
         s: float = 0.0,
         s_dot: float = 0.0,
@@ -350,7 +354,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         self._record_path()
         return self._view.row(self.core.obs, 0)
 
-    def get_state(self) -> dict[str, Any]:
+    def get_state(self) -> dict[str, object]:
         """The current state, as :meth:`set_state` takes it: ``env.set_state(**env.get_state())``
         puts this env, or another one made with the same keywords, in the same state.
 
@@ -419,7 +423,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
                     keys[combination] = np.array([first, second], np.float32)
         return keys
 
-    def __getstate__(self) -> dict[str, Any]:
+    def __getstate__(self) -> dict[str, object]:
         """Pickle everything but the renderer (it holds pygame objects); it is recreated by
         the next :meth:`render`."""
         state = self.__dict__.copy()

@@ -21,8 +21,8 @@ Integrators:
   from one control step to the next.
 
 Bounds (:mod:`trailer_env.core`): a step's work, substeps x (n + 1) bodies summed over
-the batch, is capped at :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps,
-~15 s on one core): fixed ``substeps`` beyond it are refused when the environment is
+the batch, is capped at :data:`~trailer_env.substeps.MAX_STEP_WORK` (2e8 body-substeps;
+its time: benchmarks/README.md): fixed ``substeps`` beyond it are refused when the environment is
 built, an auto step beyond it raises FloatingPointError before integrating. A step whose
 result is not finite or beyond :data:`~trailer_env.kernels.DIVERGENCE_BOUND` (1e12) in
 magnitude, or (auto, a substep cap binding) whose speed grew over 1000-fold
@@ -34,13 +34,13 @@ divergence bound but not to the work budget (its own step control has its own li
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
 from dynamics import AdaptiveStepper, ConvoyParams, Stepper
 from dynamics.adaptive import STATUS_OK
 from dynamics.params import bounded_integer, bounded_real
+from trailer_env.json_types import JSONObject
 from trailer_env.substeps import (
     HARD_MAX_SUBSTEPS,
     MAX_TOLERANCE,
@@ -170,7 +170,7 @@ class Fidelity:
         return self.substeps if isinstance(self.substeps, int) else 1
 
     @classmethod
-    def coerce(cls, value: Fidelity | dict[str, Any] | str | int | None) -> Fidelity:
+    def coerce(cls, value: Fidelity | JSONObject | str | int | None) -> Fidelity:
         """Accept a Fidelity, a dict of its fields, an integrator name, "auto" or substeps.
 
         Raises:

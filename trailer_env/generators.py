@@ -6,9 +6,9 @@ accepts NumPy generators and advances the same bit-generator state NumPy does, w
 same algorithms (``random``, ``uniform``, ``standard_normal``): a start drawn in
 compiled code is the start NumPy would draw, bit for bit, and the Python generator's
 stream continues from where the compiled draws left it. Passing N generators to a
-compiled function one by one costs ~6 us each (unboxing); :class:`GeneratorBank` keeps
-them in a ``numba.typed.List`` as well, which crosses into compiled code in ~1 us
-whatever N is.
+compiled function one by one costs an unboxing each; :class:`GeneratorBank` keeps them
+in a ``numba.typed.List`` as well, which crosses into compiled code at a cost that does
+not grow with N (the times: benchmarks/README.md, "Figures quoted from the code").
 """
 
 from __future__ import annotations

@@ -14,18 +14,20 @@ calls a parallel one).
 
 Scalar settings and arrays are packed once into the named tuples :class:`StepConfig`,
 :class:`StepState` and :class:`StepOutputs` (see :class:`trailer_env.core.ConvoyCore`), so
-a call for one environment costs about a microsecond. Compiled code reads their fields
-by name. Called from Python, the entry points (:func:`step_serial`, :func:`step_parallel`,
-:func:`prepare_step`, :func:`observe` and the scenes' kernels) take them either as the
-named tuples or as plain tuples of their fields, ``tuple(config)``, which is what the
-core passes: numba unboxes a plain tuple about 0.7 us faster per argument than a named
-one, and rebuilding the named tuple inside compiled code (``StepConfig(*config)``) costs
-nothing. Large batches
-(``PARALLEL_MIN_ROWS`` rows or more, the threshold of :mod:`dynamics.jit` that
-``dynamics.Stepper`` uses too) use the parallel variant, which splits the rows into
-chunks of ``ROWS_PER_CHUNK``, grouped into blocks by ``dynamics.jit.block_end`` as RK4's
-own driver does; every row's arithmetic is the same either way (the blocks share loops, not
-operations), so results do not depend on the batch size or the number of threads.
+a call crosses into compiled code with three arguments whatever the batch (the cost of
+a call: benchmarks/README.md, "Figures quoted from the code"). Compiled code reads
+their fields by name. Called from Python, the entry points (:func:`step_serial`,
+:func:`step_parallel`, :func:`prepare_step`, :func:`observe` and the scenes' kernels)
+take them either as the named tuples or as plain tuples of their fields,
+``tuple(config)``, which is what the core passes: numba unboxes a plain tuple faster
+than a named one (by how much: the same section of benchmarks/README.md), and
+rebuilding the named tuple inside compiled code (``StepConfig(*config)``) costs
+nothing. Large batches (``PARALLEL_MIN_ROWS`` rows or more, the threshold of
+:mod:`dynamics.jit` that ``dynamics.Stepper`` uses too) use the parallel variant, which
+splits the rows into chunks of ``ROWS_PER_CHUNK``, grouped into blocks by
+``dynamics.jit.block_end`` as RK4's own driver does; every row's arithmetic is the same
+either way (the blocks share loops, not operations), so results do not depend on the batch
+size or the number of threads.
 """
 
 from __future__ import annotations
@@ -221,9 +223,17 @@ def observe_block(
 
 @cached_njit()
 def _observe_rows(
-    z: np.ndarray, act: np.ndarray, rows: np.ndarray, start: int, stop: int, n: int,
-    planar: bool, settings: np.ndarray, pv: np.ndarray, outputs: StepOutputs,
-) -> int:  # fmt: skip
+    z: np.ndarray,
+    act: np.ndarray,
+    rows: np.ndarray,
+    start: int,
+    stop: int,
+    n: int,
+    planar: bool,
+    settings: np.ndarray,
+    pv: np.ndarray,
+    outputs: StepOutputs,
+) -> int:
     workspace = new_workspace(z.shape[1])
     scratch = params_scratch(pv)
     jackknifed = outputs.jackknifed
@@ -235,8 +245,7 @@ def _observe_rows(
             jackknifed[block[lane]] = False
         gather_block(z, act, block, nb, workspace)
         lane_pv = gather_params(pv, block, nb, scratch)
-        bad += observe_block(z, block, nb, n, planar, settings, lane_pv, outputs, workspace,
-                             False)  # fmt: skip
+        bad += observe_block(z, block, nb, n, planar, settings, lane_pv, outputs, workspace, False)
     return bad
 
 
@@ -262,9 +271,13 @@ def observe(
 
 @cached_njit(nogil=True)
 def _prepare_rows(
-    action: np.ndarray, rows: np.ndarray, start: int, stop: int, config: StepConfig,
+    action: np.ndarray,
+    rows: np.ndarray,
+    start: int,
+    stop: int,
+    config: StepConfig,
     state: StepState,
-) -> tuple:  # fmt: skip
+) -> tuple:
     """Rows ``rows[start:stop]``: guarded accelerations, the auto substep count and a backup
     of the state. Returns (rows over the tolerance: a cap binds, their substeps in all).
 
@@ -343,15 +356,40 @@ def _step_chunk(
         lane_pv = gather_params(pv, block, nb, scratch)
         if nb <= ROW_PATH_MAX_ROWS:
             for i in block:
-                advance_row(row_params(pv, i), z, act, i, n, with_pose, dt, count, preserve_energy,
-                            target_energy, fold_angle, jackknifed, workspace[8])  # fmt: skip
+                advance_row(
+                    row_params(pv, i),
+                    z,
+                    act,
+                    i,
+                    n,
+                    with_pose,
+                    dt,
+                    count,
+                    preserve_energy,
+                    target_energy,
+                    fold_angle,
+                    jackknifed,
+                    workspace[8],
+                )
                 advance_mass_row(act, i, dt)
                 clamp_row_to_rail(act, i, b, s_max)
             gather_block(z, act, block, nb, workspace)
         else:
             gather_block(z, act, block, nb, workspace)
-            advance_block(lane_pv, block, nb, n, with_pose, dt, count, preserve_energy,
-                          target_energy, fold_angle, jackknifed, workspace)  # fmt: skip
+            advance_block(
+                lane_pv,
+                block,
+                nb,
+                n,
+                with_pose,
+                dt,
+                count,
+                preserve_energy,
+                target_energy,
+                fold_angle,
+                jackknifed,
+                workspace,
+            )
             scatter_block(z, act, block, nb, dt, workspace)
             # The block holds the new state; only the mass's new position and velocity
             # (after the rail guard) are to be read back for the observations.
@@ -371,17 +409,31 @@ def _step_chunk(
                 if state.exceeded[i] and grew_absurdly_row(z, state.z_backup, settings, i):
                     z[i, 0] = np.nan
                     y[0, lane] = np.nan
-        bad += observe_block(z, block, nb, n, config.planar, config.obs_settings, lane_pv,
-                             outputs, workspace, fold_angle < np.inf)  # fmt: skip
+        bad += observe_block(
+            z,
+            block,
+            nb,
+            n,
+            config.planar,
+            config.obs_settings,
+            lane_pv,
+            outputs,
+            workspace,
+            fold_angle < np.inf,
+        )
         first = last
     return bad, over_tolerance
 
 
 @cached_njit()
 def step_serial(
-    action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
+    action: np.ndarray,
+    rows: np.ndarray,
+    prepare: bool,
+    config: tuple,
+    state: tuple,
     outputs: tuple,
-) -> tuple:  # fmt: skip
+) -> tuple:
     """One control step of ``rows`` on the calling thread.
 
     ``config``, ``state`` and ``outputs``: a :class:`StepConfig`, :class:`StepState` and
@@ -408,16 +460,21 @@ def step_serial(
         budget = row_params(named_config.auto_settings, 0)[AUTO_WORK_SUBSTEPS]  # same per row
         if named_config.auto and total > budget:
             return OVER_BUDGET, 0, over
-    bad, _ = _step_chunk(action, rows, 0, rows.shape[0], False, named_config, named_state,
-                         StepOutputs(*outputs))  # fmt: skip
+    bad, _ = _step_chunk(
+        action, rows, 0, rows.shape[0], False, named_config, named_state, StepOutputs(*outputs)
+    )
     return -1, bad, over
 
 
 @cached_njit(parallel=True)
 def step_parallel(
-    action: np.ndarray, rows: np.ndarray, prepare: bool, config: tuple, state: tuple,
+    action: np.ndarray,
+    rows: np.ndarray,
+    prepare: bool,
+    config: tuple,
+    state: tuple,
     outputs: tuple,
-) -> tuple:  # fmt: skip
+) -> tuple:
     """:func:`step_serial` over chunks of rows on numba's threads (the same results)."""
     named_config = StepConfig(*config)
     named_state = StepState(*state)
@@ -455,9 +512,7 @@ def step_parallel(
 
 
 @cached_njit()
-def prepare_step(
-    action: np.ndarray, rows: np.ndarray, config: tuple, state: tuple
-) -> tuple:  # fmt: skip
+def prepare_step(action: np.ndarray, rows: np.ndarray, config: tuple, state: tuple) -> tuple:
     """The actuator, the auto rule and the backup alone (integrators outside this module).
 
     Returns ``(bad action row or -1, rows over the tolerance)``.

@@ -1,6 +1,6 @@
 """Convoys of different lengths in one environment: ``n_trailers=(low, high)``.
 
-Any scene accepts a range of trailer counts instead of one::
+Every scene accepts a range of trailer counts instead of one::
 
     env = gym.make("trailer_env/Reverse-v1", n_trailers=(1, 3))
     envs = gym.make_vec("trailer_env/Reverse-v1", num_envs=256,
@@ -40,7 +40,7 @@ are bounded by one n. Measured cost: benchmarks/README.md. Not supported with a 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -50,6 +50,7 @@ from dynamics.params import MAX_TRAILERS, bounded_integer
 from trailer_env.actuator import first_non_finite_row
 from trailer_env.core import INFO_FIELDS, ConvoyCore
 from trailer_env.generators import GeneratorBank
+from trailer_env.json_types import JSONObject
 from trailer_env.observation import ObservationView
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 
@@ -57,7 +58,7 @@ from trailer_env.settings import EnvSettings, settings_from_kwargs
 MAX_COUNTS = 8
 
 
-def is_trailer_range(value: Any) -> bool:
+def is_trailer_range(value: object) -> bool:
     """Whether ``n_trailers`` was given as a range (a tuple or list) rather than one count."""
     return isinstance(value, (tuple, list))
 
@@ -121,7 +122,13 @@ def pad_observations(obs: np.ndarray, n: int, top: int) -> np.ndarray:
 
 
 @cached_njit()
-def draw_counts(generators: Any, picks: np.ndarray, low: int, count: int, out: np.ndarray) -> None:
+def draw_counts(
+    generators: Sequence[np.random.Generator],
+    picks: np.ndarray,
+    low: int,
+    count: int,
+    out: np.ndarray,
+) -> None:
     """``out[j] = low + floor(U * count)``, U drawn from ``generators[picks[j]]``."""
     for j in range(picks.size):
         out[j] = low + math.floor(generators[picks[j]].random() * count)
@@ -257,10 +264,10 @@ class MixedCore:
             values[rows] = getattr(core, name)[rows]
 
     # -------------------------------------------------------------- infos
-    def info_batch(self) -> dict[str, Any]:
+    def info_batch(self) -> JSONObject:
         """:meth:`ConvoyCore.info_batch` of every row (``params`` with ``randomize=``, a
         dict of arrays), and ``n_trailers``."""
-        infos: dict[str, Any] = {}
+        infos: JSONObject = {}
         for key, name in INFO_FIELDS:
             if name is None:
                 infos[key] = self._fields["energy"] - self.energy0
@@ -280,11 +287,11 @@ class MixedCore:
                 batch.setdefault(name, np.empty(self.batch_size))[live] = values[live]
         return batch
 
-    def info_row(self, i: int) -> dict[str, Any]:
+    def info_row(self, i: int) -> JSONObject:
         """The info dict of environment ``i`` (Python scalars; ``params`` a dict of them)."""
         return self.info_rows()[i]
 
-    def info_rows(self) -> list[dict[str, Any]]:
+    def info_rows(self) -> list[JSONObject]:
         """One info dict per environment (Python scalars; ``params`` a dict of them)."""
         batch = self.info_batch()
         params = batch.pop("params", None)
@@ -301,13 +308,13 @@ class MixedCore:
     def check_row_state(self, *args: Any, **kwargs: Any) -> np.ndarray:
         raise ValueError("a hand-built state needs one number of trailers, not a range")
 
-    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+    def check_task(self, task: Mapping[str, object]) -> JSONObject:
         if task:
             raise ValueError("task values in reset options need one number of trailers")
         return {}
 
 
-def mixed_settings(kwargs: dict[str, Any]) -> dict[int, EnvSettings]:
+def mixed_settings(kwargs: JSONObject) -> dict[int, EnvSettings]:
     """Validated settings of every count of ``kwargs["n_trailers"]`` (a range).
 
     Raises:
@@ -322,7 +329,7 @@ def mixed_settings(kwargs: dict[str, Any]) -> dict[int, EnvSettings]:
 
 
 def build_core(
-    core_class: type[ConvoyCore], kwargs: dict[str, Any], batch_size: int, track_pose: bool
+    core_class: type[ConvoyCore], kwargs: JSONObject, batch_size: int, track_pose: bool
 ) -> tuple[EnvSettings, Any]:
     """The settings and the batch core the keywords ask for: a :class:`MixedCore` when
     ``n_trailers`` is a range, the scene's own core otherwise.

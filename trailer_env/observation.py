@@ -42,8 +42,6 @@ trailers equals the observation of an env made with ``n_trailers=n`` (same
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from gymnasium import spaces
 
@@ -61,7 +59,7 @@ TRAILER_FEATURES = 2
 Observation = np.ndarray | dict[str, np.ndarray]
 
 
-def checked_observation(observation: Any, max_trailers: Any, n_trailers: int) -> int | None:
+def checked_observation(observation: object, max_trailers: object, n_trailers: int) -> int | None:
     """Validate the ``observation`` and ``max_trailers`` keywords; returns ``max_trailers``
     (the default filled in for "trailers", None for "flat"). Changes nothing.
 

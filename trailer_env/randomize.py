@@ -34,7 +34,6 @@ import math
 import numbers
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
@@ -193,9 +192,14 @@ def checked_observe_params(value: object) -> bool:
 
 @cached_njit()
 def draw_factors(
-    generators: Any, picks: np.ndarray, rows: np.ndarray, columns: np.ndarray, low: np.ndarray,
-    high: np.ndarray, factors: np.ndarray,
-) -> None:  # fmt: skip
+    generators: Sequence[np.random.Generator],
+    picks: np.ndarray,
+    rows: np.ndarray,
+    columns: np.ndarray,
+    low: np.ndarray,
+    high: np.ndarray,
+    factors: np.ndarray,
+) -> None:
     """Row ``rows[j]``'s factors from ``generators[picks[j]]``: one ``uniform(low[c],
     high[c])`` per column ``c`` of ``columns``, in order, into ``factors[rows[j], c]``
     (NumPy's draws to the bit; the other columns are left as they are)."""
@@ -208,10 +212,17 @@ def draw_factors(
 
 @cached_njit()
 def apply_factors(
-    rows: np.ndarray, factors: np.ndarray, nominal: np.ndarray, pv: np.ndarray,
-    nominal_auto: np.ndarray, auto: np.ndarray, b: float, s_max: float, planar: bool,
+    rows: np.ndarray,
+    factors: np.ndarray,
+    nominal: np.ndarray,
+    pv: np.ndarray,
+    nominal_auto: np.ndarray,
+    auto: np.ndarray,
+    b: float,
+    s_max: float,
+    planar: bool,
     z: np.ndarray,
-) -> None:  # fmt: skip
+) -> None:
     """The episode's parameters of ``rows``: ``pv[i] = nominal * factors[i, :P]``, the auto
     rule's settings recomputed from them (exactly as
     :func:`trailer_env.substeps.auto_settings` computes them for fixed parameters), and the
@@ -226,9 +237,14 @@ def apply_factors(
 
 @cached_njit()
 def _row_auto(
-    i: int, pv: np.ndarray, nominal_auto: np.ndarray, auto: np.ndarray, b: float,
-    s_max: float, planar: bool,
-) -> None:  # fmt: skip
+    i: int,
+    pv: np.ndarray,
+    nominal_auto: np.ndarray,
+    auto: np.ndarray,
+    b: float,
+    s_max: float,
+    planar: bool,
+) -> None:
     """Row ``i``'s auto rule settings from its parameters ``pv[i]``."""
     for k in range(nominal_auto.size):
         auto[i, k] = nominal_auto[k]
@@ -240,9 +256,15 @@ def _row_auto(
 
 @cached_njit()
 def apply_params(
-    rows: np.ndarray, values: np.ndarray, pv: np.ndarray, nominal_auto: np.ndarray,
-    auto: np.ndarray, b: float, s_max: float, planar: bool,
-) -> None:  # fmt: skip
+    rows: np.ndarray,
+    values: np.ndarray,
+    pv: np.ndarray,
+    nominal_auto: np.ndarray,
+    auto: np.ndarray,
+    b: float,
+    s_max: float,
+    planar: bool,
+) -> None:
     """Given parameters of ``rows``: ``pv[rows[j]] = values[j]`` and the auto rule's
     settings recomputed from them (as :func:`apply_factors` does)."""
     for j in range(rows.size):

@@ -19,12 +19,15 @@ import math
 import os
 import tempfile
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from dynamics import ConvoyParams, body_poses
 from trailer_env.randomize import PARAMETERS
+
+if TYPE_CHECKING:
+    from trailer_env.core import ConvoyCore
 
 RGB = tuple[int, int, int]
 BACKGROUND: RGB = (245, 245, 240)
@@ -127,7 +130,7 @@ class PathTrace:
         return int(self._count[0])
 
 
-def core_frame(core: Any, i: int, path: np.ndarray) -> RenderFrame:
+def core_frame(core: ConvoyCore, i: int, path: np.ndarray) -> RenderFrame:
     """The picture of row ``i`` of a :class:`~trailer_env.core.ConvoyCore` tracking its pose."""
     n = core.n
     z = core.z[i]
@@ -145,7 +148,7 @@ def core_frame(core: Any, i: int, path: np.ndarray) -> RenderFrame:
     )
 
 
-def make_renderer(core: Any, render_mode: str, fps: int) -> ConvoyRenderer:
+def make_renderer(core: ConvoyCore, render_mode: str, fps: int) -> ConvoyRenderer:
     """A renderer for the scene of ``core`` (its geometry, singular band and view size)."""
     return ConvoyRenderer(
         core.params,

@@ -121,10 +121,17 @@ class ConvoySB3VecEnv(VecEnv):
         rewards = core.reward.astype(np.float32)
         dones = np.empty(self.num_envs, dtype=bool)
         truncated = np.empty(self.num_envs, dtype=bool)
-        ended = count_episodes(self.elapsed_steps, self.max_episode_steps, core.terminated,
-                               rewards, self._episode_returns, self._episode_lengths,
-                               dones, truncated)  # fmt: skip
-        extras: dict[int, dict[str, Any]] = {}
+        ended = count_episodes(
+            self.elapsed_steps,
+            self.max_episode_steps,
+            core.terminated,
+            rewards,
+            self._episode_returns,
+            self._episode_lengths,
+            dones,
+            truncated,
+        )
+        extras: dict[int, dict[str, object]] = {}
         if ended:
             rows = np.flatnonzero(dones)
             elapsed = round(time.time() - self._start_time, 6)
@@ -161,7 +168,7 @@ class ConvoySB3VecEnv(VecEnv):
         value = getattr(self, attr_name)
         return [value for _ in self._indices(indices)]
 
-    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+    def set_attr(self, attr_name: str, value: object, indices: VecEnvIndices = None) -> None:
         raise AttributeError(
             "the batch's settings are fixed at construction; build a new ConvoySB3VecEnv"
         )
@@ -207,9 +214,12 @@ class PotentialShapingVecEnv(VecEnvWrapper):
     """
 
     def __init__(
-        self, venv: ConvoySB3VecEnv, potential: str = "lqr", gamma: float = 0.99,
+        self,
+        venv: ConvoySB3VecEnv,
+        potential: str = "lqr",
+        gamma: float = 0.99,
         **potential_kwargs: float,
-    ) -> None:  # fmt: skip
+    ) -> None:
         if not isinstance(venv, ConvoySB3VecEnv):
             raise TypeError(
                 f"PotentialShapingVecEnv wraps a ConvoySB3VecEnv, got {type(venv).__name__}"

@@ -15,7 +15,7 @@ import dataclasses
 import math
 import warnings
 from dataclasses import dataclass, field
-from typing import Any, cast
+from typing import cast
 
 from dynamics import ConvoyParams
 from dynamics.params import MAX_TRAILERS, bounded_integer, bounded_real, one_of
@@ -57,7 +57,7 @@ class EnvSettings:
 
     Bounded cost: one control step of a batch may take at most
     :data:`~trailer_env.substeps.MAX_STEP_WORK` = 2e8 body-substeps (substeps x
-    (n_trailers + 1), summed over the environments; ~15 s on one core). The batch core
+    (n_trailers + 1), summed over the environments; its time: benchmarks/README.md). The batch core
     refuses fixed substeps beyond it when it is built (ValueError), and with
     ``substeps="auto"`` a step whose chosen substeps exceed it raises FloatingPointError,
     naming the speed and the budget, before anything is integrated.
@@ -217,13 +217,13 @@ def settings_from_kwargs(
     n_trailers: int | None = None,
     params: ConvoyParams | None = None,
     dt: float = 0.05,
-    fidelity: Fidelity | dict[str, Any] | str | int | None = None,
+    fidelity: Fidelity | dict[str, object] | str | int | None = None,
     action_mode: ActionMode = "servo",
     rail_accel_max: float = 4.0,
     servo_bandwidth: float = 5.0,
     singular_band: float = 0.3,
     fold_angle: float = math.pi / 2,
-    randomize: Randomization | dict[str, Any] | str | None = None,
+    randomize: Randomization | dict[str, object] | str | None = None,
     observe_params: bool = False,
     observation: str = "flat",
     max_trailers: int | None = None,
@@ -238,7 +238,7 @@ def settings_from_kwargs(
         dt, fidelity, action_mode, rail_accel_max, servo_bandwidth: See :class:`EnvSettings`.
         singular_band, fold_angle, randomize, observe_params: See :class:`EnvSettings`.
         observation, max_trailers: See :class:`EnvSettings`.
-        **param_overrides: Any ConvoyParams field, e.g. ``mu=0.4``.
+        **param_overrides: ConvoyParams fields, e.g. ``mu=0.4``.
 
     Raises:
         TypeError: On an unknown keyword (the Python convention, which wrappers such as

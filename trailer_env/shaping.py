@@ -65,8 +65,9 @@ def shaped_rewards(
 ) -> None:
     """:func:`shaped_reward` of every row into ``out``."""
     for i in range(out.shape[0]):
-        out[i] = shaped_reward(potential[i], previous[i], cost[i], success[i], jackknifed[i],
-                               failed[i], penalties)  # fmt: skip
+        out[i] = shaped_reward(
+            potential[i], previous[i], cost[i], success[i], jackknifed[i], failed[i], penalties
+        )
 
 
 #: Default of :class:`LQRPotential`'s ``reference``: the regulator's cost-to-go of a state

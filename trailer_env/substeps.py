@@ -50,10 +50,11 @@ tolerance. Such a step is never silent: the environments flag its rows
 ``"dopri5"``.
 
 Work budget. One control step of a batch costs substeps x (n + 1) body-substeps per
-environment; their sum over the batch is capped at :data:`MAX_STEP_WORK` (2e8, at most
-~15 s on one core). A step whose chosen substeps would exceed it (e.g. n = 256 at
-|u| = 1e8 m/s: 1e6 substeps, 2.6e8 body-substeps) raises FloatingPointError naming the
-speed and the budget before anything is integrated, instead of running for minutes.
+environment; their sum over the batch is capped at :data:`MAX_STEP_WORK` (2e8; what
+that costs: benchmarks/README.md, "Figures quoted from the code"). A step whose chosen
+substeps would exceed it (e.g. n = 256 at |u| = 1e8 m/s: 1e6 substeps, 2.6e8
+body-substeps) raises FloatingPointError naming the speed and the budget before
+anything is integrated, instead of running for minutes.
 """
 
 from __future__ import annotations
@@ -94,9 +95,9 @@ HARD_MAX_SUBSTEPS = 1_000_000
 #: the mass's speed scale), has diverged (u = 1.3 -> 5.9e6 m/s in one step was seen).
 GROWTH_LIMIT = 1e3
 #: The work budget of one control step of a batch, in body-substeps: substeps x (n + 1)
-#: bodies, summed over the batch's environments. RK4 advances ~1.2e7 body-substeps per
-#: second on one core (n = 256: 1e6 substeps took 20.7 s), so a step within the budget
-#: takes at most ~15 s on one core. Fixed substeps beyond it are refused when the
+#: bodies, summed over the batch's environments. It bounds the time of one step (the
+#: measured rate and bound: benchmarks/README.md, "Figures quoted from the code").
+#: Fixed substeps beyond it are refused when the
 #: environment is built; with "auto", a step whose chosen substeps exceed it raises
 #: FloatingPointError before anything is integrated (trailer_env.core).
 MAX_STEP_WORK = 200_000_000

@@ -41,7 +41,7 @@ actions.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -63,6 +63,7 @@ from trailer_env.env import (
 )
 from trailer_env.episodes import count_step
 from trailer_env.generators import GeneratorBank
+from trailer_env.json_types import JSONObject
 from trailer_env.mixed import build_core, observation_view
 from trailer_env.observation import Observation
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
@@ -126,7 +127,7 @@ def checked_seeds(
     return [checked_seed(value) for value in seeds]
 
 
-def parse_autoreset_mode(mode: Any) -> AutoresetMode:
+def parse_autoreset_mode(mode: object) -> AutoresetMode:
     """An :class:`AutoresetMode` from itself, its value ("NextStep") or name ("next_step").
 
     Raises:
@@ -142,7 +143,7 @@ def parse_autoreset_mode(mode: Any) -> AutoresetMode:
 
 
 def as_action_batch(
-    actions: Any, count: int, action_dim: int, out: np.ndarray | None = None
+    actions: object, count: int, action_dim: int, out: np.ndarray | None = None
 ) -> np.ndarray:
     """Actions as a float64 (count, action_dim) array; (count,) is accepted when action_dim == 1.
 
@@ -285,8 +286,8 @@ class ConvoyVectorEnv(VectorEnv):
         self,
         *,
         seed: int | Sequence[int | None] | None = None,
-        options: dict[str, Any] | None = None,
-    ) -> tuple[Observation, dict[str, Any]]:
+        options: Mapping[str, object] | None = None,
+    ) -> tuple[Observation, JSONObject]:
         """Reset every environment, or those of ``options["reset_mask"]``.
 
         ``seed`` seeds environment i with ``seed + i`` (see the module docstring); with a
@@ -316,7 +317,7 @@ class ConvoyVectorEnv(VectorEnv):
         self._start(rows, states)
         return self._view.batch(self.core.obs), self._infos()
 
-    def _reset_options(self, options: Any) -> tuple[np.ndarray, np.ndarray | None]:
+    def _reset_options(self, options: object) -> tuple[np.ndarray, np.ndarray | None]:
         """The rows to reset and their given states (None: draw them) from ``options``."""
         if options is None:
             return self._all_rows, None
@@ -380,8 +381,8 @@ class ConvoyVectorEnv(VectorEnv):
             self._record_paths(rows)
 
     def step(
-        self, actions: Any
-    ) -> tuple[Observation, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        self, actions: object
+    ) -> tuple[Observation, np.ndarray, np.ndarray, np.ndarray, JSONObject]:
         """Step every environment (autoreset as ``autoreset_mode`` says).
 
         Raises:
@@ -431,7 +432,7 @@ class ConvoyVectorEnv(VectorEnv):
         )
         if self._paths is not None:
             self._record_paths(self._all_rows)
-        final: dict[str, Any] | None = None
+        final: JSONObject | None = None
         if ended is not None:
             self._start(ended)
             reward[ended] = 0.0
@@ -482,7 +483,7 @@ class ConvoyVectorEnv(VectorEnv):
             frames.append(self._renderer.draw(core_frame(self.core, i, self._paths.path(i))))
         return tuple(frames)
 
-    def __getstate__(self) -> dict[str, Any]:
+    def __getstate__(self) -> JSONObject:
         """Pickle (and deep-copy) everything but the renderer (it holds pygame objects); it
         is recreated by the next :meth:`render`."""
         state = self.__dict__.copy()
@@ -495,9 +496,9 @@ class ConvoyVectorEnv(VectorEnv):
             self._renderer.close()
             self._renderer = None
 
-    def _infos(self, mask: np.ndarray | None = None) -> dict[str, Any]:
+    def _infos(self, mask: np.ndarray | None = None) -> JSONObject:
         """The step's infos as arrays (copies), each key ``k`` with its mask ``_k``."""
-        infos: dict[str, Any] = self.core.info_batch()
+        infos: JSONObject = self.core.info_batch()
         if mask is None:
             if self._info_masks is None:
                 self._info_masks = {f"_{key}": self._mask for key in infos}

@@ -26,8 +26,16 @@ def _compile_bookkeeping() -> None:
     """The vector env's and the SB3 adapter's per-step counters (:mod:`trailer_env.episodes`)."""
     elapsed, flags = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=bool)
     count_step(elapsed, 1, flags, flags.copy(), flags.copy())
-    count_episodes(elapsed, 1, flags, np.zeros(1, dtype=np.float32), np.zeros(1),
-                   np.zeros(1, dtype=np.int64), flags.copy(), flags.copy())  # fmt: skip
+    count_episodes(
+        elapsed,
+        1,
+        flags,
+        np.zeros(1, dtype=np.float32),
+        np.zeros(1),
+        np.zeros(1, dtype=np.int64),
+        flags.copy(),
+        flags.copy(),
+    )
 
 
 def compile_kernels(report: Callable[[str], None] = print) -> float:

@@ -25,12 +25,13 @@ import gymnasium as gym
 import numpy as np
 
 from trailer_env.env import ConvoyEnv
+from trailer_env.json_types import JSONObject
 from trailer_env.scenes.dock import SUCCESS_HEADING, SUCCESS_RADIUS, DockCore
 from trailer_env.scenes.heading import HEADING_TOLERANCE, HeadingCore
 from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
 
 
-def _convoy_env(wrapper: str, env: Any) -> ConvoyEnv:
+def _convoy_env(wrapper: str, env: object) -> ConvoyEnv:
     """The trailer_env environment under ``env`` (what ``wrapper`` may wrap).
 
     Raises:
@@ -71,8 +72,8 @@ class SafetyStep(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArg
         gym.Wrapper.__init__(self, env)
 
     def step(  # type: ignore[override]
-        self, action: Any
-    ) -> tuple[Any, SupportsFloat, float, bool, bool, dict[str, Any]]:
+        self, action: object
+    ) -> tuple[Any, SupportsFloat, float, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return obs, reward, float(info["cost"]), terminated, truncated, info
 
@@ -99,9 +100,12 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
     """
 
     def __init__(
-        self, env: gym.Env[Any, Any], potential: str = "lqr", gamma: float = 0.99,
+        self,
+        env: gym.Env[Any, Any],
+        potential: str = "lqr",
+        gamma: float = 0.99,
         **potential_kwargs: float,
-    ) -> None:  # fmt: skip
+    ) -> None:
         base = _convoy_env("PotentialShaping", env)
         if base.settings.observation != "flat":
             raise ValueError(
@@ -110,24 +114,29 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
             )
         gamma = check_gamma(gamma)
         self.potential = make_potential(potential, base.settings, **potential_kwargs)
-        recorded: dict[str, Any] = {"potential": potential, "gamma": gamma, **potential_kwargs}
+        recorded: JSONObject = {"potential": potential, "gamma": gamma, **potential_kwargs}
         gym.utils.RecordConstructorArgs.__init__(self, **recorded)
         gym.Wrapper.__init__(self, env)
         self.gamma = gamma
         self._previous = 0.0
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[Any, dict[str, Any]]:
+        self, *, seed: int | None = None, options: JSONObject | None = None
+    ) -> tuple[Any, JSONObject]:
         obs, info = self.env.reset(seed=seed, options=options)
         self._previous = float(self.potential(obs)[0])
         return obs, info
 
-    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+    def step(self, action: object) -> tuple[Any, SupportsFloat, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         after = self.potential(obs)
-        shaped = shaped_return_step(np.array([float(reward)]), np.array([self._previous]),
-                                    after, np.array([terminated]), self.gamma)  # fmt: skip
+        shaped = shaped_return_step(
+            np.array([float(reward)]),
+            np.array([self._previous]),
+            after,
+            np.array([terminated]),
+            self.gamma,
+        )
         self._previous = float(after[0])
         return obs, float(shaped[0]), terminated, truncated, {**info, "unshaped_reward": reward}
 
@@ -223,7 +232,7 @@ class GoalConditioned(
         return {key: value[0] for key, value in batch.items()}
 
     def compute_reward(
-        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: Any
+        self, achieved_goal: np.ndarray, desired_goal: np.ndarray, info: object
     ) -> np.ndarray:
         """0 where the goals agree within the scene's tolerance, else -1 (float32).
 
@@ -254,7 +263,7 @@ class GoalConditioned(
             close = _angle_between(achieved, desired) < HEADING_TOLERANCE
         return np.where(close, 0.0, -1.0).astype(np.float32)
 
-    def _goals(self, name: str, value: Any) -> np.ndarray:
+    def _goals(self, name: str, value: object) -> np.ndarray:
         """``value`` as float64 goals of shape (..., goal_size), or a clear error."""
         width = self.goal_size
         expected = f"goals of shape (..., {width})"
@@ -271,12 +280,12 @@ class GoalConditioned(
         return array.astype(np.float64, copy=False)
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        self, *, seed: int | None = None, options: JSONObject | None = None
+    ) -> tuple[dict[str, np.ndarray], JSONObject]:
         obs, info = self.env.reset(seed=seed, options=options)
         return self._observation(obs), info
 
-    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, Any]]:
+    def step(self, action: object) -> tuple[dict[str, np.ndarray], float, bool, bool, JSONObject]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         goal_obs = self._observation(obs)
         info = {**info, "scene_reward": float(reward)}

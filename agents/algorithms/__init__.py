@@ -59,18 +59,21 @@ class Algorithm:
 ALGOS: dict[str, Algorithm] = {
     record.name: record
     for record in (
-        Algorithm("ppo", "stable_baselines3", "PPO", "stable_baselines3.common.policies",
-                  label="PPO"),
-        Algorithm("ppo_lag", "agents.algorithms.ppo_lagrangian", "PPOLagrangian",
-                  "stable_baselines3.common.policies",
-                  label="PPO-Lagrangian (episode cost limit on info['cost'])",
-                  marker="lagrange_multiplier"),
-        Algorithm("sac", "stable_baselines3", "SAC", "stable_baselines3.sac.policies",
-                  label="SAC"),
-        Algorithm("td3", "stable_baselines3", "TD3", "stable_baselines3.td3.policies",
-                  label="TD3"),
+        Algorithm(
+            "ppo", "stable_baselines3", "PPO", "stable_baselines3.common.policies", label="PPO"
+        ),
+        Algorithm(
+            "ppo_lag",
+            "agents.algorithms.ppo_lagrangian",
+            "PPOLagrangian",
+            "stable_baselines3.common.policies",
+            label="PPO-Lagrangian (episode cost limit on info['cost'])",
+            marker="lagrange_multiplier",
+        ),
+        Algorithm("sac", "stable_baselines3", "SAC", "stable_baselines3.sac.policies", label="SAC"),
+        Algorithm("td3", "stable_baselines3", "TD3", "stable_baselines3.td3.policies", label="TD3"),
     )
-}  # fmt: skip
+}
 
 
 def algorithm(name: str) -> Algorithm:

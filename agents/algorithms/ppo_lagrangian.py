@@ -94,7 +94,7 @@ def info_column(infos: Any, key: str) -> np.ndarray:
         ) from None
 
 
-def _number(name: str, value: Any, minimum: float, strict: bool = False) -> float:
+def _number(name: str, value: object, minimum: float, strict: bool = False) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise TypeError(f"{name} must be a number, got {type(value).__name__}")
     number = float(value)

@@ -8,11 +8,12 @@ A card that breaks this is refused with a :class:`ValueError` naming the key.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files
 from agents.artifacts.paths import card_path
+from trailer_env.json_types import JSONObject
 
 _INT = (int,)
 _NUMBER = (int, float)
@@ -41,7 +42,7 @@ CARD_TYPES: dict[str, tuple[type, ...]] = {
 }
 
 
-def is_count_range(value: Any) -> bool:
+def is_count_range(value: object) -> bool:
     """Whether a card's ``n_trailers`` is a range ``[low, high]`` (a generalist's)."""
     return (
         isinstance(value, (list, tuple))
@@ -51,7 +52,7 @@ def is_count_range(value: Any) -> bool:
     )
 
 
-def check_card(card: Any, where: str) -> dict[str, Any]:
+def check_card(card: object, where: str) -> JSONObject:
     """``card`` if it is a card object whose known keys have their types.
 
     Raises:
@@ -81,7 +82,7 @@ def check_card(card: Any, where: str) -> dict[str, Any]:
     return card
 
 
-def read_card(model_path: Path) -> dict[str, Any]:
+def read_card(model_path: Path) -> JSONObject:
     """The model card of ``model_path``, or an empty dict when there is none.
 
     Raises:
@@ -94,6 +95,6 @@ def read_card(model_path: Path) -> dict[str, Any]:
     return check_card(files.read_json(path, "model card", allow_nan=True), str(path))
 
 
-def write_card(model_path: Path, card: dict[str, Any]) -> Path:
+def write_card(model_path: Path, card: Mapping[str, object]) -> Path:
     """Write the model card (JSON beside the model) that :func:`read_card` reads."""
     return files.write_json(card_path(model_path), card)

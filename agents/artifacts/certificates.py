@@ -15,12 +15,14 @@ import io
 import json
 import math
 import re
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from agents.artifacts import files
+from trailer_env.json_types import JSONObject
 
 #: Committed certificates: ``certificate.json`` of the commands in docs/physics.md
 #: section 14 (the per-start statuses; the action records are rebuilt by the command).
@@ -75,7 +77,7 @@ def write_problem(out: Path, overwrite: bool) -> str | None:
     return None
 
 
-def write_certificate(certificate: dict[str, Any], out: Path, overwrite: bool) -> None:
+def write_certificate(certificate: JSONObject, out: Path, overwrite: bool) -> None:
     """Write certificate.json, certificate.md, actions/seed_<seed>.npy and actions.npz (the
     same records in one archive, the file that is committed beside a certificate as
     ``<scene>_n<n>_actions.npz``) under ``out``.
@@ -110,7 +112,7 @@ def write_certificate(certificate: dict[str, Any], out: Path, overwrite: bool) -
     files.atomic_write_text(out / CERTIFICATE_JSON, json.dumps(document, indent=2) + "\n")
 
 
-def planner_name(certificate: dict[str, Any]) -> str:
+def planner_name(certificate: Mapping[str, object]) -> str:
     """The planner that made a certificate: ``planner.name`` (``ilqr``), else ``mpc`` (the
     sampling planner's certificates were written before planners had names)."""
     planner = certificate.get("planner")
@@ -118,7 +120,7 @@ def planner_name(certificate: dict[str, Any]) -> str:
     return name if isinstance(name, str) else "mpc"
 
 
-def start_source(certificate: dict[str, Any], start: dict[str, Any]) -> str | None:
+def start_source(certificate: Mapping[str, object], start: Mapping[str, object]) -> str | None:
     """Who found a start's record: its ``source`` (a witness's label, or the planner's
     name), the planner's name for a feasible start of a certificate written before
     sources were kept, None for a start that is not feasible."""
@@ -128,7 +130,7 @@ def start_source(certificate: dict[str, Any], start: dict[str, Any]) -> str | No
     return source if isinstance(source, str) else planner_name(certificate)
 
 
-def check_certificate(document: Any, where: str) -> dict[str, Any]:
+def check_certificate(document: object, where: str) -> JSONObject:
     """``document`` if it is a certificate (schema, finite numbers, known statuses).
 
     Raises:
@@ -173,8 +175,11 @@ def check_certificate(document: Any, where: str) -> dict[str, Any]:
             raise fail(f"starts[{index}].source must be a string, and only on a feasible start")
     if document.get("episodes") != len(starts):
         raise fail(f"episodes must be the number of starts ({len(starts)})")
-    for key, status in (("feasible", FEASIBLE), ("not_recoverable", NOT_RECOVERABLE),
-                        ("open", OPEN)):  # fmt: skip
+    for key, status in (
+        ("feasible", FEASIBLE),
+        ("not_recoverable", NOT_RECOVERABLE),
+        ("open", OPEN),
+    ):
         if not files.is_integer(document.get(key), 0) or document[key] != counts[status]:
             raise fail(f"{key} must be the number of {status!r} starts ({counts[status]})")
     sources = document.get("sources")
@@ -194,7 +199,7 @@ def check_certificate(document: Any, where: str) -> dict[str, Any]:
     return document
 
 
-def read_certificate(path: Path) -> dict[str, Any]:
+def read_certificate(path: Path) -> JSONObject:
     """A certificate file, checked (:func:`check_certificate`).
 
     Raises:
@@ -212,7 +217,7 @@ def certificate_path(env_id: str, n_trailers: int, directory: Path = CERTIFICATE
 
 def committed_certificate(
     env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR
-) -> dict[str, Any] | None:
+) -> JSONObject | None:
     """The committed certificate of ``env_id`` with ``n_trailers``, or None.
 
     Raises:
@@ -227,7 +232,7 @@ def committed_certificate(
     return document
 
 
-def markdown(certificate: dict[str, Any]) -> str:
+def markdown(certificate: JSONObject) -> str:
     """The certificate's summary and per-start table in Markdown."""
     count = certificate["episodes"]
     lines = [
@@ -259,7 +264,7 @@ def markdown(certificate: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def source_counts(certificate: dict[str, Any]) -> dict[str, int]:
+def source_counts(certificate: JSONObject) -> dict[str, int]:
     """Feasible starts by source (:func:`start_source`), the planner's first, then by count."""
     counts: dict[str, int] = {}
     for start in certificate["starts"]:
@@ -270,12 +275,12 @@ def source_counts(certificate: dict[str, Any]) -> dict[str, int]:
     return dict(sorted(counts.items(), key=lambda item: (item[0] != planner, -item[1], item[0])))
 
 
-def sources_text(certificate: dict[str, Any]) -> str:
+def sources_text(certificate: JSONObject) -> str:
     """ "ilqr 82, ppo_dock_n2 9": the feasible starts by source."""
     return ", ".join(f"{source} {count}" for source, count in source_counts(certificate).items())
 
 
-def _witness_lines(certificate: dict[str, Any]) -> list[str]:
+def _witness_lines(certificate: JSONObject) -> list[str]:
     witnesses = certificate.get("witnesses")
     if not isinstance(witnesses, dict):
         return []
@@ -294,14 +299,14 @@ def _witness_lines(certificate: dict[str, Any]) -> list[str]:
     return lines
 
 
-def _screen_text(certificate: dict[str, Any]) -> str:
+def _screen_text(certificate: JSONObject) -> str:
     screen = certificate["screen"]
     if screen.get("applied", True) is False:
         return "not applied (no screen proves a goal unreachable; no start is not recoverable)"
     return f"{screen['wall_time_s']} s"
 
 
-def _closed_loop_lines(certificate: dict[str, Any]) -> list[str]:
+def _closed_loop_lines(certificate: Mapping[str, object]) -> list[str]:
     closed = certificate.get("closed_loop")
     if not isinstance(closed, dict):
         return []

@@ -15,9 +15,9 @@ import math
 import os
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files
+from trailer_env.json_types import JSONObject
 
 #: Columns of evaluations.csv.
 CURVE_COLUMNS = (
@@ -84,7 +84,7 @@ def read_curve(path: Path, columns: Sequence[str] = ("timesteps",)) -> list[dict
     return rows
 
 
-def _csv_text(rows: Sequence[dict[str, Any]], fieldnames: Sequence[str], header: bool) -> str:
+def _csv_text(rows: Sequence[JSONObject], fieldnames: Sequence[str], header: bool) -> str:
     buffer = io.StringIO()
     writer = csv.DictWriter(
         buffer, fieldnames=list(fieldnames), lineterminator="\n", extrasaction="ignore"
@@ -97,7 +97,7 @@ def _csv_text(rows: Sequence[dict[str, Any]], fieldnames: Sequence[str], header:
 
 def write_curve(
     path: Path,
-    rows: Sequence[dict[str, Any]],
+    rows: Sequence[JSONObject],
     fieldnames: Sequence[str] = (*CURVE_COLUMNS, "iteration", "loss"),
 ) -> None:
     """Write a whole curve atomically (a CSV with ``fieldnames`` as its header)."""
@@ -105,7 +105,7 @@ def write_curve(
 
 
 def append_rows(
-    path: Path, rows: Sequence[dict[str, Any]], fieldnames: Sequence[str] = CURVE_COLUMNS
+    path: Path, rows: Sequence[JSONObject], fieldnames: Sequence[str] = CURVE_COLUMNS
 ) -> None:
     """Append rows to a curve (with the header when the file starts).
 

@@ -60,7 +60,7 @@ class FolderLockedError(ValueError):
     """Another live process holds the folder's lock."""
 
 
-def is_integer(value: Any, minimum: int | None = None) -> bool:
+def is_integer(value: object, minimum: int | None = None) -> bool:
     """Whether a JSON value is an integer (not a boolean), >= ``minimum`` when given."""
     return (
         isinstance(value, int)
@@ -69,7 +69,7 @@ def is_integer(value: Any, minimum: int | None = None) -> bool:
     )
 
 
-def is_number(value: Any) -> bool:
+def is_number(value: object) -> bool:
     """Whether a JSON value is a finite number (not a boolean)."""
     return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
@@ -157,7 +157,7 @@ def atomic_write_text(path: Path, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 
-def write_json(path: Path, document: Any, *, indent: int = 2, sort_keys: bool = True) -> Path:
+def write_json(path: Path, document: object, *, indent: int = 2, sort_keys: bool = True) -> Path:
     """Write a JSON document atomically (sorted keys by default, so that files diff cleanly)."""
     return atomic_write_text(path, json.dumps(document, indent=indent, sort_keys=sort_keys) + "\n")
 

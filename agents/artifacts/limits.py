@@ -35,7 +35,6 @@ from __future__ import annotations
 import itertools
 import os
 from collections.abc import Iterable
-from typing import Any
 
 #: The largest seed: numpy's legacy seeding and many tools take 32-bit seeds.
 MAX_SEED = 2**32 - 1
@@ -76,7 +75,7 @@ def seed_problem(seed: int, count: int = 1, what: str = "seed") -> str | None:
     return None
 
 
-def _widths(net_arch: Any) -> Iterable[list[int]]:
+def _widths(net_arch: object) -> Iterable[list[int]]:
     """The hidden-layer lists of an SB3 ``net_arch`` (a list, or a dict of lists)."""
     if isinstance(net_arch, dict):
         for value in net_arch.values():
@@ -91,7 +90,7 @@ def _widths(net_arch: Any) -> Iterable[list[int]]:
         raise ValueError(f"net_arch must be a list of layer sizes, got {net_arch!r:.60}")
 
 
-def network_problem(net_arch: Any, inputs: int = 64, outputs: int = 64) -> str | None:
+def network_problem(net_arch: object, inputs: int = 64, outputs: int = 64) -> str | None:
     """Why a ``net_arch`` is refused (None when it is not): layer sizes >= 1, at most
     :data:`MAX_NETWORK_LAYERS` layers and :data:`MAX_NETWORK_PARAMETERS` parameters
     over all its stacks (each from ``inputs`` to ``outputs`` units)."""

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files, limits
 from agents.artifacts.cards import check_card
+from trailer_env.json_types import JSONObject
 
 #: Files of the pickle-free policy export inside a checkpoint folder.
 POLICY_WEIGHTS = "policy_weights.pt"
@@ -22,7 +22,7 @@ def is_rllib_checkpoint(path: Path) -> bool:
     )
 
 
-def read_rllib_card(path: Path) -> dict[str, Any]:
+def read_rllib_card(path: Path) -> JSONObject:
     """The policy card of an RLlib checkpoint folder (empty when it has none).
 
     Raises:

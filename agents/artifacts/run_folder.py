@@ -17,7 +17,6 @@ import contextlib
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files
 from agents.artifacts.files import write_json
@@ -152,7 +151,7 @@ def clear_run(folder: Path, everything: bool = True) -> None:
             path.unlink()
 
 
-def write_config(run_dir: Path, record: dict[str, Any]) -> Path:
+def write_config(run_dir: Path, record: dict[str, object]) -> Path:
     """Write the run's ``config.json``."""
     return write_json(run_dir / CONFIG_FILE, record)
 

@@ -30,6 +30,7 @@ from gymnasium.spaces import Dict, flatdim
 from agents.algorithms import ALGOS, algo_class, algorithm
 from agents.artifacts import files, limits
 from agents.artifacts.files import UnsafeFileError
+from trailer_env.json_types import JSONObject
 
 #: Entries of an SB3 ``data`` that hold runtime state, rebuilt by SB3 when they are None.
 _RUNTIME_STATE = (
@@ -79,7 +80,7 @@ def check_zip(path: Path) -> None:
         )
 
 
-def read_sb3_data(path: Path) -> dict[str, Any]:
+def read_sb3_data(path: Path) -> JSONObject:
     """The JSON ``data`` entry of an SB3 zip, as text values (nothing unpickled).
 
     Raises:
@@ -101,7 +102,7 @@ def read_sb3_data(path: Path) -> dict[str, Any]:
     return data
 
 
-def check_network(path: Path, data: dict[str, Any], observation_space: Any = None) -> None:
+def check_network(path: Path, data: Mapping[str, object], observation_space: Any = None) -> None:
     """Refuse a model whose ``policy_kwargs.net_arch`` is past the network bound.
 
     Raises:
@@ -123,11 +124,11 @@ def save_model(model: Any, path: Path) -> Path:
     return files.atomic_write_bytes(path, buffer.getvalue())
 
 
-def _is_serialized(value: Any) -> bool:
+def _is_serialized(value: object) -> bool:
     return isinstance(value, dict) and ":serialized:" in value
 
 
-def saved_shape(data: dict[str, Any], key: str) -> tuple[int, ...] | None:
+def saved_shape(data: Mapping[str, object], key: str) -> tuple[int, ...] | None:
     """The shape of a saved space, from the JSON ``_shape`` SB3 writes beside the pickle
     (a list of ints, or its text), or None when it is not there."""
     entry = data.get(key)
@@ -139,7 +140,7 @@ def saved_shape(data: dict[str, Any], key: str) -> tuple[int, ...] | None:
     return None
 
 
-def _constant(value: Any, fallback: float) -> float:
+def _constant(value: object, fallback: float) -> float:
     """A schedule's constant from its text ``ConstantSchedule(val=x)``, else ``fallback``."""
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         return float(value)
@@ -162,8 +163,8 @@ def _class_text(cls: type) -> str:
 
 
 def safe_policy_kwargs(
-    path: Path, entry: dict[str, Any], extractors: Mapping[str, type] | None = None
-) -> dict[str, Any]:
+    path: Path, entry: Mapping[str, object], extractors: Mapping[str, type] | None = None
+) -> JSONObject:
     """A pickled ``policy_kwargs`` entry rebuilt from its JSON text (nothing unpickled).
 
     SB3 writes beside the pickle each item as JSON, or as its ``str`` when it is not
@@ -183,9 +184,10 @@ def safe_policy_kwargs(
     classes: dict[str, type] = {_class_text(cls): cls for cls in (extractors or {}).values()}
     import torch.nn
 
-    activations = {_class_text(getattr(torch.nn, name)): getattr(torch.nn, name)
-                   for name in _ACTIVATIONS}  # fmt: skip
-    kwargs: dict[str, Any] = {}
+    activations = {
+        _class_text(getattr(torch.nn, name)): getattr(torch.nn, name) for name in _ACTIVATIONS
+    }
+    kwargs: JSONObject = {}
     for key, value in entry.items():
         if key in (":type:", ":serialized:"):
             continue
@@ -208,9 +210,9 @@ def safe_custom_objects(
     algo: str,
     observation_space: Any,
     action_space: Any,
-    algo_kwargs: dict[str, Any] | None = None,
+    algo_kwargs: Mapping[str, object] | None = None,
     extractors: Mapping[str, type] | None = None,
-) -> dict[str, Any]:
+) -> JSONObject:
     """Replacements for every ``:serialized:`` entry of an SB3 zip (SB3's ``custom_objects``).
 
     Args:
@@ -252,7 +254,7 @@ def safe_custom_objects(
     # A Dict observation (observation="trailers") needs the algorithm's MultiInputPolicy,
     # recorded under the same module.
     policy = "MultiInputPolicy" if isinstance(observation_space, Dict) else "MlpPolicy"
-    replacements: dict[str, Any] = {
+    replacements: JSONObject = {
         "policy_class": algo_class(algo).policy_aliases[policy],
         "observation_space": observation_space,
         "action_space": action_space,
@@ -288,11 +290,11 @@ def safe_custom_objects(
 def load_sb3(
     path: Path,
     algo: str,
-    observation_space: Any,
-    action_space: Any,
+    observation_space: object,
+    action_space: object,
     *,
-    env: Any = None,
-    algo_kwargs: dict[str, Any] | None = None,
+    env: object = None,
+    algo_kwargs: Mapping[str, object] | None = None,
     trust_pickle: bool = False,
     extractors: Mapping[str, type] | None = None,
 ) -> Any:

@@ -9,15 +9,16 @@ from typing import Any
 import numpy as np
 
 from agents.artifacts import files
+from trailer_env.json_types import JSONObject
 
 #: Format tag of the statistics files.
 STATS_FORMAT = "trailer_env-vecnormalize/1"
 
 
-def stats_document(vecnormalize: Any) -> dict[str, Any]:
+def stats_document(vecnormalize: Any) -> JSONObject:
     """A ``VecNormalize``'s statistics and settings as JSON-ready data (float64, exact)."""
 
-    def running(rms: Any) -> dict[str, Any]:
+    def running(rms: Any) -> JSONObject:
         return {
             "mean": np.asarray(rms.mean, dtype=np.float64).tolist(),
             "var": np.asarray(rms.var, dtype=np.float64).tolist(),
@@ -37,7 +38,7 @@ def stats_document(vecnormalize: Any) -> dict[str, Any]:
     }
 
 
-def save_stats(vecnormalize: Any, path: Path) -> Path:
+def save_stats(vecnormalize: object, path: Path) -> Path:
     """Write a ``VecNormalize``'s statistics as JSON (Python's float repr round-trips exactly)."""
     return files.atomic_write_text(path, json.dumps(stats_document(vecnormalize), indent=1) + "\n")
 
@@ -55,7 +56,7 @@ _SETTINGS = {
 MAX_STATS_SIZE = 100_000
 
 
-def _vector(value: Any, where: str) -> np.ndarray:
+def _vector(value: object, where: str) -> np.ndarray:
     """A non-empty flat list of finite numbers as float64 (booleans refused)."""
     if (
         not isinstance(value, list)
@@ -69,7 +70,7 @@ def _vector(value: Any, where: str) -> np.ndarray:
     return vector
 
 
-def check_stats(document: Any, where: str) -> dict[str, Any]:
+def check_stats(document: object, where: str) -> JSONObject:
     """``document`` if it is a statistics document of :func:`stats_document`'s form.
 
     Raises:
@@ -101,7 +102,7 @@ def check_stats(document: Any, where: str) -> dict[str, Any]:
     return document
 
 
-def read_stats(path: Path) -> dict[str, Any]:
+def read_stats(path: Path) -> JSONObject:
     """Read and check a statistics file written by :func:`save_stats`.
 
     Raises:
@@ -114,7 +115,7 @@ def read_stats(path: Path) -> dict[str, Any]:
     return check_stats(document, str(path))
 
 
-def _running_mean_std(data: dict[str, Any]) -> Any:
+def _running_mean_std(data: JSONObject) -> Any:
     from stable_baselines3.common.running_mean_std import RunningMeanStd
 
     rms = RunningMeanStd(shape=np.shape(data["mean"]))
@@ -124,7 +125,7 @@ def _running_mean_std(data: dict[str, Any]) -> Any:
     return rms
 
 
-def restore_stats(vecnormalize: Any, document: dict[str, Any]) -> Any:
+def restore_stats(vecnormalize: Any, document: JSONObject) -> Any:
     """Put saved statistics and settings into a ``VecNormalize`` (returns it).
 
     Raises:
@@ -144,7 +145,7 @@ def restore_stats(vecnormalize: Any, document: dict[str, Any]) -> Any:
     return vecnormalize
 
 
-def frozen_normalizer(document: dict[str, Any], observation_space: Any) -> Any:
+def frozen_normalizer(document: JSONObject, observation_space: object) -> Any:
     """A read-only ``VecNormalize`` without an env, for ``normalize_obs`` at evaluation.
 
     It is built the way SB3's own unpickling builds one (``__setstate__``, no venv), so

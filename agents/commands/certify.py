@@ -33,7 +33,6 @@ from __future__ import annotations
 import argparse
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import limits
 from agents.artifacts.certificates import (
@@ -64,6 +63,7 @@ from agents.oracles.certify_goals import (
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
 from agents.policies.registry import load_policy
+from trailer_env.json_types import JSONObject
 
 #: The defaults of --env, --n-trailers and --seeds.
 DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = "trailer_env/Reverse-v1", 2, "1000-1099"
@@ -154,8 +154,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=cli.program("agents.certify"), description="Certify a scene's ceiling over seeds."
     )
-    parser.add_argument("--env", default=DEFAULT_ENV, choices=ENV_IDS,
-                        metavar="ENV_ID", help=f"one of {', '.join(ENV_IDS)}")  # fmt: skip
+    parser.add_argument(
+        "--env",
+        default=DEFAULT_ENV,
+        choices=ENV_IDS,
+        metavar="ENV_ID",
+        help=f"one of {', '.join(ENV_IDS)}",
+    )
     cli.add_n_trailers(parser, DEFAULT_N)
     parser.add_argument(
         "--seeds",
@@ -172,19 +177,25 @@ def build_parser() -> argparse.ArgumentParser:
         "for Dock and Coast, which are certified by reaching their goal)",
     )
     parser.add_argument(
-        "--closed-loop", choices=CLOSED_LOOP_INTEGRATORS, default=None,
+        "--closed-loop",
+        choices=CLOSED_LOOP_INTEGRATORS,
+        default=None,
         help="goal scenes: also re-plan every start on a plant with this integrator "
         "(rtol = atol = 1e-8) and record whether it still reaches the goal",
-    )  # fmt: skip
+    )
     parser.add_argument(
-        "--samples", type=cli.at_least(2, 1024), default=PlannerConfig.samples,
+        "--samples",
+        type=cli.at_least(2, 1024),
+        default=PlannerConfig.samples,
         help=f"planner candidates per start (default {PlannerConfig.samples}, at most 1024)",
-    )  # fmt: skip
+    )
     parser.add_argument(
-        "--iterations", type=cli.at_least(1, 100), default=None,
+        "--iterations",
+        type=cli.at_least(1, 100),
+        default=None,
         help=f"planner iterations: CEM (mpc, default {PlannerConfig.iterations}) or iLQR "
         f"(ilqr, default {ILQRConfig.iterations}); at most 100",
-    )  # fmt: skip
+    )
     parser.add_argument(
         "--restarts",
         type=cli.at_least(0, 100),
@@ -197,29 +208,37 @@ def build_parser() -> argparse.ArgumentParser:
         "witnesses", "other sources of action records (agents.evaluation.witnesses)"
     )
     witnesses.add_argument(
-        "--witnesses", nargs="+", metavar="SPEC", default=None,
+        "--witnesses",
+        nargs="+",
+        metavar="SPEC",
+        default=None,
         help="policies tried on the starts the planner leaves open (a baseline name, a "
         "committed model's stem, a model path); default: the scene's baselines and every "
         "committed model (agents/models, agents/models/seeds) of this env and n",
-    )  # fmt: skip
-    witnesses.add_argument("--no-witnesses", action="store_true",
-                           help="the planner's records only")  # fmt: skip
+    )
+    witnesses.add_argument("--no-witnesses", action="store_true", help="the planner's records only")
     witnesses.add_argument(
-        "--from-certificate", type=Path, default=None, metavar="PATH",
+        "--from-certificate",
+        type=Path,
+        default=None,
+        metavar="PATH",
         help="add witnesses to this certificate (a certificate.json beside its actions.npz, "
         "or a committed <scene>_n<n>.json beside <scene>_n<n>_actions.npz) instead of "
         "running the planner; --env, --n-trailers and --seeds are the certificate's",
-    )  # fmt: skip
+    )
     witnesses.add_argument(
-        "--warm-start", nargs="*", metavar="SPEC", default=None,
+        "--warm-start",
+        nargs="*",
+        metavar="SPEC",
+        default=None,
         help="goal scenes: then plan the starts still open with iLQR from states these "
         "policies reach (default when given bare: every committed model of this env and n)",
-    )  # fmt: skip
+    )
     parser.set_defaults(env=None, n_trailers=None, seeds=None)
     return parser
 
 
-def load_certificate(path: Path) -> dict[str, Any]:
+def load_certificate(path: Path) -> JSONObject:
     """A certificate file and its action records (``actions``), checked.
 
     Raises:
@@ -232,8 +251,11 @@ def load_certificate(path: Path) -> dict[str, Any]:
     if not records_path.is_file():
         raise ValueError(f"{path}: its action records {records_path} are missing")
     records = read_actions(records_path)
-    missing = [start["seed"] for start in certificate["starts"]
-               if start["status"] == FEASIBLE and start["seed"] not in records]  # fmt: skip
+    missing = [
+        start["seed"]
+        for start in certificate["starts"]
+        if start["status"] == FEASIBLE and start["seed"] not in records
+    ]
     if missing:
         raise ValueError(f"{records_path} has no record of the feasible starts {missing[:8]}")
     return {**certificate, "actions": records}
@@ -243,7 +265,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    base: dict[str, Any] | None = None
+    base: JSONObject | None = None
     if args.from_certificate is not None:
         if args.seeds is not None:
             parser.error("argument --seeds: not with --from-certificate (its seeds are kept)")
@@ -251,9 +273,10 @@ def main(argv: list[str] | None = None) -> int:
             base = load_certificate(args.from_certificate)
         except (OSError, ValueError) as error:
             parser.error(f"argument --from-certificate: {error}")
-        for given, key, value in ((args.env, "--env", base["env_id"]),
-                                  (args.n_trailers, "--n-trailers",
-                                   base["env_kwargs"]["n_trailers"])):  # fmt: skip
+        for given, key, value in (
+            (args.env, "--env", base["env_id"]),
+            (args.n_trailers, "--n-trailers", base["env_kwargs"]["n_trailers"]),
+        ):
             if given is not None and given != value:
                 parser.error(f"argument {key}: {given} is not the certificate's {value}")
         args.env, args.n_trailers = base["env_id"], base["env_kwargs"]["n_trailers"]

@@ -63,10 +63,12 @@ def build_parser() -> argparse.ArgumentParser:
         prog=cli.program("agents.curves"),
         description="Learning curves of run folders over training seeds (chart + table).",
     )
-    parser.add_argument("runs", nargs="+", type=Path, metavar="RUN",
-                        help="run folders, or folders of run folders")  # fmt: skip
-    parser.add_argument("--out", type=Path, default=Path("out/curves"),
-                        help="output folder (default out/curves)")  # fmt: skip
+    parser.add_argument(
+        "runs", nargs="+", type=Path, metavar="RUN", help="run folders, or folders of run folders"
+    )
+    parser.add_argument(
+        "--out", type=Path, default=Path("out/curves"), help="output folder (default out/curves)"
+    )
     parser.add_argument(
         "--plateau",
         type=cli.plateau_rule,
@@ -82,8 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="NAME=RATE",
         help="a horizontal line on every panel (repeatable), e.g. lqr=0.62",
     )
-    parser.add_argument("--no-ceiling", action="store_true",
-                        help="no line for the committed certificate's ceiling")  # fmt: skip
+    parser.add_argument(
+        "--no-ceiling", action="store_true", help="no line for the committed certificate's ceiling"
+    )
     cli.add_overwrite(parser, "replace the chart and table in --out")
     return parser
 

@@ -96,9 +96,13 @@ def train_short(
     if existing and not overwrite:
         raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
     problem = symlink_problem(run_dir) or next(
-        (f"{path} is a symbolic link" for path in export_files(_short_export(out))
-         if path.is_symlink()), None,
-    )  # fmt: skip
+        (
+            f"{path} is a symbolic link"
+            for path in export_files(_short_export(out))
+            if path.is_symlink()
+        ),
+        None,
+    )
     if problem is not None:
         raise files.UnsafeFileError(problem)
     with files.RunLock(run_dir):

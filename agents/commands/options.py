@@ -16,7 +16,6 @@ import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files, limits
 from agents.envs import ENV_IDS
@@ -158,13 +157,13 @@ def add_env_kwargs(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def env_kwargs_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict[str, Any]:
+def env_kwargs_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict[str, object]:
     """``{"n_trailers": args.n_trailers, **--set}``, validated as ``gym.make`` would; exits 2
     naming ``--set`` (or ``--n-trailers``) and what is wrong (a value nested deeper than
     :data:`agents.artifacts.files.MAX_JSON_DEPTH` included)."""
     from agents.envs import env_settings
 
-    kwargs: dict[str, Any] = {"n_trailers": args.n_trailers}
+    kwargs: dict[str, object] = {"n_trailers": args.n_trailers}
     for item in getattr(args, "set", []):
         key, equals, text = item.partition("=")
         if not equals or not key.isidentifier():
@@ -244,9 +243,10 @@ def check_out_folder(
     problem = files.writable_problem(out, folder=True)
     for name_in in files_in if problem is None else ():
         problem = problem or (
-            files.writable_problem(out / name_in) if (out / name_in).exists() or
-            (out / name_in).is_symlink() else None
-        )  # fmt: skip
+            files.writable_problem(out / name_in)
+            if (out / name_in).exists() or (out / name_in).is_symlink()
+            else None
+        )
     if problem is not None:
         parser.error(f"argument {name}: {problem}")
 

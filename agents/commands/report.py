@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import time
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
@@ -56,13 +55,18 @@ from agents.policies.baselines import applicable_baselines
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
+from trailer_env.json_types import JSONObject
 
 #: The pictures the report writes (under ``<out>/img`` or ``<docs>/img``).
 PICTURES = (
-    "agents_curves.png", "agents_margins.png", "agents_frames.png",
-    "agents_margins_reverse_v1_n2.png", "agents_frames_reverse_v1_n2.png",
-    "agents_leaderboard.png", "agents_leaderboard_reverse_v1.png",
-)  # fmt: skip
+    "agents_curves.png",
+    "agents_margins.png",
+    "agents_frames.png",
+    "agents_margins_reverse_v1_n2.png",
+    "agents_frames_reverse_v1_n2.png",
+    "agents_leaderboard.png",
+    "agents_leaderboard_reverse_v1.png",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -90,7 +94,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def write_leaderboards(documents: list[dict[str, Any]], img: Path) -> list[Path]:
+def write_leaderboards(documents: list[JSONObject], img: Path) -> list[Path]:
     """The leaderboard of every scenario (``agents_leaderboard.png``, the results page's
     first picture) and of the headline scene alone (``agents_leaderboard_reverse_v1.png``,
     the README's), from the report's results documents."""
@@ -108,9 +112,12 @@ def write_leaderboards(documents: list[dict[str, Any]], img: Path) -> list[Path]
     headline = [panel for panel in panels if panel.env_id == HEADLINE[0]]
     if not headline:
         return [every]
-    return [every, leaderboard.plot_leaderboard(
-        headline, img / "agents_leaderboard_reverse_v1.png", small=True
-    )]  # fmt: skip
+    return [
+        every,
+        leaderboard.plot_leaderboard(
+            headline, img / "agents_leaderboard_reverse_v1.png", small=True
+        ),
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -162,8 +169,10 @@ def main(argv: list[str] | None = None) -> int:
         sweep = authority_table(args.episodes)
         bar.advance("actuator sweep")
     sections.append(f"#### LQR on Reverse-v0 as the actuator gets stronger\n\n{sweep}")
-    sections.append(f"#### Time to the ceiling\n\n{TIME_TO_CEILING_LEGEND}\n\n"
-                    f"{time_to_ceiling_table(documents)}")  # fmt: skip
+    sections.append(
+        f"#### Time to the ceiling\n\n{TIME_TO_CEILING_LEGEND}\n\n"
+        f"{time_to_ceiling_table(documents)}"
+    )
     print(sections[-1], flush=True)
     grid = plots.plot_curve_grid([panel for panel in panels if panel[1]], img / "agents_curves.png")
     print(f"wrote {grid}")

@@ -13,11 +13,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from agents.envs import ENV_IDS, headline_metric, scene_title
 from agents.evaluation.metrics import wilson_interval
 from agents.oracles.certify import ceiling_fraction
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 #: Dot colours by kind of policy: the learned agents stand out, the oracles are marked.
 KIND_COLOURS = {"learned": "#d95f02", "oracle": "#7570b3", "lqr": "#1f78b4", "other": "#888888"}
@@ -102,28 +105,44 @@ def ordered(panels: Sequence[Panel], headline_env: str) -> list[Panel]:
     return sorted(panels, key=key)
 
 
-def _draw_panel(axis: Any, panel: Panel, *, small: bool = False) -> None:
+def _draw_panel(axis: Axes, panel: Panel, *, small: bool = False) -> None:
     names = [standing.name for standing in panel.standings]
     rows = range(len(names))
     font = LEADERBOARD_FONT_PT - (1 if small else 0)
     if panel.ceiling is not None:
         axis.axvline(100 * panel.ceiling, color="#1b9e77", lw=2, ls="--")
         axis.text(
-            100 * panel.ceiling - 1.5, -0.7, f"ceiling {100 * panel.ceiling:.0f}%",
-            color="#1b9e77", ha="right", va="center", fontsize=font - 1,
-        )  # fmt: skip
+            100 * panel.ceiling - 1.5,
+            -0.7,
+            f"ceiling {100 * panel.ceiling:.0f}%",
+            color="#1b9e77",
+            ha="right",
+            va="center",
+            fontsize=font - 1,
+        )
     if panel.lqr is not None:
         axis.axvline(100 * panel.lqr, color=KIND_COLOURS["lqr"], lw=1, ls=":")
     for row, standing in zip(rows, panel.standings, strict=True):
         colour = KIND_COLOURS[standing.kind]
-        axis.plot([100 * standing.low, 100 * standing.high], [row, row], color=colour, lw=2.5,
-                  alpha=0.45, solid_capstyle="butt")  # fmt: skip
+        axis.plot(
+            [100 * standing.low, 100 * standing.high],
+            [row, row],
+            color=colour,
+            lw=2.5,
+            alpha=0.45,
+            solid_capstyle="butt",
+        )
         axis.plot(100 * standing.rate, row, "o", color=colour, ms=6 if small else 7)
         # The rates stand in a column right of 100 %, clear of the dots and lines.
         axis.text(
-            RATE_COLUMN, row, f"{100 * standing.rate:.0f}%",
-            va="center", ha="left", fontsize=font - 1, color=colour,
-        )  # fmt: skip
+            RATE_COLUMN,
+            row,
+            f"{100 * standing.rate:.0f}%",
+            va="center",
+            ha="left",
+            fontsize=font - 1,
+            color=colour,
+        )
     axis.set_yticks(list(rows))
     axis.set_yticklabels(names, fontsize=font)
     for label, standing in zip(axis.get_yticklabels(), panel.standings, strict=True):
@@ -164,8 +183,13 @@ def plot_leaderboard(
     count = -(-len(panels) // columns)
     tallest = max(len(panel.standings) for panel in panels)
     height = 0.7 + 0.3 * tallest
-    fig, axes = plt.subplots(count, columns, figsize=(PAGE_WIDTH_PX / PAGE_DPI, height * count),
-                             squeeze=False, layout="constrained")  # fmt: skip
+    fig, axes = plt.subplots(
+        count,
+        columns,
+        figsize=(PAGE_WIDTH_PX / PAGE_DPI, height * count),
+        squeeze=False,
+        layout="constrained",
+    )
     for index, axis in enumerate(axes.flat):
         if index < len(panels):
             _draw_panel(axis, panels[index], small=small)

@@ -26,7 +26,6 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -120,7 +119,7 @@ class Band:
     seeds: int
 
 
-def _check_window(window: Any, eps: Any) -> tuple[int, float]:
+def _check_window(window: object, eps: object) -> tuple[int, float]:
     if isinstance(window, bool) or not isinstance(window, (int, np.integer)):
         raise TypeError(f"window must be an integer, got {type(window).__name__}")
     if window < 2:
@@ -234,8 +233,9 @@ def read_run(run_dir: Path) -> RunCurve:
         n_trailers, seed = config["env_kwargs"]["n_trailers"], config["seed"]
         metric = headline_metric(env_id)
     except (KeyError, TypeError, ValueError) as error:
-        raise ValueError(f"{config_path} lacks the run's environment, n, algorithm or seed: "
-                         f"{error}") from None  # fmt: skip
+        raise ValueError(
+            f"{config_path} lacks the run's environment, n, algorithm or seed: {error}"
+        ) from None
     if not (files.is_integer(n_trailers, 1) and files.is_integer(seed, 0)):
         raise ValueError(f"{config_path}: n_trailers and seed must be integers")
     rows = read_curve(curve_path, ("wall_s", metric))
@@ -343,8 +343,9 @@ def _chart_png(
 
     fig, axes = plt.subplots(len(groups), 2, figsize=(11, 3.4 * len(groups)), squeeze=False)
     for row, (key, runs) in enumerate(groups.items()):
-        for column, (axis, label) in enumerate(zip(AXES, ("env steps", "wall time (s)"),
-                                                   strict=True)):  # fmt: skip
+        for column, (axis, label) in enumerate(
+            zip(AXES, ("env steps", "wall time (s)"), strict=True)
+        ):
             ax = axes[row][column]
             band = seed_band(runs, axis)
             ax.plot(
@@ -354,8 +355,9 @@ def _chart_png(
                 label=f"mean of {band.seeds} seeds" if band.seeds > 1 else "one seed",
             )
             if band.seeds > 1:
-                ax.fill_between(band.x, band.low, band.high, color="C0", alpha=0.25,
-                                label="min-max over seeds")  # fmt: skip
+                ax.fill_between(
+                    band.x, band.low, band.high, color="C0", alpha=0.25, label="min-max over seeds"
+                )
             for k, (name, value) in enumerate(levels.get(key, {}).items()):
                 ax.axhline(value, color=f"C{k + 1}", linestyle="--", label=f"{name} {value:.2f}")
             ax.set_xlabel(label)

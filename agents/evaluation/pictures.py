@@ -4,12 +4,12 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts.paths import curve_path
 from agents.envs import env_settings
 from agents.evaluation.results import Evaluation, curve_metric
 from agents.policies.registry import is_model_spec, load_policy
+from trailer_env.json_types import JSONObject
 
 
 def learning_curve(evaluation: Evaluation) -> Path | None:
@@ -36,7 +36,7 @@ def baseline_levels(evaluations: Sequence[Evaluation], metric: str) -> dict[str,
 def write_pictures(
     evaluations: Sequence[Evaluation],
     env_id: str,
-    env_kwargs: dict[str, Any],
+    env_kwargs: JSONObject,
     out: Path,
     seed: int,
     prefix: str = "",

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -16,6 +16,10 @@ from agents.artifacts.curves import read_curve
 from agents.evaluation.metrics import EpisodeResults
 from agents.policies.baselines import Policy
 from trailer_env.benchmark import privileged_view
+from trailer_env.json_types import JSONObject
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
 
 #: Axis labels of the curve metrics.
 METRIC_LABELS = {
@@ -35,7 +39,7 @@ def _pyplot() -> Any:
 
 
 def _draw_curves(
-    axis: Any,
+    axis: Axes,
     curves: Mapping[str, Path],
     metric: str,
     baselines: Mapping[str, float] | None,
@@ -134,7 +138,7 @@ def render_frames(
     env_id: str,
     policy: Policy,
     seed: int,
-    env_kwargs: dict[str, Any] | None = None,
+    env_kwargs: JSONObject | None = None,
     times: Sequence[float] = (0.0, 2.0, 4.0, 8.0, 14.0, 20.0),
 ) -> tuple[list[np.ndarray], list[str]]:
     """Render one seeded episode of ``policy`` at the given times (s); stops at the episode's end.
@@ -279,7 +283,7 @@ def episode_frames(
     env_id: str,
     policy: Policy,
     seed: int,
-    env_kwargs: dict[str, Any] | None = None,
+    env_kwargs: JSONObject | None = None,
     max_steps: int | None = None,
 ) -> list[np.ndarray]:
     """Every ``rgb_array`` frame of one seeded episode of ``policy`` (single env).

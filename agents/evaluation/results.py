@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -21,6 +20,7 @@ from agents.policies.registry import (
 )
 from agents.progress import Progress
 from agents.seeds import TEST_SEED
+from trailer_env.json_types import JSONObject
 
 
 @dataclass
@@ -29,15 +29,15 @@ class Evaluation:
 
     label: str
     spec: str
-    card: dict[str, Any]
+    card: JSONObject
     results: EpisodeResults
     policy: Policy | None = None
     #: Per training seed (a committed model's siblings in ``agents/models/seeds/``): its
     #: card's seed and the same episodes' summary.
-    seed_summaries: list[tuple[int | None, dict[str, Any]]] | None = None
+    seed_summaries: list[tuple[int | None, JSONObject]] | None = None
 
     @property
-    def summary(self) -> dict[str, Any]:
+    def summary(self) -> JSONObject:
         """Aggregate metrics (:func:`agents.evaluation.metrics.summarize`)."""
         return summarize(self.results)
 
@@ -62,7 +62,7 @@ def default_baselines(env_id: str) -> list[str]:
 def load_policies(
     specs: Sequence[str],
     env_id: str,
-    env_kwargs: dict[str, Any],
+    env_kwargs: JSONObject,
     seed: int = TEST_SEED,
     *,
     trust_pickle: bool = False,
@@ -87,7 +87,7 @@ def load_policies(
 def evaluate_policies(
     specs: Sequence[str],
     env_id: str,
-    env_kwargs: dict[str, Any],
+    env_kwargs: JSONObject,
     episodes: int,
     seed: int = TEST_SEED,
     *,
@@ -117,9 +117,13 @@ def evaluate_policies(
             if siblings[spec]:
                 seed_summaries = []
                 for sibling, sibling_policy in load_policies(
-                    [str(path) for path in siblings[spec]], env_id, env_kwargs, seed,
-                    trust_pickle=trust_pickle, force=force,
-                ):  # fmt: skip
+                    [str(path) for path in siblings[spec]],
+                    env_id,
+                    env_kwargs,
+                    seed,
+                    trust_pickle=trust_pickle,
+                    force=force,
+                ):
                     sibling_results = rollout(sibling_policy, env_id, episodes, seed, env_kwargs)
                     card = model_card(sibling)
                     seed_summaries.append((card.get("seed"), summarize(sibling_results)))
@@ -135,10 +139,10 @@ def evaluate_policies(
 def results_document(
     evaluations: Sequence[Evaluation],
     env_id: str,
-    env_kwargs: dict[str, Any],
+    env_kwargs: Mapping[str, object],
     episodes: int,
     seed: int,
-) -> dict[str, Any]:
+) -> JSONObject:
     """Everything an evaluation found, as JSON-ready data (no timings: deterministic)."""
     return {
         "env_id": env_id,

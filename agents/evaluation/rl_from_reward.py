@@ -35,7 +35,6 @@ import sys
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
 
 from agents.artifacts import files
 from agents.artifacts.cards import read_card, write_card
@@ -257,7 +256,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[{index}/{len(folders)}] scoring {folder}", file=sys.stderr, flush=True)
         scores.append(score_run(folder, args.fresh_seed, args.fresh_episodes))
     args.out.mkdir(parents=True, exist_ok=True)
-    document: dict[str, Any] = {
+    document: dict[str, object] = {
         "fresh_seed": args.fresh_seed,
         "fresh_episodes": args.fresh_episodes,
         "runs": [asdict(score) for score in scores],

@@ -82,9 +82,15 @@ def gap_of(document: Mapping[str, Any]) -> CeilingGap:
     seeds_mean = sum(float(row[metric]) for row in seeds) / len(seeds) if seeds else None
     wall = best.get("training", {}).get("wall_time_s")
     return CeilingGap(
-        env_id, n, ceiling, str(best["name"]), float(best[metric]), seeds_mean, len(seeds),
+        env_id,
+        n,
+        ceiling,
+        str(best["name"]),
+        float(best[metric]),
+        seeds_mean,
+        len(seeds),
         None if wall is None else float(wall) / 60.0,
-    )  # fmt: skip
+    )
 
 
 def _percent(value: float | None) -> str:

@@ -27,10 +27,9 @@ planner's closed-loop re-planning.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -60,6 +59,7 @@ from agents.policies.registry import load_policy, policy_label
 from agents.progress import Progress
 from trailer_env.benchmark import privileged_view
 from trailer_env.core import ConvoyCore
+from trailer_env.json_types import JSONObject
 from trailer_env.observation import flat_observation
 from trailer_env.registry import core_class_of
 
@@ -104,7 +104,7 @@ class WitnessRun:
 
 
 def witness_run(
-    policy: Policy, env_id: str, env_kwargs: dict[str, Any], seeds: Sequence[int]
+    policy: Policy, env_id: str, env_kwargs: JSONObject, seeds: Sequence[int]
 ) -> WitnessRun:
     """Play ``policy`` from ``reset(seed=seed)`` of every seed at once (one native vector
     env, one row per seed) and record the applied actions.
@@ -149,9 +149,7 @@ def witness_run(
     return WitnessRun(actions, lengths, success)
 
 
-def replays_to_success(
-    env_id: str, env_kwargs: dict[str, Any], seed: int, record: np.ndarray
-) -> bool:
+def replays_to_success(env_id: str, env_kwargs: JSONObject, seed: int, record: np.ndarray) -> bool:
     """Whether ``record`` replayed open-loop in a fresh env from ``reset(seed=seed)``
     reaches the scene's success exactly at its last step (goal scenes) or keeps the start
     safe for the full episode (Reverse): the test the planners' records pass."""
@@ -162,12 +160,12 @@ def replays_to_success(
 
 
 def add_witnesses(
-    certificate: dict[str, Any],
+    certificate: JSONObject,
     specs: Sequence[str],
     *,
     closed_loop: bool = True,
     trust_pickle: bool = False,
-) -> dict[str, Any]:
+) -> JSONObject:
     """``certificate`` (with its ``actions``) with the starts it leaves open (or not
     recoverable) tried by each witness in ``specs``, in order; returns a new certificate.
 
@@ -240,7 +238,7 @@ def add_witnesses(
     return _settled(certificate, starts, actions, block)
 
 
-def _closed_loop_summary(starts: list[dict[str, Any]]) -> dict[str, Any]:
+def _closed_loop_summary(starts: list[JSONObject]) -> JSONObject:
     witnessed = [start for start in starts if "witness_closed_loop_success" in start]
     return {
         "integrator": WITNESS_CLOSED_LOOP,
@@ -254,11 +252,11 @@ def _closed_loop_summary(starts: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _settled(
-    certificate: dict[str, Any],
-    starts: list[dict[str, Any]],
+    certificate: Mapping[str, object],
+    starts: list[JSONObject],
     actions: dict[int, np.ndarray],
-    witnesses: dict[str, Any],
-) -> dict[str, Any]:
+    witnesses: Mapping[str, object],
+) -> JSONObject:
     """``certificate`` with ``starts``, ``actions`` and ``witnesses``, its counts recounted."""
     count = len(starts)
     feasible = sum(start["status"] == FEASIBLE for start in starts)
@@ -299,7 +297,7 @@ def _prefix_states(
 
 
 def warm_start(
-    certificate: dict[str, Any],
+    certificate: JSONObject,
     specs: Sequence[str],
     *,
     splits: Sequence[float] = WARM_START_SPLITS,
@@ -307,7 +305,7 @@ def warm_start(
     restarts: int = 1,
     closed_loop: bool = True,
     trust_pickle: bool = False,
-) -> dict[str, Any]:
+) -> JSONObject:
     """Goal scenes: the iLQR planner warm-started on the policies' trajectories, on the
     starts ``certificate`` still leaves open; returns a new certificate.
 
@@ -359,7 +357,7 @@ def warm_start(
             length = int(run.lengths[i])
             for k in sorted({max(1, min(length - 1, round(split * length))) for split in splits}):
                 rows.append((seed, label, run.actions[i, :k].copy()))
-    attempts: list[dict[str, Any]] = []
+    attempts: list[JSONObject] = []
     solved: dict[int, tuple[str, int]] = {}
     for restart in range(restarts + 1):
         pending = [row for row in rows if row[0] not in solved]
@@ -383,13 +381,21 @@ def warm_start(
             solved[seed] = (name, len(prefix))
             found += 1
             by_seed[seed].update(
-                status=FEASIBLE, source=f"ilqr+{name}", warm_start_steps=len(prefix),
-                witness_length=len(record), replay_success=True,
-            )  # fmt: skip
+                status=FEASIBLE,
+                source=f"ilqr+{name}",
+                warm_start_steps=len(prefix),
+                witness_length=len(record),
+                replay_success=True,
+            )
         attempts.append(
-            {"restart": restart, "horizon": retry.horizon or scene_horizon(core_class),
-             "iterations": retry.iterations, "rows": len(pending), "solved": found}
-        )  # fmt: skip
+            {
+                "restart": restart,
+                "horizon": retry.horizon or scene_horizon(core_class),
+                "iterations": retry.iterations,
+                "rows": len(pending),
+                "solved": found,
+            }
+        )
     if closed_loop and solved:
         _warm_closed_loop(env_id, env_kwargs, config, policies, solved, by_seed)
     earlier = certificate.get("witnesses")
@@ -408,11 +414,11 @@ def warm_start(
 
 def _warm_closed_loop(
     env_id: str,
-    env_kwargs: dict[str, Any],
+    env_kwargs: JSONObject,
     config: ILQRConfig,
     policies: dict[str, tuple[str, Policy]],
     solved: dict[int, tuple[str, int]],
-    by_seed: dict[int, dict[str, Any]],
+    by_seed: dict[int, JSONObject],
 ) -> None:
     """Re-run each solved warm start closed loop on the dopri5 plant: the policy for its
     steps (a fresh copy of it, acting on the plant's observations), then the planner
@@ -435,11 +441,11 @@ def _warm_closed_loop(
             by_seed[seed]["witness_closed_loop_success"] = bool(reached)
 
 
-def _closed_loop_fidelity() -> dict[str, Any]:
+def _closed_loop_fidelity() -> JSONObject:
     return {"integrator": WITNESS_CLOSED_LOOP, "tolerance": CLOSED_LOOP_TOLERANCE}
 
 
-def _merged_runs(earlier: Any, runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _merged_runs(earlier: object, runs: list[JSONObject]) -> list[JSONObject]:
     """An earlier witness pass's runs followed by this one's (a certificate upgraded twice
     keeps both)."""
     if isinstance(earlier, dict) and isinstance(earlier.get("runs"), list):

@@ -33,7 +33,6 @@ import dataclasses
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -51,6 +50,7 @@ from agents.envs import env_settings
 from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
 from agents.oracles.screen import DEFAULT_HORIZON, screen_start
 from agents.progress import Progress, plural
+from trailer_env.json_types import JSONObject
 from trailer_env.registry import core_class_of
 from trailer_env.vector import seed_generators
 
@@ -66,7 +66,7 @@ class Replay:
     length: int
 
 
-def replay(env_id: str, env_kwargs: dict[str, Any], seed: int, actions: np.ndarray) -> Replay:
+def replay(env_id: str, env_kwargs: JSONObject, seed: int, actions: np.ndarray) -> Replay:
     """Play ``actions`` (steps,) or (steps, action_dim) open-loop from ``reset(seed=seed)``.
 
     Safe: never in the singular band, not terminated as a failure, and every action
@@ -96,7 +96,7 @@ def certify(
     config: PlannerConfig | None = None,
     screen_horizon: float = DEFAULT_HORIZON,
     restarts: int = 0,
-) -> dict[str, Any]:
+) -> JSONObject:
     """Screen, plan and replay every seed; returns the certificate (with the action records).
 
     ``restarts``: the starts the planner did not keep safe are planned again, up to
@@ -116,10 +116,11 @@ def certify(
     core = core_class(settings, count)
     core.reset_rows(np.arange(count), seed_generators(seeds, count, None))
     strokes = [
-        screen_start(settings, core.z[i], s=core.act[i, 1], s_dot=core.act[i, 3],
-                     horizon=screen_horizon).stroke_fraction
+        screen_start(
+            settings, core.z[i], s=core.act[i, 1], s_dot=core.act[i, 3], horizon=screen_horizon
+        ).stroke_fraction
         for i in range(count)
-    ]  # fmt: skip
+    ]
     screen_time = time.perf_counter() - started
     config = config or PlannerConfig()
     planner = SamplingPlanner(core_class, settings, count, config)

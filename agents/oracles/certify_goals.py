@@ -29,7 +29,6 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -41,6 +40,7 @@ from agents.oracles.ilqr_costs import scene_horizon
 from agents.oracles.scenes import SCENE_ORACLES, scene_oracle
 from agents.progress import Progress, plural
 from trailer_env.core import ConvoyCore
+from trailer_env.json_types import JSONObject
 from trailer_env.registry import core_class_of
 from trailer_env.settings import EnvSettings
 from trailer_env.vector import seed_generators
@@ -141,7 +141,7 @@ def reset_core(core_class: type[ConvoyCore], settings: EnvSettings, seeds: list[
 
 
 def replay_goal(
-    env_id: str, env_kwargs: dict[str, Any], seed: int, actions: np.ndarray
+    env_id: str, env_kwargs: JSONObject, seed: int, actions: np.ndarray
 ) -> tuple[bool, int]:
     """Play ``actions`` open-loop from ``reset(seed=seed)`` in a fresh env: (ended in
     the scene's success, steps played)."""
@@ -176,7 +176,7 @@ def certify_goals(
     config: ILQRConfig | None = None,
     restarts: int = DEFAULT_GOAL_RESTARTS,
     closed_loop: str | None = None,
-) -> dict[str, Any]:
+) -> JSONObject:
     """Plan, replay and (optionally) re-plan under ``closed_loop`` every seed of a goal
     scene; returns the certificate (the format of :mod:`agents.oracles.certify`).
 
@@ -218,7 +218,7 @@ def certify_goals(
         for field in ("actions", "lengths", "success"):
             getattr(planned, field)[saved] = getattr(retried, field)[retried.success]
     planner_time = time.perf_counter() - started
-    closed: dict[str, Any] | None = None
+    closed: JSONObject | None = None
     closed_success = np.zeros(count, dtype=bool)
     if closed_loop is not None:
         started = time.perf_counter()
@@ -246,7 +246,7 @@ def certify_goals(
             feasible = outcome is not None and outcome == (True, int(planned.lengths[i]))
             if feasible:
                 actions[seed] = sequence.astype(np.float64)
-            start: dict[str, Any] = {
+            start: JSONObject = {
                 "seed": seed,
                 "status": FEASIBLE if feasible else OPEN,
                 "screen_stroke_fraction": None,
@@ -259,7 +259,7 @@ def certify_goals(
                 start["closed_loop_success"] = bool(closed_success[i])
             starts.append(start)
     feasible_count = sum(start["status"] == FEASIBLE for start in starts)
-    certificate: dict[str, Any] = {
+    certificate: JSONObject = {
         "env_id": env_id,
         "env_kwargs": env_kwargs,
         "seeds": [min(seeds), max(seeds)],

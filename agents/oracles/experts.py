@@ -60,7 +60,7 @@ class Labeller(Protocol):
         """Forget the warm starts of ``rows`` (default all)."""
         ...
 
-    def label(self, core: Any) -> np.ndarray:
+    def label(self, core: ConvoyCore) -> np.ndarray:
         """Actions (E, 1) for every row of ``core`` from its exact states."""
         ...
 
@@ -112,7 +112,7 @@ class ILQRExpert:
     def reset(self, rows: np.ndarray | None = None) -> None:
         self.planner.reset(rows)
 
-    def label(self, core: Any) -> np.ndarray:
+    def label(self, core: ConvoyCore) -> np.ndarray:
         """The planner's actions (E, 1) for every row of ``core`` (a core of this scene
         and count), from its exact states and its task arrays.
 
@@ -127,7 +127,7 @@ class ILQRExpert:
         return self.planner.plan(core.z, core.act, task)
 
 
-def _randomised_parameters(randomize: Randomization | str | dict[str, Any] | None) -> bool:
+def _randomised_parameters(randomize: Randomization | str | dict[str, object] | None) -> bool:
     """Whether ``randomize`` (settings' or a config's) draws a physical parameter."""
     ranges = Randomization.coerce(randomize)
     return ranges is not None and any(name in PARAMETERS for name in ranges.names)
@@ -169,7 +169,7 @@ class Expert:
         self,
         env_id: str,
         n_trailers: int | tuple[int, int],
-        randomize: str | dict[str, Any] | None,
+        randomize: str | dict[str, object] | None,
     ) -> str | None:
         """Why this expert cannot label the env (None when it can); ``randomize`` must
         already be valid (:meth:`Randomization.coerce`)."""

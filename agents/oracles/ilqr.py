@@ -47,8 +47,8 @@ times the copies per step (:attr:`ILQRPlanner.steps_per_decision`).
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -60,7 +60,7 @@ from trailer_env.fidelity import Fidelity
 from trailer_env.settings import EnvSettings
 
 
-def _positive_int(name: str, value: Any, minimum: int) -> int:
+def _positive_int(name: str, value: object, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{name} must be an int, got {type(value).__name__}")
     if value < minimum:
@@ -261,9 +261,13 @@ class ILQRPlanner:
         settings = self.settings
         accel_max = settings.rail_accel_max
         command = settings.actuator.command_for_accel(
-            fraction * accel_max, core.act[:, 1], core.act[:, 3], settings.params.s_max,
-            accel_max, settings.servo_frequency,
-        )  # fmt: skip
+            fraction * accel_max,
+            core.act[:, 1],
+            core.act[:, 3],
+            settings.params.s_max,
+            accel_max,
+            settings.servo_frequency,
+        )
         return np.clip(command, -1.0, 1.0)
 
     def _lqr_fraction(self, core: ConvoyCore) -> np.ndarray:
@@ -279,9 +283,14 @@ class ILQRPlanner:
             getattr(core, key)[:] = np.repeat(value, repeat, axis=0)
 
     def _rollout(
-        self, z0: np.ndarray, act0: np.ndarray, feedforward: np.ndarray, gains: np.ndarray,
-        reference: np.ndarray, lqr_rows: np.ndarray,
-    ) -> Trajectory:  # fmt: skip
+        self,
+        z0: np.ndarray,
+        act0: np.ndarray,
+        feedforward: np.ndarray,
+        gains: np.ndarray,
+        reference: np.ndarray,
+        lqr_rows: np.ndarray,
+    ) -> Trajectory:
         """Roll the model core out from the E states, L candidates each (rows e * L + l):
         ``v_t = clip(feedforward + gains . (x_t - reference_t))``, or the LQR's where
         ``lqr_rows``."""
@@ -297,14 +306,18 @@ class ILQRPlanner:
         m = cost_model.size
         x = np.empty((rows, horizon + 1, self.d))
         out = Trajectory(
-            x=x, z=np.empty((rows, horizon + 1, self.width)), act=np.empty((rows, horizon + 1, 6)),
-            v=np.zeros((rows, horizon)), actions=np.zeros((rows, horizon)),
+            x=x,
+            z=np.empty((rows, horizon + 1, self.width)),
+            act=np.empty((rows, horizon + 1, 6)),
+            v=np.zeros((rows, horizon)),
+            actions=np.zeros((rows, horizon)),
             substeps=np.ones((rows, horizon), dtype=np.int64),
             residual=np.zeros((rows, horizon + 1, m)),
             terminal=np.zeros((rows, cost_model.terminal_size)),
             speed_index=np.zeros(rows, dtype=np.int64),
-            alive=np.zeros((rows, horizon + 1), dtype=bool), cost=np.zeros(rows),
-        )  # fmt: skip
+            alive=np.zeros((rows, horizon + 1), dtype=bool),
+            cost=np.zeros(rows),
+        )
         alive = np.ones(rows, dtype=bool)
         fraction = np.empty(rows)
         action = np.zeros((rows, 1))
@@ -404,7 +417,7 @@ class ILQRPlanner:
 
     # ------------------------------------------------------------------ plan
     def _check(
-        self, z: np.ndarray, act: np.ndarray, task: dict[str, Any] | None
+        self, z: np.ndarray, act: np.ndarray, task: Mapping[str, object] | None
     ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
         count, width = self.batch_size, self.width
         z = np.asarray(z, dtype=np.float64)
@@ -435,7 +448,7 @@ class ILQRPlanner:
         return state, act, values
 
     def plan(
-        self, z: np.ndarray, act: np.ndarray, task: dict[str, Any] | None = None
+        self, z: np.ndarray, act: np.ndarray, task: Mapping[str, object] | None = None
     ) -> np.ndarray:
         """Actions (E, 1), float64 in [-1, 1], for the environments' exact states.
 
@@ -467,9 +480,13 @@ class ILQRPlanner:
             lqr_rows[:, 1] = ~self.valid
         flat = (count * candidates,)
         trial = self._rollout(
-            state, act, feedforward.reshape(*flat, horizon), gains.reshape(*flat, horizon, d),
-            reference.reshape(*flat, horizon + 1, d), lqr_rows.reshape(flat),
-        )  # fmt: skip
+            state,
+            act,
+            feedforward.reshape(*flat, horizon),
+            gains.reshape(*flat, horizon, d),
+            reference.reshape(*flat, horizon + 1, d),
+            lqr_rows.reshape(flat),
+        )
         offsets = np.arange(count) * candidates
         self.warm_costs = trial.cost.reshape(shape)[:, :2].copy()
         nominal = trial.take(offsets + trial.cost.reshape(shape).argmin(axis=1))
@@ -484,16 +501,29 @@ class ILQRPlanner:
         for _ in range(config.iterations):
             a_matrix, b_vector, jacobian, terminal_jacobian = self._derivatives(nominal)
             backward_pass(
-                a_matrix, b_vector, jacobian, nominal.residual, terminal_jacobian,
-                nominal.terminal, nominal.alive, nominal.v, self.cost.weights.control,
-                regularization, step, gain, decrease,
-            )  # fmt: skip
+                a_matrix,
+                b_vector,
+                jacobian,
+                nominal.residual,
+                terminal_jacobian,
+                nominal.terminal,
+                nominal.alive,
+                nominal.v,
+                self.cost.weights.control,
+                regularization,
+                step,
+                gain,
+                decrease,
+            )
             trial_ff = nominal.v[:, None, :] + alphas[None, :, None] * step[:, None, :]
             trial = self._rollout(
-                state, act, trial_ff.reshape(*flat, horizon),
-                np.repeat(gain, candidates, axis=0), np.repeat(nominal.x, candidates, axis=0),
+                state,
+                act,
+                trial_ff.reshape(*flat, horizon),
+                np.repeat(gain, candidates, axis=0),
+                np.repeat(nominal.x, candidates, axis=0),
                 no_lqr,
-            )  # fmt: skip
+            )
             best = trial.take(offsets + trial.cost.reshape(shape).argmin(axis=1))
             better = best.cost < nominal.cost
             nominal.update(better, best)

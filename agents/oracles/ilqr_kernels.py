@@ -151,9 +151,12 @@ def backward_pass(
 
 @cached_njit()
 def feedback(
-    feedforward: np.ndarray, gain: np.ndarray, state: np.ndarray, reference: np.ndarray,
+    feedforward: np.ndarray,
+    gain: np.ndarray,
+    state: np.ndarray,
+    reference: np.ndarray,
     out: np.ndarray,
-) -> None:  # fmt: skip
+) -> None:
     """``out = clip(feedforward + gain . (state - reference), -1, 1)`` row by row
     (feedforward (R,), gain, state, reference (R, d))."""
     rows, d = state.shape

@@ -320,7 +320,7 @@ class SamplingPlanner:
         used = np.arange(count * samples, dtype=np.int64)
         self.core.set_row_params(used, np.repeat(params, samples, axis=0))
 
-    def label(self, core: Any) -> np.ndarray:
+    def label(self, core: ConvoyCore) -> np.ndarray:
         """:meth:`plan` for every row of a scene core of this planner's settings, from its
         exact states (and its rows' parameters when :attr:`per_row`)."""
         if self.per_row:

@@ -63,8 +63,9 @@ def dock_state_from_observation(
     n = settings.n_trailers
     batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
     if batch.shape[1] != 2 * n + 8:
-        raise ValueError(f"Dock-v0 observations with n = {n} have {2 * n + 8} entries, "
-                         f"got {batch.shape[1]}")  # fmt: skip
+        raise ValueError(
+            f"Dock-v0 observations with n = {n} have {2 * n + 8} entries, got {batch.shape[1]}"
+        )
     z_core, act = state_from_observation(batch, settings)
     base = 2 * n + 4
     last_x = batch[:, base] * DISTANCE_SCALE
@@ -73,8 +74,9 @@ def dock_state_from_observation(
     alpha = z_core[:, 2 : 2 + n]
     # theta_last = theta_cart - sum(alpha) (dynamics.body_poses): turn, then translate.
     theta = error + np.sum(alpha, axis=1)
-    xs, ys, _ = body_poses(settings.params.l, np.zeros_like(theta), np.zeros_like(theta),
-                           theta, alpha)  # fmt: skip
+    xs, ys, _ = body_poses(
+        settings.params.l, np.zeros_like(theta), np.zeros_like(theta), theta, alpha
+    )
     z = np.column_stack([z_core, last_x - xs[:, -1], last_y - ys[:, -1], theta])
     return z, act, np.zeros((batch.shape[0], 3))
 

@@ -37,13 +37,14 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
 from agents.envs import ENV_IDS, scene_baselines
 from agents.oracles.scenes import scene_oracle
 from trailer_env.controllers import LQRController, heading_policy
+from trailer_env.core import ConvoyCore
 from trailer_env.randomize import PARAMETERS
 from trailer_env.registry import core_class_of
 from trailer_env.settings import EnvSettings
@@ -120,7 +121,7 @@ class AdaptiveLQRPolicy:
             name in PARAMETERS for name in randomize.names
         )
 
-    def observe(self, core: Any, obs: np.ndarray) -> PrivilegedObservation:
+    def observe(self, core: ConvoyCore, obs: np.ndarray) -> PrivilegedObservation:
         """The observations and the core's per-row episode parameters (copies)."""
         return PrivilegedObservation(np.asarray(obs), np.array(core.param_values, dtype=np.float64))
 

@@ -31,6 +31,7 @@ from agents.envs import (
 from agents.policies.baselines import BASELINES, Policy, make_baseline
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy, load_model, load_stats
 from dynamics.params import MAX_TRAILERS, bounded_integer
+from trailer_env.json_types import JSONObject
 from trailer_env.mixed import is_trailer_range, pad_observations, trailer_range
 
 #: ``package.module:attribute`` (the form of console-script entry points).
@@ -90,7 +91,7 @@ def policy_label(spec: str) -> str:
     return path.stem
 
 
-def check_card(card: dict[str, Any], spec: str, env_id: str, env_kwargs: dict[str, Any]) -> None:
+def check_card(card: JSONObject, spec: str, env_id: str, env_kwargs: JSONObject) -> None:
     """Refuse a model whose card names another environment id or number of trailers.
 
     Raises:
@@ -124,7 +125,7 @@ def check_card(card: dict[str, Any], spec: str, env_id: str, env_kwargs: dict[st
         )
 
 
-def _wanted_trailers(env_kwargs: dict[str, Any]) -> int | tuple[int, int]:
+def _wanted_trailers(env_kwargs: JSONObject) -> int | tuple[int, int]:
     """The env's ``n_trailers``: one count, or the range ``(low, high)``."""
     value = env_kwargs.get("n_trailers")
     if is_trailer_range(value):
@@ -148,9 +149,9 @@ class PaddedPolicy:
 
 def _trailers_model(
     path: Path,
-    card: dict[str, Any],
+    card: JSONObject,
     env_id: str,
-    kwargs: dict[str, Any],
+    kwargs: JSONObject,
     trust_pickle: bool,
     force: bool,
 ) -> Policy:
@@ -170,8 +171,9 @@ def _trailers_model(
             "evaluate it anyway"
         )
     try:
-        slots = bounded_integer("max_trailers", card["env_kwargs"].get("max_trailers"), 1,
-                                MAX_TRAILERS)  # fmt: skip
+        slots = bounded_integer(
+            "max_trailers", card["env_kwargs"].get("max_trailers"), 1, MAX_TRAILERS
+        )
     except TypeError as error:
         raise ValueError(f"{path}: its card's env_kwargs: {error}") from None
     wanted = _wanted_trailers(kwargs)
@@ -188,7 +190,7 @@ def _trailers_model(
     return TrailersPolicy(ModelPolicy(model), top, slots, isinstance(wanted, tuple))
 
 
-def model_card(spec: str) -> dict[str, Any]:
+def model_card(spec: str) -> JSONObject:
     """The card of a model spec (SB3 zip or RLlib checkpoint); empty for a baseline."""
     if not is_model_spec(spec):
         return {}
@@ -203,7 +205,7 @@ def model_card(spec: str) -> dict[str, Any]:
 def load_policy(
     spec: str,
     env_id: str,
-    env_kwargs: dict[str, Any] | None = None,
+    env_kwargs: JSONObject | None = None,
     seed: int | None = 0,
     *,
     trust_pickle: bool = False,

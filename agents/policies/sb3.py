@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -15,6 +16,10 @@ from agents.envs import make_vector_env
 from agents.policies.extractors import feature_extractors
 from trailer_env.observation import trailers_observation
 
+if TYPE_CHECKING:
+    from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.vec_env import VecNormalize
+
 
 def limit_torch_threads(threads: int = 1) -> None:
     """Use ``threads`` torch threads: small policies on a shared 2-core machine run 10-30x
@@ -24,7 +29,9 @@ def limit_torch_threads(threads: int = 1) -> None:
     torch.set_num_threads(threads)
 
 
-def load_stats(model_path: Path, observation_space: Any = None, trust_pickle: bool = False) -> Any:
+def load_stats(
+    model_path: Path, observation_space: object = None, trust_pickle: bool = False
+) -> Any:
     """The read-only ``VecNormalize`` saved with ``model_path`` (no env), or None.
 
     Reads ``stats_path(model_path)`` (JSON). A legacy pickled file is unpickled only
@@ -86,7 +93,7 @@ class ModelPolicy:
             with (None: raw observations). Used read-only.
     """
 
-    def __init__(self, model: Any, stats: Any = None) -> None:
+    def __init__(self, model: BaseAlgorithm, stats: VecNormalize | None = None) -> None:
         self.model = model
         self.stats = stats
 
@@ -110,15 +117,22 @@ class TrailersPolicy:
         padded: Whether the flat observations are the padded layout of a range.
     """
 
-    def __init__(self, policy: Any, n: int, max_trailers: int, padded: bool) -> None:
+    def __init__(
+        self,
+        policy: Callable[[dict[str, np.ndarray]], np.ndarray],
+        n: int,
+        max_trailers: int,
+        padded: bool,
+    ) -> None:
         self.policy = policy
         self.n = n
         self.max_trailers = max_trailers
         self.padded = padded
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        batch = trailers_observation(np.atleast_2d(obs), self.n, self.max_trailers,
-                                     padded=self.padded)  # fmt: skip
+        batch = trailers_observation(
+            np.atleast_2d(obs), self.n, self.max_trailers, padded=self.padded
+        )
         return np.asarray(self.policy(batch), dtype=np.float32)
 
 
@@ -127,7 +141,7 @@ def load_model(
     algo: str | None = None,
     *,
     env_id: str | None = None,
-    env_kwargs: dict[str, Any] | None = None,
+    env_kwargs: dict[str, object] | None = None,
     trust_pickle: bool = False,
 ) -> Any:
     """Load a saved model on the CPU (the algorithm detected unless given) without pickles.

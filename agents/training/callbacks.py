@@ -32,6 +32,7 @@ from agents.evaluation.metrics import rollout, summarize
 from agents.policies.sb3 import ModelPolicy
 from agents.progress import Progress
 from agents.seeds import VALIDATION_SEED
+from trailer_env.json_types import JSONObject
 
 #: Called after each evaluation with (steps, summary); returns True to stop the run.
 EvaluationHook = Callable[[int, Mapping[str, Any]], bool]
@@ -130,7 +131,7 @@ class SafetyEvalCallback(BaseCallback):
     def __init__(
         self,
         env_id: str,
-        env_kwargs: dict[str, Any],
+        env_kwargs: JSONObject,
         run_dir: Path,
         eval_freq: int,
         episodes: int = 50,
@@ -196,7 +197,7 @@ class SafetyEvalCallback(BaseCallback):
         if self.num_timesteps not in self._evaluated_at and not self.stop_requested:
             self.evaluate()
 
-    def _write_rows(self, rows: list[dict[str, Any]], append: bool = False) -> None:
+    def _write_rows(self, rows: list[JSONObject], append: bool = False) -> None:
         """Write (atomically) or append rows of evaluations.csv (header when it starts)."""
         self.run_dir.mkdir(parents=True, exist_ok=True)
         if append:
@@ -209,7 +210,7 @@ class SafetyEvalCallback(BaseCallback):
         """Training wall time of the run so far, earlier sessions (before a resume) included."""
         return self.wall_offset + time.perf_counter() - self._start
 
-    def evaluate(self) -> dict[str, Any]:
+    def evaluate(self) -> JSONObject:
         """Run one evaluation now; returns its summary."""
         stats = self.model.get_vec_normalize_env()
         results = rollout(

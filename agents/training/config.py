@@ -43,6 +43,7 @@ from __future__ import annotations
 import ast
 import inspect
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,6 +53,7 @@ import yaml
 from agents.algorithms import algo_class
 from agents.artifacts import files, limits
 from agents.policies.extractors import FEATURE_EXTRACTORS, feature_extractor
+from trailer_env.json_types import JSONObject
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
 
@@ -62,18 +64,54 @@ MAX_BUFFER_SIZE = 10_000_000
 #: The largest rollout (PPO's n_steps times the batch's environments).
 MAX_ROLLOUT_STEPS = 10_000_000
 #: rl-zoo3's keys of an entry that are not the algorithm's arguments.
-_ZOO_KEYS = ("n_envs", "n_timesteps", "policy", "env_kwargs", "normalize", "noise_type",
-             "noise_std", "shaping")  # fmt: skip
+_ZOO_KEYS = (
+    "n_envs",
+    "n_timesteps",
+    "policy",
+    "env_kwargs",
+    "normalize",
+    "noise_type",
+    "noise_std",
+    "shaping",
+)
 #: Algorithm arguments that must be integers, and those that must be numbers.
-_INT_KEYS = ("n_steps", "batch_size", "n_epochs", "buffer_size", "learning_starts",
-             "gradient_steps", "policy_delay", "target_update_interval", "sde_sample_freq",
-             "stats_window_size")  # fmt: skip
-_NUMBER_KEYS = ("gamma", "gae_lambda", "vf_coef", "max_grad_norm", "tau",
-                "target_policy_noise", "target_noise_clip", "target_kl", "cost_limit",
-                "lambda_lr", "lambda_init")  # fmt: skip
+_INT_KEYS = (
+    "n_steps",
+    "batch_size",
+    "n_epochs",
+    "buffer_size",
+    "learning_starts",
+    "gradient_steps",
+    "policy_delay",
+    "target_update_interval",
+    "sde_sample_freq",
+    "stats_window_size",
+)
+_NUMBER_KEYS = (
+    "gamma",
+    "gae_lambda",
+    "vf_coef",
+    "max_grad_norm",
+    "tau",
+    "target_policy_noise",
+    "target_noise_clip",
+    "target_kl",
+    "cost_limit",
+    "lambda_lr",
+    "lambda_init",
+)
 #: Arguments the trainer sets itself (an entry may not).
-_RESERVED = ("self", "policy", "env", "verbose", "seed", "device", "_init_setup_model",
-             "tensorboard_log", "action_noise")  # fmt: skip
+_RESERVED = (
+    "self",
+    "policy",
+    "env",
+    "verbose",
+    "seed",
+    "device",
+    "_init_setup_model",
+    "tensorboard_log",
+    "action_noise",
+)
 #: Keyword arguments of VecNormalize an entry's ``normalize`` may set.
 _NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon")
 
@@ -108,11 +146,11 @@ class Hyperparams:
     n_envs: int = 1
     n_timesteps: int = 100_000
     policy: str = "MlpPolicy"
-    env_kwargs: dict[str, Any] = field(default_factory=dict)
-    normalize: dict[str, Any] | None = None
+    env_kwargs: JSONObject = field(default_factory=dict)
+    normalize: JSONObject | None = None
     action_noise_std: float | None = None
-    shaping: dict[str, Any] | None = None
-    algo_kwargs: dict[str, Any] = field(default_factory=dict)
+    shaping: JSONObject | None = None
+    algo_kwargs: JSONObject = field(default_factory=dict)
 
 
 def _literal(node: ast.expr) -> Any:
@@ -146,7 +184,7 @@ def _literal(node: ast.expr) -> Any:
     raise ValueError(f"unsupported expression in policy_kwargs: {ast.unparse(node)!r}")
 
 
-def parse_policy_kwargs(text: str | dict[str, Any]) -> dict[str, Any]:
+def parse_policy_kwargs(text: str | JSONObject) -> JSONObject:
     """Parse an rl-zoo3 ``policy_kwargs`` string such as ``"dict(net_arch=[64, 64])"`` or
     ``"dict(features_extractor_class=ConvoyEncoder, features_extractor_kwargs=dict(hidden=32))"``.
 
@@ -177,7 +215,7 @@ def linear_schedule(initial: float) -> Any:
     return schedule
 
 
-def _schedule(key: str, value: Any) -> Any:
+def _schedule(key: str, value: object) -> Any:
     if isinstance(value, str):
         kind, _, initial = value.partition("_")
         if kind != "lin":
@@ -205,7 +243,7 @@ def hyperparams_file(algo: str, directory: Path = HYPERPARAMS_DIR) -> Path:
 DEFAULT_ENTRY = "default"
 
 
-def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> dict[str, Any]:
+def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> JSONObject:
     """``env_id``'s entry of ``<directory>/<algo>.yml`` as the YAML holds it (anchors
     merged, nothing checked but the file's size and shape), or the file's ``default:``
     entry when ``env_id`` has none.
@@ -219,7 +257,7 @@ def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> dict
     return _entry(path, env_id)[1]
 
 
-def _entry(path: Path, env_id: str) -> tuple[str, dict[str, Any]]:
+def _entry(path: Path, env_id: str) -> tuple[str, JSONObject]:
     """The name of the entry ``env_id`` reads in ``path`` and that entry (see :func:`raw_entry`)."""
     size = path.stat().st_size
     if size > MAX_HYPERPARAMS_BYTES:
@@ -315,7 +353,7 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
     return result
 
 
-def shaping_setting(value: object, where: str) -> dict[str, Any] | None:
+def shaping_setting(value: object, where: str) -> JSONObject | None:
     """An entry's (or ``--shaping``'s) ``shaping`` as the wrapper's keywords, or None.
 
     ``None``, ``False`` and ``"none"`` mean no shaping; a name of
@@ -330,7 +368,7 @@ def shaping_setting(value: object, where: str) -> dict[str, Any] | None:
     if value is None or value is False or value == "none":
         return None
     if isinstance(value, str) and not value.lstrip().startswith("dict("):
-        setting: dict[str, Any] = {"potential": value.strip()}
+        setting: JSONObject = {"potential": value.strip()}
     elif isinstance(value, (str, dict)):
         setting = parse_policy_kwargs(value) if isinstance(value, str) else dict(value)
     else:
@@ -374,19 +412,21 @@ def init_arguments(cls: type) -> set[str]:
     return names
 
 
-def _check_keys(algo: str, raw: dict[str, Any], where: str) -> None:
+def _check_keys(algo: str, raw: Mapping[str, object], where: str) -> None:
     """Refuse an entry key that is neither rl-zoo3's nor an argument of the algorithm."""
     accepted = init_arguments(algo_class(algo)) - set(_RESERVED)
     for key in raw:
-        if key not in accepted and key not in _ZOO_KEYS and key not in (
-            "env_wrapper", "vec_env_wrapper", "frame_stack", "callback"
-        ):  # fmt: skip
+        if (
+            key not in accepted
+            and key not in _ZOO_KEYS
+            and key not in ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback")
+        ):
             raise ValueError(
                 f"{where}: unknown key {key!r:.60} (neither rl-zoo3's nor an argument of {algo})"
             )
 
 
-def jsonable(value: Any) -> Any:
+def jsonable(value: object) -> Any:
     """Hyperparameter values as JSON (schedules and classes by name)."""
     if isinstance(value, dict):
         return {str(key): jsonable(item) for key, item in value.items()}
@@ -474,17 +514,17 @@ class TrainConfig:
         )
 
     @property
-    def env_kwargs(self) -> dict[str, Any]:
+    def env_kwargs(self) -> JSONObject:
         """The environment's keyword arguments: the file's, with this run's ``n_trailers``."""
         return {**self.hyperparams.env_kwargs, "n_trailers": self.n_trailers}
 
-    def document(self) -> dict[str, Any]:
+    def document(self) -> JSONObject:
         """The run's record (JSON-ready) for ``config.json`` and the model cards.
 
         An SB3 run records the file's policy, algorithm arguments and normalisation; an
         RLlib run records ``backend`` (its trainer adds the RLlib settings it resolved).
         """
-        record: dict[str, Any] = {
+        record: JSONObject = {
             "algo": self.algo,
             "env_id": self.env_id,
             "env_kwargs": self.env_kwargs,

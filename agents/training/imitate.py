@@ -59,7 +59,7 @@ import sys
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -86,11 +86,16 @@ from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
 from agents.training.config import load_hyperparams, parse_policy_kwargs
+from trailer_env.json_types import JSONObject
 from trailer_env.mixed import is_trailer_range, mixed_settings, trailer_range
 from trailer_env.observation import checked_observation, flat_observation, trailers_observation
 from trailer_env.randomize import PRESETS, Randomization
 from trailer_env.registry import core_class_of
 from trailer_env.vector import ConvoyVectorEnv
+
+if TYPE_CHECKING:
+    from stable_baselines3.common.base_class import BaseAlgorithm
+    from stable_baselines3.common.vec_env import VecNormalize
 
 #: Keys of the run's record that the best model's card takes at the end of the run.
 RUN_TOTALS = ("timesteps", "wall_time_s", "simulated_steps")
@@ -162,7 +167,7 @@ class ImitationConfig:
     net_arch: tuple[int, ...] | None = None
     validation_episodes: int = 100
     planner: ExpertConfig | None = None
-    randomize: str | dict[str, Any] | None = None
+    randomize: str | JSONObject | None = None
     expert: str | None = None
     observation: str = "flat"
     max_trailers: int | None = None
@@ -229,8 +234,8 @@ class ImitationConfig:
         return self.planner
 
     @property
-    def env_kwargs(self) -> dict[str, Any]:
-        kwargs: dict[str, Any] = {"n_trailers": self.n_trailers}
+    def env_kwargs(self) -> JSONObject:
+        kwargs: JSONObject = {"n_trailers": self.n_trailers}
         if self.randomize is not None:
             kwargs["randomize"] = self.randomize
         return kwargs
@@ -241,15 +246,20 @@ class ImitationConfig:
         return self.n_trailers[1] if isinstance(self.n_trailers, tuple) else self.n_trailers
 
     @property
-    def student_kwargs(self) -> dict[str, Any]:
+    def student_kwargs(self) -> JSONObject:
         """The environment the student's spaces come from (and its card records): the
         labelling env's keywords with the observation."""
         if self.observation == "flat":
             return self.env_kwargs
-        return {**self.env_kwargs, "observation": self.observation,
-                "max_trailers": self.max_trailers}  # fmt: skip
+        return {
+            **self.env_kwargs,
+            "observation": self.observation,
+            "max_trailers": self.max_trailers,
+        }
 
-    def student(self, model: Any, stats: Any) -> Any:
+    def student(
+        self, model: BaseAlgorithm, stats: VecNormalize | None
+    ) -> ModelPolicy | TrailersPolicy:
         """The student as a policy of the (flat) labelling and validation envs."""
         if self.max_trailers is None:
             return ModelPolicy(model, stats)
@@ -328,8 +338,9 @@ def fit(
     policy.set_training_mode(True)
     optimizer = torch.optim.Adam(policy.parameters(), lr=config.learning_rate)
     if isinstance(obs, dict):
-        inputs: Any = {key: torch.as_tensor(value, dtype=torch.float32)
-                       for key, value in obs.items()}  # fmt: skip
+        inputs: Any = {
+            key: torch.as_tensor(value, dtype=torch.float32) for key, value in obs.items()
+        }
     else:
         inputs = torch.as_tensor(obs, dtype=torch.float32)
     targets = torch.as_tensor(labels, dtype=torch.float32)
@@ -356,7 +367,7 @@ def fit(
     return loss_sum
 
 
-def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
+def _build_model(config: ImitationConfig) -> tuple[Any, Any, JSONObject]:
     """The PPO model (untrained), its frozen VecNormalize (None with "trailers") and the
     hyperparameters used."""
     from stable_baselines3 import PPO
@@ -371,8 +382,9 @@ def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
     if config.observation == "trailers":
         policy_kwargs["features_extractor_class"] = feature_extractor("ConvoyEncoder")
         venv = make_sb3_env(config.env_id, hp.n_envs, config.student_kwargs, seed=config.seed)
-        model = PPO("MultiInputPolicy", venv, seed=config.seed, device="cpu", verbose=0,
-                    **algo_kwargs)  # fmt: skip
+        model = PPO(
+            "MultiInputPolicy", venv, seed=config.seed, device="cpu", verbose=0, **algo_kwargs
+        )
         return model, None, {"n_envs": hp.n_envs, **algo_kwargs}
     venv = make_sb3_env(config.env_id, hp.n_envs, config.env_kwargs, seed=config.seed)
     gamma = algo_kwargs.get("gamma", 0.99)
@@ -381,7 +393,7 @@ def _build_model(config: ImitationConfig) -> tuple[Any, Any, dict[str, Any]]:
     return model, stats, {"n_envs": hp.n_envs, **algo_kwargs}
 
 
-def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[str, Any]:
+def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> JSONObject:
     """Run DAgger (see the module); returns the run's record (also its ``config.json``)."""
     started = time.perf_counter()
     settings = config.settings_by_count()
@@ -394,7 +406,7 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
     expert = EXPERTS[str(config.expert)]
     planner = expert.build(core_class, settings, config.episodes, config.expert_config, config.seed)
     rng = np.random.default_rng(config.seed)
-    record: dict[str, Any] = {
+    record: JSONObject = {
         "algo": "ppo",
         "recipe": "dagger",
         "expert": expert.name,
@@ -405,28 +417,38 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
         "imitation": {
             key: (list(value) if isinstance(value, tuple) else value)
             for key, value in asdict(config).items()
-            if key not in ("env_id", "n_trailers", "seed", "planner", "randomize", "expert",
-                           "observation", "max_trailers")
+            if key
+            not in (
+                "env_id",
+                "n_trailers",
+                "seed",
+                "planner",
+                "randomize",
+                "expert",
+                "observation",
+                "max_trailers",
+            )
         },
         "planner": asdict(planner.config),
-        "hyperparams": {
-            key: value for key, value in hyperparams.items() if key != "policy_kwargs"
-        }
-        | {"policy_kwargs": {
-            key: value for key, value in hyperparams["policy_kwargs"].items()
-            if isinstance(value, (int, float, str, list, tuple))
-        }},
+        "hyperparams": {key: value for key, value in hyperparams.items() if key != "policy_kwargs"}
+        | {
+            "policy_kwargs": {
+                key: value
+                for key, value in hyperparams["policy_kwargs"].items()
+                if isinstance(value, (int, float, str, list, tuple))
+            }
+        },
         "normalize": None if stats is None else {"norm_obs": True, "norm_reward": False},
         "policy": "MlpPolicy" if stats is not None else "MultiInputPolicy",
         "training_seed": TRAINING_SEED,
         "budget": config.iterations * config.episodes * envs.max_episode_steps,
-    }  # fmt: skip
+    }
     write_config(run_dir, record)
     data_obs: list[np.ndarray] = []
     data_labels: list[np.ndarray] = []
     curve: list[dict[str, float]] = []
     best: tuple[float, float, float] | None = None
-    summary: dict[str, Any] = {}
+    summary: JSONObject = {}
     for iteration in range(config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
         driver = None if iteration == 0 else config.student(model, stats)
@@ -474,8 +496,13 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> dict[st
                 f"({row['wall_s']:.0f} s)",
                 flush=True,
             )
-        card = {**record, "validation": summary, "selected_at_iteration": iteration,
-                "selected_at_timesteps": samples, "timesteps": samples}  # fmt: skip
+        card = {
+            **record,
+            "validation": summary,
+            "selected_at_iteration": iteration,
+            "selected_at_timesteps": samples,
+            "timesteps": samples,
+        }
         if best is None or score(summary) > best:
             best = score(summary)
             if stats is not None:

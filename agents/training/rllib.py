@@ -74,6 +74,7 @@ from agents.artifacts.files import atomic_write_bytes, write_json
 from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS
 from agents.artifacts.run_folder import PROGRESS_FILE, RLLIB_CHECKPOINT, write_config
 from agents.training.config import Hyperparams, TrainConfig
+from trailer_env.json_types import JSONObject
 
 #: The name under which :func:`register_trailer_env` registers the env creator.
 RLLIB_ENV_NAME = "trailer_env_rllib"
@@ -115,7 +116,7 @@ def _raise_on_sigterm() -> Any:
     """Make SIGTERM raise SystemExit (so that ``finally`` shuts Ray down); returns the
     handler it replaced (None off the main thread, where it does nothing)."""
 
-    def handler(signum: int, frame: Any) -> None:
+    def handler(signum: int, frame: object) -> None:
         raise SystemExit(128 + signum)
 
     try:
@@ -155,7 +156,7 @@ def register_trailer_env() -> str:
 
 def ppo_config(
     env_id: str,
-    env_kwargs: dict[str, Any],
+    env_kwargs: Mapping[str, object],
     hp: Hyperparams,
     seed: int,
     num_env_runners: int,
@@ -211,7 +212,7 @@ def ppo_config(
     )
 
 
-def ppo_settings(rllib_config: Any) -> dict[str, Any]:
+def ppo_settings(rllib_config: Any) -> JSONObject:
     """The settings a ``PPOConfig`` resolved, for the run's record (``fcnet_hiddens``
     rebuilds the exported policy's network)."""
     return {
@@ -240,8 +241,8 @@ class RLlibAlgorithm:
             (a class under ``ray.rllib``, :func:`agents.policies.rllib.load_rllib_policy`).
     """
 
-    build_config: Callable[[str, dict[str, Any], Hyperparams, int, int, int], Any]
-    settings: Callable[[Any], dict[str, Any]]
+    build_config: Callable[[str, JSONObject, Hyperparams, int, int, int], Any]
+    settings: Callable[[Any], JSONObject]
     module: str
 
 
@@ -342,7 +343,7 @@ def train_rllib(
     num_env_runners: int = 1,
     address: str | None = None,
     verbose: int = 1,
-) -> dict[str, Any]:
+) -> JSONObject:
     """Train ``config.algo`` (a record of :data:`RLLIB_ALGOS`) on Ray RLlib until
     ``config.budget`` env steps; returns the run's record.
 
@@ -386,7 +387,7 @@ def train_rllib(
             if num_env_runners > 0
             else [_runner_env(algorithm.env_runner)]
         )
-        record: dict[str, Any] = {
+        record: JSONObject = {
             **config.document(),
             "n_envs": per_runner * max(num_env_runners, 1),
             "num_env_runners": num_env_runners,
@@ -398,7 +399,7 @@ def train_rllib(
             "hyperparams": trained.settings(rllib_config),
         }
         write_config(run_dir, record)
-        rows: list[dict[str, Any]] = []
+        rows: list[JSONObject] = []
         started = time.perf_counter()
         steps = 0
         while steps < budget:
@@ -449,7 +450,7 @@ def train_rllib(
         _shutdown(started_ray, ray_logs, run_dir)
 
 
-def learner_policy_state(algorithm: Any) -> dict[str, Any]:
+def learner_policy_state(algorithm: Any) -> JSONObject:
     """The trained policy's weights (inference part, as tensors) from the learner.
 
     Read from the learner group, whose module is the one being optimised (the env
@@ -467,7 +468,7 @@ def learner_policy_state(algorithm: Any) -> dict[str, Any]:
 def export_policy(
     algorithm: Any,
     checkpoint: Path,
-    card: dict[str, Any],
+    card: Mapping[str, object],
     module_path: str = RLLIB_ALGOS["ppo"].module,
 ) -> None:
     """Write the pickle-free policy export (weights + card) into ``checkpoint``; the card

@@ -187,7 +187,7 @@ def train(
     return model
 
 
-def _restore_checkpoint_stats(venv: Any, checkpoint: Path, trust_pickle: bool) -> None:
+def _restore_checkpoint_stats(venv: object, checkpoint: Path, trust_pickle: bool) -> None:
     """Put ``checkpoint``'s observation statistics into the (training) ``VecNormalize``.
 
     Raises:

@@ -59,6 +59,7 @@ from agents.training.config import (
     parse_policy_kwargs,
     raw_entry,
 )
+from trailer_env.json_types import JSONObject
 
 #: The search spaces shipped with the package.
 SEARCH_SPACES = HYPERPARAMS_DIR / "search.yml"
@@ -99,7 +100,7 @@ class Distribution:
     values: tuple[Any, ...]
 
 
-def _distribution(key: str, spec: Any, where: str) -> Distribution:
+def _distribution(key: str, spec: object, where: str) -> Distribution:
     if not isinstance(spec, dict) or len(spec) != 1 or next(iter(spec)) not in KINDS:
         raise ValueError(f"{where}: {key} must be one of {{{', '.join(KINDS)}: ...}}")
     kind, values = next(iter(spec.items()))
@@ -121,7 +122,7 @@ def _distribution(key: str, spec: Any, where: str) -> Distribution:
     return Distribution(kind, tuple(values))
 
 
-def net_arch(choice: Any) -> list[int]:
+def net_arch(choice: object) -> list[int]:
     """A net_arch choice ``"64x64"`` as ``[64, 64]``.
 
     Raises:
@@ -159,9 +160,9 @@ def read_space(algo: str, path: Path = SEARCH_SPACES) -> dict[str, Distribution]
     return space
 
 
-def sample(trial: Any, space: Mapping[str, Distribution]) -> dict[str, Any]:
+def sample(trial: Any, space: Mapping[str, Distribution]) -> JSONObject:
     """One point of ``space`` from an Optuna trial (its parameters, as Optuna records them)."""
-    params: dict[str, Any] = {}
+    params: JSONObject = {}
     for key, distribution in space.items():
         low, high = distribution.values[0], distribution.values[-1]
         if distribution.kind == "categorical":
@@ -177,7 +178,7 @@ def sample(trial: Any, space: Mapping[str, Distribution]) -> dict[str, Any]:
 def _policy_text(kwargs: Mapping[str, Any]) -> str:
     """policy_kwargs as rl-zoo3's text (``"dict(net_arch=[64, 64], log_std_init=-1.0)"``)."""
 
-    def text(value: Any) -> str:
+    def text(value: object) -> str:
         if isinstance(value, type):
             return f"nn.{value.__name__}"
         if isinstance(value, dict):
@@ -187,7 +188,7 @@ def _policy_text(kwargs: Mapping[str, Any]) -> str:
     return text(dict(kwargs))
 
 
-def trial_entry(base: Mapping[str, Any], params: Mapping[str, Any]) -> dict[str, Any]:
+def trial_entry(base: Mapping[str, Any], params: Mapping[str, Any]) -> JSONObject:
     """The rl-zoo3 entry of a trial: ``base`` (the algorithm's file) with ``params`` over it.
 
     ``net_arch`` and ``log_std_init`` go into ``policy_kwargs``; a ``batch_size`` larger
@@ -258,7 +259,7 @@ class TuneSettings:
         """Steps between evaluations (default: a tenth of the budget)."""
         return self.eval_freq or max(self.budget // 10, 1)
 
-    def document(self) -> dict[str, Any]:
+    def document(self) -> JSONObject:
         """The record of ``search.json`` (without the command, which may differ on resume)."""
         record = asdict(self)
         record.pop("command")
@@ -266,7 +267,7 @@ class TuneSettings:
         record["space"] = str(self.space)
         return record
 
-    def base_entry(self) -> dict[str, Any]:
+    def base_entry(self) -> JSONObject:
         """The algorithm file's entry for the environment, raw (the trials' base).
 
         Raises:
@@ -298,8 +299,10 @@ def search_problem(out: Path, settings: TuneSettings, overwrite: bool) -> str | 
         current = settings.document()
         changed = sorted(key for key in current if saved.get(key) != current[key])
         if changed:
-            return (f"{out} holds a search with other settings ({', '.join(changed)}); "
-                    "use another --out")  # fmt: skip
+            return (
+                f"{out} holds a search with other settings ({', '.join(changed)}); "
+                "use another --out"
+            )
         for name in (BEST_TRIALS, BEST_HYPERPARAMS):
             if (out / name).exists() and not overwrite:
                 return f"{out / name} exists (a finished search); pass --overwrite to go on"
@@ -383,8 +386,11 @@ def tune(
             eta = elapsed / done_here * (trials - finished)
             best = _best_text(study, optuna)
             shown = f"{value:.3f}" if value is not None else state
-            _print(f"trial {finished}/{trials} (#{trial.number}): {shown}; best {best}; "
-                   f"{duration(elapsed)} so far, ETA {duration(eta)}", verbose)  # fmt: skip
+            _print(
+                f"trial {finished}/{trials} (#{trial.number}): {shown}; best {best}; "
+                f"{duration(elapsed)} so far, ETA {duration(eta)}",
+                verbose,
+            )
         write_results(study, settings, base, out)
     return study
 
@@ -415,15 +421,25 @@ def _run_trial(
     try:
         hp = load_hyperparams(settings.algo, settings.env_id, run_dir)
         config = TrainConfig.resolve(
-            settings.env_id, settings.algo, settings.n_trailers, settings.seed, hp,
-            timesteps=settings.budget, n_envs=settings.n_envs,
+            settings.env_id,
+            settings.algo,
+            settings.n_trailers,
+            settings.seed,
+            hp,
+            timesteps=settings.budget,
+            n_envs=settings.n_envs,
             command=settings.command,
-        )  # fmt: skip
+        )
         train(
-            config, run_dir, eval_freq=settings.evaluation_every,
-            eval_episodes=settings.eval_episodes, checkpoint_freq=settings.budget,
-            progress_bar=False, verbose=0, hooks=[report],
-        )  # fmt: skip
+            config,
+            run_dir,
+            eval_freq=settings.evaluation_every,
+            eval_episodes=settings.eval_episodes,
+            checkpoint_freq=settings.budget,
+            progress_bar=False,
+            verbose=0,
+            hooks=[report],
+        )
     except (ValueError, KeyError, FileNotFoundError, RuntimeError) as error:
         # A sampled combination the trainer refuses (or a diverging run) fails the trial,
         # not the search.
@@ -484,5 +500,5 @@ def write_results(study: Any, settings: TuneSettings, base: Mapping[str, Any], o
     files.atomic_write_text(out / BEST_HYPERPARAMS, text)
 
 
-def _short(value: Any) -> str:
+def _short(value: object) -> str:
     return f"{value:.3g}" if isinstance(value, float) else str(value)

@@ -78,9 +78,17 @@ def test_train_config_is_one_frozen_record() -> None:
     assert config.env_kwargs == {**hp.env_kwargs, "n_trailers": 3}
     document = config.document()
     assert sorted(document) == [
-        "algo", "budget", "command", "env_id", "env_kwargs", "hyperparams", "n_envs",
-        "normalize", "policy", "seed",
-    ]  # fmt: skip
+        "algo",
+        "budget",
+        "command",
+        "env_id",
+        "env_kwargs",
+        "hyperparams",
+        "n_envs",
+        "normalize",
+        "policy",
+        "seed",
+    ]
     assert document["seed"] == 7 and document["command"] == ["python", "-m", "x"]
     json.dumps(document)  # JSON-ready (schedules and classes by name)
     rllib = dataclasses.replace(config, backend="rllib").document()
@@ -130,11 +138,18 @@ def test_report_scenarios_come_from_the_committed_cards(tmp_path: Path) -> None:
     from agents.evaluation.report import SCENARIOS, committed_scenarios
 
     assert SCENARIOS == (
-        (REVERSE, 1), (REVERSE, 2), (REVERSE, 3),
-        ("trailer_env/Reverse-v1", 1), ("trailer_env/Reverse-v1", 2), ("trailer_env/Reverse-v1", 3),
-        ("trailer_env/Coast-v0", 1), ("trailer_env/Coast-v0", 2), ("trailer_env/Heading-v0", 2),
-        ("trailer_env/Dock-v0", 1), ("trailer_env/Dock-v0", 2),
-    )  # fmt: skip
+        (REVERSE, 1),
+        (REVERSE, 2),
+        (REVERSE, 3),
+        ("trailer_env/Reverse-v1", 1),
+        ("trailer_env/Reverse-v1", 2),
+        ("trailer_env/Reverse-v1", 3),
+        ("trailer_env/Coast-v0", 1),
+        ("trailer_env/Coast-v0", 2),
+        ("trailer_env/Heading-v0", 2),
+        ("trailer_env/Dock-v0", 1),
+        ("trailer_env/Dock-v0", 2),
+    )
     for stem, env_id, n in (("b", "trailer_env/Dock-v0", 1), ("a", REVERSE, 4), ("c", "x", 1)):
         (tmp_path / f"{stem}.zip").write_bytes(b"")
         (tmp_path / f"{stem}.json").write_text(

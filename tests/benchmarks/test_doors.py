@@ -12,9 +12,16 @@ import pytest
 from benchmarks import doors
 
 COLUMNS = [
-    "door", "label", "num_envs", "measured", "steps_per_second", "ns_per_env_step",
-    "ratio_native", "ratio_bare", "note",
-]  # fmt: skip
+    "door",
+    "label",
+    "num_envs",
+    "measured",
+    "steps_per_second",
+    "ns_per_env_step",
+    "ratio_native",
+    "ratio_bare",
+    "note",
+]
 
 
 def test_every_door_has_a_row_and_the_ratios_come_from_the_rates(tmp_path: Path) -> None:

@@ -79,15 +79,32 @@ def test_compare_counts_a_changed_outcome_and_a_return_difference() -> None:
 
 def test_the_tasks_policies_are_the_baselines_and_its_committed_agents() -> None:
     assert task_policies("trailer_env/Reverse-v1", 2) == [
-        "zero", "lqr", "dagger_reverse_v1_n2", "ppo_reverse_v1_n2"
-    ]  # fmt: skip
+        "zero",
+        "lqr",
+        "dagger_reverse_v1_n2",
+        "ppo_reverse_v1_n2",
+    ]
     assert task_policies("trailer_env/Dock-v0", 2) == ["zero", "lqr", "ppo_dock_n2"]
 
 
 def test_record_and_compare_commands(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     out = tmp_path / "a.json"
-    assert main(["record", "--out", str(out), "--episodes", "2", "--tasks",
-                 "trailer_env/Coast-v0:1", "--policies", "zero"]) == 0  # fmt: skip
+    assert (
+        main(
+            [
+                "record",
+                "--out",
+                str(out),
+                "--episodes",
+                "2",
+                "--tasks",
+                "trailer_env/Coast-v0:1",
+                "--policies",
+                "zero",
+            ]
+        )
+        == 0
+    )
     assert not list(tmp_path.glob(".*partial"))
     assert main(["compare", str(out), str(out)]) == 0
     assert "0 outcomes changed" in capsys.readouterr().out

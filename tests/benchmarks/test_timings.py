@@ -88,9 +88,19 @@ def test_bad_arguments_exit_2_and_write_nothing(
 
 def test_every_documented_command_has_a_name() -> None:
     assert timings.NAMES == (
-        "first-step", "compile", "main", "evaluate-video", "evaluate-mpc", "main-retrain",
-        "main-planner", "certify", "report",
-    )  # fmt: skip
+        "first-step",
+        "compile",
+        "main",
+        "evaluate-video",
+        "evaluate-mpc",
+        "main-retrain",
+        "main-planner",
+        "certify",
+        "report",
+    )
     assert [command.name for command in timings.COMMANDS if command.quick] == [
-        "first-step", "compile", "main", "evaluate-video",
-    ]  # fmt: skip
+        "first-step",
+        "compile",
+        "main",
+        "evaluate-video",
+    ]

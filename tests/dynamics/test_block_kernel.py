@@ -63,8 +63,9 @@ def test_field_block_equals_field_row_bit_for_bit(
     y, deriv, mass0 = workspace[0], workspace[2], workspace[4]
     y[:, :count] = z.T
     mass0[:, :count] = act.T
-    field_block(_kernel.pack_params(params), y, n, with_pose, mass0, 0.0, deriv, workspace[5],
-                count)  # fmt: skip
+    field_block(
+        _kernel.pack_params(params), y, n, with_pose, mass0, 0.0, deriv, workspace[5], count
+    )
     np.testing.assert_array_equal(deriv[:, :count].T, rows)
 
 
@@ -91,8 +92,17 @@ def test_a_row_steps_the_same_alone_in_any_batch_and_on_any_thread_count(
         np.testing.assert_array_equal(alone_z[0], batch_z[i])
         np.testing.assert_array_equal(alone_act[0], batch_act[i])
     serial_z, serial_act = z.copy(), act.copy()
-    _kernel.rk4_batch_serial(_kernel.pack_params(params), serial_z, serial_act, n, True, 0.05,
-                             substeps, False, np.full(count, np.nan))  # fmt: skip
+    _kernel.rk4_batch_serial(
+        _kernel.pack_params(params),
+        serial_z,
+        serial_act,
+        n,
+        True,
+        0.05,
+        substeps,
+        False,
+        np.full(count, np.nan),
+    )
     np.testing.assert_array_equal(serial_z, batch_z)
     import numba
 
@@ -102,8 +112,17 @@ def test_a_row_steps_the_same_alone_in_any_batch_and_on_any_thread_count(
         for threads in sorted({1, min(2, numba.config.NUMBA_NUM_THREADS)}):
             numba.set_num_threads(threads)
             threaded_z, threaded_act = z.copy(), act.copy()
-            _kernel.rk4_batch(_kernel.pack_params(params), threaded_z, threaded_act, n, True,
-                              0.05, substeps, False, np.full(count, np.nan))  # fmt: skip
+            _kernel.rk4_batch(
+                _kernel.pack_params(params),
+                threaded_z,
+                threaded_act,
+                n,
+                True,
+                0.05,
+                substeps,
+                False,
+                np.full(count, np.nan),
+            )
             results.append(threaded_z)
     finally:
         numba.set_num_threads(before)

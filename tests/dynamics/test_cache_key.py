@@ -128,8 +128,15 @@ for f in (caller, plain_caller):
 def _run(tree: Path) -> list[tuple[float, int, int]]:
     """(result, cache hits, cache misses) of caller and plain_caller in a fresh process."""
     env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(tree / "cache")}
-    done = subprocess.run([sys.executable, "-c", _RUN], cwd=tree, env=env, capture_output=True,
-                          text=True, timeout=300, check=True)  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-c", _RUN],
+        cwd=tree,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=True,
+    )
     rows = [line.split() for line in done.stdout.splitlines()]
     return [(float(value), int(hits), int(misses)) for value, hits, misses in rows]
 

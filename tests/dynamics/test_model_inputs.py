@@ -256,8 +256,9 @@ def test_rail_and_planar_twins_are_one_implementation_bit_for_bit() -> None:
     z = np.array([[-1.0, 0.1, 0.2, -0.1], [0.8, -0.2, 0.05, 0.3]])
     s, s_dot, s_ddot = np.array([0.1, -0.2]), np.array([0.05, 0.0]), np.array([0.5, -1.0])
     planar = {"xi": p.b, "eta": s, "eta_dot": s_dot}
-    np.testing.assert_array_equal(rhs(p, z, s, s_dot, s_ddot),
-                                  rhs_planar(p, z, **planar, eta_ddot=s_ddot))  # fmt: skip
+    np.testing.assert_array_equal(
+        rhs(p, z, s, s_dot, s_ddot), rhs_planar(p, z, **planar, eta_ddot=s_ddot)
+    )
     np.testing.assert_array_equal(energy(p, z, s, s_dot), energy_planar(p, z, **planar))
     z_rail, s_end, s_dot_end = step_rk4(p, z, 0.05, substeps=3, s=s, s_dot=s_dot, s_ddot=s_ddot)
     z_planar, act = step_rk4_planar(p, z, 0.05, substeps=3, **planar, eta_ddot=s_ddot)

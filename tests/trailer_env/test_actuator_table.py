@@ -33,8 +33,16 @@ def test_the_table_drives_each_mode(mode: str) -> None:
     for _ in range(10):
         action = rng.uniform(-1.0, 1.0, (1, spec.action_dim))
         expected = core.act.copy()
-        spec.row(action, 0, expected, core.step_config.b, core.step_config.s_max,
-                 settings.rail_accel_max, settings.dt, settings.servo_frequency)  # fmt: skip
+        spec.row(
+            action,
+            0,
+            expected,
+            core.step_config.b,
+            core.step_config.s_max,
+            settings.rail_accel_max,
+            settings.dt,
+            settings.servo_frequency,
+        )
         core.step(action)
         # The step held exactly the accelerations the table's row function gives.
         np.testing.assert_array_equal(core.step_state.act_backup[0], expected[0])

@@ -106,8 +106,7 @@ def _zero(obs: np.ndarray) -> np.ndarray:
 
 def test_numpy_integers_are_integers_in_the_json(tmp_path: Path) -> None:
     out = tmp_path / "np"
-    result = score(_zero, REVERSE_V1, np.int64(1), episodes=np.int32(2), seed=np.uint16(5),
-                   out=out)  # fmt: skip
+    result = score(_zero, REVERSE_V1, np.int64(1), episodes=np.int32(2), seed=np.uint16(5), out=out)
     document = json.loads((out / "score.json").read_text())
     assert (document["n_trailers"], document["episodes"], document["seeds"]) == (1, 2, [5, 6])
     assert type(result.document["n_trailers"]) is int and document["on_protocol"] is False

@@ -17,16 +17,25 @@ def test_the_list_names_every_id(capsys: pytest.CaptureFixture[str]) -> None:
 @pytest.mark.parametrize(
     ("argv", "environment", "message"),
     [
-        (["--play", "trailer_env/Reverse-v1"], {"DISPLAY": None, "WAYLAND_DISPLAY": None},
-         "argument --play: needs a display"),
-        (["--play", "trailer_env/Reverse-v1"], {"DISPLAY": ":0", "SDL_VIDEODRIVER": "dummy"},
-         "argument --play: needs a display"),
-        (["--play", "trailer_env/Reverse-v1", "--n-trailers", "300"], {"DISPLAY": ":0"},
-         "argument --n-trailers: n_trailers must be an integer in [0, 256], got 300"),
+        (
+            ["--play", "trailer_env/Reverse-v1"],
+            {"DISPLAY": None, "WAYLAND_DISPLAY": None},
+            "argument --play: needs a display",
+        ),
+        (
+            ["--play", "trailer_env/Reverse-v1"],
+            {"DISPLAY": ":0", "SDL_VIDEODRIVER": "dummy"},
+            "argument --play: needs a display",
+        ),
+        (
+            ["--play", "trailer_env/Reverse-v1", "--n-trailers", "300"],
+            {"DISPLAY": ":0"},
+            "argument --n-trailers: n_trailers must be an integer in [0, 256], got 300",
+        ),
         (["--play", "trailer_env/Reverse-v1", "--seed", "-1"], {}, "argument --seed: must be in"),
         (["--play", "trailer_env/Nope-v0"], {}, "unknown environment 'trailer_env/Nope-v0'"),
     ],
-)  # fmt: skip
+)
 def test_play_refuses_what_cannot_work(
     argv: list[str],
     environment: dict[str, str | None],

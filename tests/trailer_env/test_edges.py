@@ -81,10 +81,20 @@ def test_a_finite_result_beyond_the_bound_is_a_divergence() -> None:
 
 #: In-range parameters of the issue's report (Coast-v0, planar, auto fidelity).
 REPORTED = {
-    "n_trailers": 5, "M": 834.83, "m": 31241.4, "l": 0.04825, "J0": 0.00182, "a": -0.04593,
-    "b": -0.004914, "s_max": 0.3133, "dt": 0.1608, "rail_accel_max": 1.45e-5,
-    "servo_bandwidth": 29.99, "action_mode": "planar", "fidelity": {"tolerance": 5.6e-5},
-}  # fmt: skip
+    "n_trailers": 5,
+    "M": 834.83,
+    "m": 31241.4,
+    "l": 0.04825,
+    "J0": 0.00182,
+    "a": -0.04593,
+    "b": -0.004914,
+    "s_max": 0.3133,
+    "dt": 0.1608,
+    "rail_accel_max": 1.45e-5,
+    "servo_bandwidth": 29.99,
+    "action_mode": "planar",
+    "fidelity": {"tolerance": 5.6e-5},
+}
 
 
 def test_a_capped_step_whose_speed_explodes_is_redone() -> None:

@@ -104,8 +104,9 @@ def test_a_diverged_step_is_retried_on_its_rows_only(
     np.testing.assert_array_equal(core.reward[others], reference.reward[others])
     np.testing.assert_array_equal(core.terminated[others], reference.terminated[others])
     assert core.reward[4] == finer.reward[0] and core.success[4] == finer.success[0]
-    np.testing.assert_array_equal(core.previous_potential[others],
-                                  reference.previous_potential[others])  # fmt: skip
+    np.testing.assert_array_equal(
+        core.previous_potential[others], reference.previous_potential[others]
+    )
     if fidelity == 2:
         np.testing.assert_array_equal(core.substeps, [2] * 6)  # restored
     # The next step is again the reference's, row for row (replays are intact).
@@ -144,8 +145,12 @@ def test_vector_env_results_do_not_depend_on_the_thread_count(rng: np.random.Gen
     try:
         for threads in (1, 2):
             numba.set_num_threads(threads)
-            envs = gym.make_vec("trailer_env/Reverse-v0", num_envs=count,
-                                vectorization_mode="vector_entry_point", n_trailers=3)  # fmt: skip
+            envs = gym.make_vec(
+                "trailer_env/Reverse-v0",
+                num_envs=count,
+                vectorization_mode="vector_entry_point",
+                n_trailers=3,
+            )
             observations, rewards = [envs.reset(seed=3)[0]], []
             for action in actions:
                 obs, reward, *_ = envs.step(action)

@@ -322,10 +322,15 @@ def test_energy_preserving_integrator_conserves_energy_without_the_mass() -> Non
 
 def test_integrator_names_and_coercion() -> None:
     params = ConvoyParams(mu=0.0)
-    kinds = {name: type(Fidelity(integrator=name).make_integrator(params, False))
-             for name in ("rk4", "rk4-energy", "dopri5")}  # fmt: skip
-    assert kinds == {"rk4": RK4Integrator, "rk4-energy": RK4Integrator,
-                     "dopri5": AdaptiveIntegrator}  # fmt: skip
+    kinds = {
+        name: type(Fidelity(integrator=name).make_integrator(params, False))
+        for name in ("rk4", "rk4-energy", "dopri5")
+    }
+    assert kinds == {
+        "rk4": RK4Integrator,
+        "rk4-energy": RK4Integrator,
+        "dopri5": AdaptiveIntegrator,
+    }
     assert Fidelity(integrator="rk4-energy").make_integrator(params, False).preserve_energy
     with pytest.raises(ValueError, match=r"fidelity\.integrator"):
         Fidelity(integrator="not-registered")

@@ -157,9 +157,13 @@ def test_a_refused_step_moves_no_count_the_issue_s_case() -> None:
     # Issue 27 item 3: n = 3 rows diverge at t = 3 after the n = 1 rows had stepped
     # (row 1 moved by 1.7e5 in its observation), and the failed rows kept a NaN reward.
     envs = gym.make_vec(
-        REVERSE, num_envs=8, vectorization_mode="vector_entry_point", n_trailers=(1, 3),
-        randomize={"speed": (1, 1000)}, fidelity=1,
-    )  # fmt: skip
+        REVERSE,
+        num_envs=8,
+        vectorization_mode="vector_entry_point",
+        n_trailers=(1, 3),
+        randomize={"speed": (1, 1000)},
+        fidelity=1,
+    )
     mixed = envs.unwrapped.core
     envs.reset(seed=4)
     rng = np.random.default_rng(0)
@@ -177,9 +181,12 @@ def test_a_refused_step_takes_back_the_counts_stepped_before_it() -> None:
     # Heading keeps a hold counter and a potential per row (Python hooks): a row of n = 3
     # made to diverge is stepped after the n = 1 and n = 2 rows, which are taken back.
     envs = gym.make_vec(
-        "trailer_env/Heading-v0", num_envs=8, vectorization_mode="vector_entry_point",
-        n_trailers=(1, 3), fidelity=1,
-    )  # fmt: skip
+        "trailer_env/Heading-v0",
+        num_envs=8,
+        vectorization_mode="vector_entry_point",
+        n_trailers=(1, 3),
+        fidelity=1,
+    )
     mixed = envs.unwrapped.core
     envs.reset(seed=2)
     actions = np.full((8, 1), 0.4)

@@ -164,8 +164,9 @@ def test_observe_params_layout() -> None:
     # Without randomize the features are zeros; Dock's come after its 4 task features.
     plain = gym.make(REVERSE, n_trailers=2, observe_params=True).reset(seed=4)[0]
     np.testing.assert_array_equal(plain[base:], np.zeros(7, np.float32))
-    dock = gym.make("trailer_env/Dock-v0", n_trailers=1, randomize={"mu": (0.5, 0.6)},
-                    observe_params=True)  # fmt: skip
+    dock = gym.make(
+        "trailer_env/Dock-v0", n_trailers=1, randomize={"mu": (0.5, 0.6)}, observe_params=True
+    )
     dock_obs, dock_info = dock.reset(seed=1)
     assert dock_obs.shape == (2 * 1 + 4 + 4 + 7,)
     assert dock_obs[10 + PARAMETERS.index("mu")] == np.float32(

@@ -62,9 +62,11 @@ def test_the_vector_entry_point_is_a_named_class(env_id: str) -> None:
 
 def test_the_vector_spec_says_the_truncation_it_applies() -> None:
     envs = gym.make_vec(
-        "trailer_env/Reverse-v1", num_envs=2, vectorization_mode="vector_entry_point",
+        "trailer_env/Reverse-v1",
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
         max_episode_steps=10,
-    )  # fmt: skip
+    )
     assert envs.spec is not None and envs.spec.max_episode_steps == 10
     envs.reset(seed=0)
     for _ in range(9):

@@ -67,8 +67,9 @@ def test_fused_and_unfused_steps_share_the_compiled_outcome(
             if previous is not None:
                 core.previous_potential[:] = previous  # type: ignore[attr-defined]
             type(core).scene_outcome(core._all_rows, core._outputs, core._scene_tuple())
-            for array, result in zip((core.reward, core.terminated, core.success), results,
-                                     strict=True):  # fmt: skip
+            for array, result in zip(
+                (core.reward, core.terminated, core.success), results, strict=True
+            ):
                 np.testing.assert_array_equal(array, result)
         # The integrators land within their tolerance of each other: so do the rewards.
         np.testing.assert_allclose(unfused.reward, fused.reward, rtol=0, atol=1e-4)
@@ -92,8 +93,12 @@ def test_reverse_formulas_by_hand_on_a_batch() -> None:
     type(core).scene_outcome(rows, core._outputs, tuple(scene))
     failed = core.jackknifed | (core.z[:, 0] >= 0.0)
     omega = core.z[:, 1]
-    expected = (np.cos(core.z[:, 2:4]).mean(axis=1) - 0.1 * np.minimum(omega**2, 1.0)
-                - 0.5 * core.cost - 10.0 * failed)  # fmt: skip
+    expected = (
+        np.cos(core.z[:, 2:4]).mean(axis=1)
+        - 0.1 * np.minimum(omega**2, 1.0)
+        - 0.5 * core.cost
+        - 10.0 * failed
+    )
     np.testing.assert_allclose(core.reward, expected, rtol=0, atol=1e-15)
     np.testing.assert_array_equal(core.terminated, failed)
     np.testing.assert_array_equal(core.success, ~failed)
@@ -121,9 +126,15 @@ def test_shaped_rewards_is_the_documented_formula_bit_for_bit() -> None:
     penalties = core.shaping_penalties
     out = np.empty(count)
     shaped_rewards(potential, previous, cost, success, jackknifed, failed, penalties, out)
-    expected = (potential - previous - core.time_penalty - core.band_penalty * cost
-                + core.success_bonus * success - core.fold_penalty * jackknifed
-                - core.failure_penalty * failed)  # fmt: skip
+    expected = (
+        potential
+        - previous
+        - core.time_penalty
+        - core.band_penalty * cost
+        + core.success_bonus * success
+        - core.fold_penalty * jackknifed
+        - core.failure_penalty * failed
+    )
     np.testing.assert_array_equal(out, expected)
 
 

@@ -92,9 +92,11 @@ def test_check_env_passes_on_the_single_env() -> None:
 @pytest.mark.parametrize("mode", ["next_step", "same_step"])
 def test_vector_env_is_the_flat_one_rearranged(mode: str) -> None:
     common: dict[str, Any] = {
-        "num_envs": 4, "vectorization_mode": "vector_entry_point", "autoreset_mode": mode,
+        "num_envs": 4,
+        "vectorization_mode": "vector_entry_point",
+        "autoreset_mode": mode,
         "n_trailers": 3,
-    }  # fmt: skip
+    }
     flat = gym.make_vec("trailer_env/Reverse-v0", **common)
     seq = gym.make_vec("trailer_env/Reverse-v0", observation="trailers", **common)
     expected, _ = flat.reset(seed=10)
@@ -119,8 +121,11 @@ def test_vector_env_is_the_flat_one_rearranged(mode: str) -> None:
 
 def test_mixed_n_is_the_padded_observation_rearranged_and_replays_each_n() -> None:
     count, seed = 6, 21
-    common: dict[str, Any] = {"num_envs": count, "vectorization_mode": "vector_entry_point",
-                              "n_trailers": (1, 3)}  # fmt: skip
+    common: dict[str, Any] = {
+        "num_envs": count,
+        "vectorization_mode": "vector_entry_point",
+        "n_trailers": (1, 3),
+    }
     flat = gym.make_vec(REVERSE, **common)
     seq = gym.make_vec(REVERSE, observation="trailers", max_trailers=6, **common)
     padded, info = flat.reset(seed=seed)
@@ -200,20 +205,28 @@ def test_trailers_observation_refuses_what_does_not_fit() -> None:
     [
         ({"observation": "grid"}, ValueError, r"observation must be one of \('flat', 'trailers'\)"),
         ({"observation": 1}, TypeError, "observation must be one of"),
-        ({"observation": "trailers", "max_trailers": 2}, ValueError,
-         "max_trailers = 2 holds fewer trailers than n_trailers = 3"),
+        (
+            {"observation": "trailers", "max_trailers": 2},
+            ValueError,
+            "max_trailers = 2 holds fewer trailers than n_trailers = 3",
+        ),
         ({"observation": "trailers", "max_trailers": "8"}, TypeError, "max_trailers"),
         ({"observation": "trailers", "max_trailers": True}, TypeError, "max_trailers"),
         ({"observation": "trailers", "max_trailers": 257}, ValueError, "max_trailers"),
         ({"max_trailers": 8}, ValueError, "max_trailers applies to observation='trailers'"),
     ],
-)  # fmt: skip
+)
 def test_bad_values_are_refused_naming_them(kwargs: dict, error: type, match: str) -> None:
     with pytest.raises(error, match=match):
         gym.make(REVERSE, n_trailers=3, **kwargs)
     with pytest.raises(error, match=match):
-        gym.make_vec(REVERSE, num_envs=2, vectorization_mode="vector_entry_point",
-                     n_trailers=(1, 3), **kwargs)  # fmt: skip
+        gym.make_vec(
+            REVERSE,
+            num_envs=2,
+            vectorization_mode="vector_entry_point",
+            n_trailers=(1, 3),
+            **kwargs,
+        )
     with pytest.raises(error, match=match):
         ConvoySB3VecEnv(REVERSE, num_envs=2, n_trailers=3, **kwargs)
 

@@ -152,17 +152,27 @@ def test_the_wrappers_refuse_what_they_cannot_wrap(wrapper: type) -> None:
     cases: list[tuple[object, type[Exception], str]] = [
         (None, TypeError, f"{name} {made}\\('trailer_env/...'\\), got NoneType None"),
         ("trailer_env/Dock-v0", TypeError, f"{made}.*got str 'trailer_env/Dock-v0'"),
-        (gym.make("CartPole-v1"), ValueError, f"{name} needs a trailer_env environment, got "
-         "CartPole-v1"),
-        (gym.make_vec("trailer_env/Dock-v0", num_envs=2, vectorization_mode="vector_entry_point"),
-         TypeError, f"{name} wraps one environment, got the vector env DockVectorEnv"),
-    ]  # fmt: skip
+        (
+            gym.make("CartPole-v1"),
+            ValueError,
+            f"{name} needs a trailer_env environment, got CartPole-v1",
+        ),
+        (
+            gym.make_vec(
+                "trailer_env/Dock-v0", num_envs=2, vectorization_mode="vector_entry_point"
+            ),
+            TypeError,
+            f"{name} wraps one environment, got the vector env DockVectorEnv",
+        ),
+    ]
     for env, error, message in cases:
         with pytest.raises(error, match=message):
             wrapper(env)
     if wrapper is GoalConditioned:
-        for env_id, core in (("trailer_env/Reverse-v1", "ReverseV1Core"),
-                             ("trailer_env/Dock-v0", "MixedCore")):  # fmt: skip
+        for env_id, core in (
+            ("trailer_env/Reverse-v1", "ReverseV1Core"),
+            ("trailer_env/Dock-v0", "MixedCore"),
+        ):
             kwargs = {"n_trailers": (1, 2)} if core == "MixedCore" else {}
             with pytest.raises(ValueError, match=f"Dock-v0 or .*Heading-v0 .*got a {core}"):
                 GoalConditioned(gym.make(env_id, **kwargs))
@@ -175,17 +185,25 @@ def test_compute_reward_checks_the_goals() -> None:
     width = r"goals of shape \(\.\.\., 4\)"
     cases: list[tuple[object, object, type[Exception], str]] = [
         # The case: 5 entries each, the 5th ignored, and the goals "agreed".
-        (np.r_[goal, 9.0], np.r_[goal, -9.0], ValueError,
-         rf"achieved_goal must be {width}, got shape \(5,\)"),
+        (
+            np.r_[goal, 9.0],
+            np.r_[goal, -9.0],
+            ValueError,
+            rf"achieved_goal must be {width}, got shape \(5,\)",
+        ),
         (goal[:3], goal[:3], ValueError, r"got shape \(3,\)"),
         (None, goal, TypeError, rf"achieved_goal must be {width}, got NoneType None"),
         (goal, 1.0, ValueError, rf"desired_goal must be {width}, got shape \(\)"),
         (goal, "abcd", TypeError, "desired_goal must be .* got str 'abcd'"),
         (goal, [[1.0, 2.0], [3.0]], ValueError, "desired_goal must be .* got a ragged"),
         (goal.astype(object), goal, TypeError, "of real numbers, got dtype object"),
-        (np.zeros((5, 4)), np.zeros((3, 4)), ValueError,
-         r"achieved_goal \(5, 4\) and desired_goal \(3, 4\): the leading \(batch\) axes"),
-    ]  # fmt: skip
+        (
+            np.zeros((5, 4)),
+            np.zeros((3, 4)),
+            ValueError,
+            r"achieved_goal \(5, 4\) and desired_goal \(3, 4\): the leading \(batch\) axes",
+        ),
+    ]
     for achieved, desired, error, message in cases:
         with pytest.raises(error, match=message):
             env.compute_reward(achieved, desired, None)

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple
+from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -104,8 +105,15 @@ def coast_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
         task.success[i] = straight
         task.failed[i] = False
         task.terminated[i] = jackknifed[i] or straight
-        task.reward[i] = shaped_reward(potential, task.previous[i], step.cost[i], straight,
-                                       jackknifed[i], False, task.penalties)  # fmt: skip
+        task.reward[i] = shaped_reward(
+            potential,
+            task.previous[i],
+            step.cost[i],
+            straight,
+            jackknifed[i],
+            False,
+            task.penalties,
+        )
         task.previous[i] = potential
 
 
@@ -130,7 +138,11 @@ def coast_step(
 
 @cached_njit()
 def coast_starts(
-    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+    generators: Sequence[np.random.Generator],
+    picks: np.ndarray,
+    rows: np.ndarray,
+    z: np.ndarray,
+    start: tuple,
 ) -> None:
     """Row ``rows[j]``'s start from ``generators[picks[j]]`` (``start`` = ``(n,)``): a
     direction (forwards with probability 1/2), a speed in SPEED_RANGE, then omega and the

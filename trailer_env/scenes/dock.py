@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -10,6 +11,7 @@ from dynamics import body_poses
 from dynamics.jit import cached_njit
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.json_types import JSONObject
 from trailer_env.rendering import Marker
 from trailer_env.scenes.heading import wrap_angle
 
@@ -33,7 +35,11 @@ DISTANCE_SCALE = 5.0
 
 @cached_njit()
 def dock_starts(
-    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+    generators: Sequence[np.random.Generator],
+    picks: np.ndarray,
+    rows: np.ndarray,
+    z: np.ndarray,
+    start: tuple,
 ) -> None:
     """Row ``rows[j]``'s start from ``generators[picks[j]]`` (``start`` = ``(n, l,
     target)``): speed, omega and hitch angles uniform in their ranges, then the dock's
@@ -102,7 +108,7 @@ class DockCore(ShapedCore):
     def _start_arguments(self) -> tuple[int, float, np.ndarray]:
         return (self.n, float(self.params.l), self.target)
 
-    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+    def check_task(self, task: Mapping[str, object]) -> JSONObject:
         """Accepts ``target`` = (x, y, heading) of the dock: 3 real numbers (not bools or
         strings), each within +-1e6 (m, m, rad; :data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
         unknown = sorted(set(task) - {"target"}, key=str)

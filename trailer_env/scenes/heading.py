@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -10,6 +11,7 @@ from dynamics.jit import cached_njit
 from dynamics.params import bounded_real
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.json_types import JSONObject
 from trailer_env.rendering import Marker
 
 SPEED_RANGE = (0.8, 1.2)
@@ -30,7 +32,11 @@ def wrap_angle(angle: np.ndarray) -> np.ndarray:
 
 @cached_njit()
 def heading_starts(
-    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+    generators: Sequence[np.random.Generator],
+    picks: np.ndarray,
+    rows: np.ndarray,
+    z: np.ndarray,
+    start: tuple,
 ) -> None:
     """Row ``rows[j]``'s start from ``generators[picks[j]]`` (``start`` = ``(n,
     target_heading)``): speed, omega and hitch angles uniform in their ranges, then the
@@ -72,7 +78,7 @@ class HeadingCore(ShapedCore):
     def _start_arguments(self) -> tuple[int, np.ndarray]:
         return (self.n, self.target_heading)
 
-    def check_task(self, task: dict[str, Any]) -> dict[str, Any]:
+    def check_task(self, task: Mapping[str, object]) -> JSONObject:
         """Accepts ``target_heading`` (rad), a real number (not a bool or a string) in
         [-1e6, 1e6] (:data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
         unknown = sorted(set(task) - {"target_heading"}, key=str)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
@@ -26,9 +27,12 @@ def reverse_failed(z: np.ndarray, jackknifed: np.ndarray, i: int, min_reverse_sp
 
 @cached_njit()
 def reverse_failed_rows(
-    z: np.ndarray, jackknifed: np.ndarray, rows: np.ndarray, min_reverse_speed: float,
+    z: np.ndarray,
+    jackknifed: np.ndarray,
+    rows: np.ndarray,
+    min_reverse_speed: float,
     out: np.ndarray,
-) -> None:  # fmt: skip
+) -> None:
     """:func:`reverse_failed` of ``rows[j]`` into ``out[j]`` (the reset's success flag)."""
     for j in range(rows.shape[0]):
         out[j] = reverse_failed(z, jackknifed, rows[j], min_reverse_speed)
@@ -94,9 +98,20 @@ def reverse_outcome(rows: np.ndarray, outputs: tuple, scene: tuple) -> None:
     """
     step = StepOutputs(*outputs)
     task = ReverseScene(*scene)
-    reverse_rows(task.z, step.hitch_trig, rows, task.n, step.cost, step.jackknifed,
-                 task.band_penalty, task.fold_penalty, task.min_reverse_speed, task.reward,
-                 task.terminated, task.success)  # fmt: skip
+    reverse_rows(
+        task.z,
+        step.hitch_trig,
+        rows,
+        task.n,
+        step.cost,
+        step.jackknifed,
+        task.band_penalty,
+        task.fold_penalty,
+        task.min_reverse_speed,
+        task.reward,
+        task.terminated,
+        task.success,
+    )
 
 
 @cached_njit()
@@ -127,7 +142,11 @@ class ReverseStart(NamedTuple):
 
 @cached_njit()
 def reverse_starts(
-    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+    generators: Sequence[np.random.Generator],
+    picks: np.ndarray,
+    rows: np.ndarray,
+    z: np.ndarray,
+    start: tuple,
 ) -> None:
     """Row ``rows[j]``'s start from ``generators[picks[j]]`` (:class:`ReverseStart`): the
     numbers ``Generator.random(n + 2)`` draws, scaled, then the speed negated."""
@@ -188,8 +207,9 @@ class ReverseCore(ConvoyCore):
     def _starting_success(self, rows: np.ndarray) -> np.ndarray:
         failed = np.empty(rows.shape[0], dtype=bool)
         speed = float(self.min_reverse_speed)
-        reverse_failed_rows(self.z, self.jackknifed, rows.astype(np.int64, copy=False), speed,
-                            failed)  # fmt: skip
+        reverse_failed_rows(
+            self.z, self.jackknifed, rows.astype(np.int64, copy=False), speed, failed
+        )
         return ~failed
 
 

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any, ClassVar, NamedTuple
+from collections.abc import Sequence
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
@@ -33,7 +34,11 @@ class ReverseV1Start(NamedTuple):
 
 @cached_njit()
 def reverse_v1_starts(
-    generators: Any, picks: np.ndarray, rows: np.ndarray, z: np.ndarray, start: tuple
+    generators: Sequence[np.random.Generator],
+    picks: np.ndarray,
+    rows: np.ndarray,
+    z: np.ndarray,
+    start: tuple,
 ) -> None:
     """Row ``rows[j]``'s start from ``generators[picks[j]]`` (:class:`ReverseV1Start`):
     ``u = -uniform(speed range)``, then (omega, alpha_1..alpha_n) uniform on the sphere

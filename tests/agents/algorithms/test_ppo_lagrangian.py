@@ -128,9 +128,18 @@ def test_one_rollout_updates_lambda_and_penalises_the_buffer() -> None:
     buffer's rewards are (r - lambda) / (1 + lambda) with that new lambda."""
     venv = _UnitCost(make_sb3_env(REVERSE, 4, {"n_trailers": 1}, seed=0))
     model = PPOLagrangian(
-        "MlpPolicy", venv, n_steps=128, batch_size=128, n_epochs=1, seed=0, device="cpu",
-        policy_kwargs={"net_arch": [8]}, cost_limit=10.0, lambda_lr=0.01, lambda_init=0.5,
-    )  # fmt: skip
+        "MlpPolicy",
+        venv,
+        n_steps=128,
+        batch_size=128,
+        n_epochs=1,
+        seed=0,
+        device="cpu",
+        policy_kwargs={"net_arch": [8]},
+        cost_limit=10.0,
+        lambda_lr=0.01,
+        lambda_init=0.5,
+    )
     model.learn(total_timesteps=512)
     lengths = [episode["l"] for episode in model.ep_info_buffer]
     assert len(lengths) > 4  # random actions fold one trailer within ~50 steps
@@ -144,18 +153,35 @@ def test_one_rollout_updates_lambda_and_penalises_the_buffer() -> None:
 
 def _lambdas(progress: Path) -> list[float]:
     with progress.open() as handle:
-        return [float(row["lagrangian/lambda"]) for row in csv.DictReader(handle)
-                if row.get("lagrangian/lambda")]  # fmt: skip
+        return [
+            float(row["lagrangian/lambda"])
+            for row in csv.DictReader(handle)
+            if row.get("lagrangian/lambda")
+        ]
 
 
 def _train(tmp_path: Path, *extra: str) -> int:
     return train.main(
         [
-            "--env", REVERSE, "--algo", "ppo_lag", "--n-trailers", "1", "--seed", "0",
-            "--hyperparams", str(tmp_path / "hp"), "--no-progress", "--quiet",
-            "--eval-episodes", "4", "--run-dir", str(tmp_path / "run"), *extra,
+            "--env",
+            REVERSE,
+            "--algo",
+            "ppo_lag",
+            "--n-trailers",
+            "1",
+            "--seed",
+            "0",
+            "--hyperparams",
+            str(tmp_path / "hp"),
+            "--no-progress",
+            "--quiet",
+            "--eval-episodes",
+            "4",
+            "--run-dir",
+            str(tmp_path / "run"),
+            *extra,
         ]
-    )  # fmt: skip
+    )
 
 
 def test_train_logs_saves_and_resumes_lambda(tmp_path: Path) -> None:

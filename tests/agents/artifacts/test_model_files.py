@@ -85,8 +85,9 @@ def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
         # Every pickled entry of the zip has a safe replacement: nothing is unpickled.
         card = read_card(model)
         probe = make_sb3_env(card["env_id"], 1, card["env_kwargs"])
-        custom = safe_custom_objects(model, card["algo"], probe.observation_space,
-                                     probe.action_space)  # fmt: skip
+        custom = safe_custom_objects(
+            model, card["algo"], probe.observation_space, probe.action_space
+        )
         assert {"policy_class", "observation_space", "action_space"} <= set(custom)
 
 

@@ -121,8 +121,12 @@ def test_commands_exit_nonzero_in_a_fresh_process() -> None:
     """The real entry points: argparse's exit status 2 and a message naming the argument."""
     done = subprocess.run(
         [sys.executable, "-m", "agents.train", "--env", REVERSE, "--algo", "a2c"],
-        cwd=ROOT, capture_output=True, text=True, timeout=120, check=False,
-    )  # fmt: skip
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
     assert done.returncode == 2 and "argument --algo" in done.stderr
 
 
@@ -170,12 +174,28 @@ def test_evaluate_forced_onto_another_scene_runs(tmp_path: Path) -> None:
 def test_shipped_models_are_named_by_stem_from_any_folder(tmp_path: Path) -> None:
     """A fresh process in an unrelated folder: the stem resolves through the package."""
     done = subprocess.run(
-        [sys.executable, "-m", "agents.evaluate", "--env", "trailer_env/Reverse-v0",
-         "--policy", "ppo_reverse_n2", "lqr",
-         "--episodes", "3", "--no-plots", "--out", "out"],
-        cwd=tmp_path, capture_output=True, text=True, timeout=300, check=False,
+        [
+            sys.executable,
+            "-m",
+            "agents.evaluate",
+            "--env",
+            "trailer_env/Reverse-v0",
+            "--policy",
+            "ppo_reverse_n2",
+            "lqr",
+            "--episodes",
+            "3",
+            "--no-plots",
+            "--out",
+            "out",
+        ],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
         env={**os.environ, "PYTHONPATH": str(ROOT)},
-    )  # fmt: skip
+    )
     assert done.returncode == 0, done.stderr
     document = json.loads((tmp_path / "out" / "results.json").read_text())
     names = [policy["name"] for policy in document["policies"]]
@@ -193,8 +213,19 @@ def test_evaluate_writes_a_video_of_one_episode(
 
     video = tmp_path / f"episode{suffix}"
     cut = [] if steps is None else ["--video-steps", str(steps)]
-    argv = ["--env", REVERSE, "--policy", "zero", "--episodes", "1", "--seed", "3",
-            "--video", str(video), *cut]  # fmt: skip
+    argv = [
+        "--env",
+        REVERSE,
+        "--policy",
+        "zero",
+        "--episodes",
+        "1",
+        "--seed",
+        "3",
+        "--video",
+        str(video),
+        *cut,
+    ]
     assert evaluate.main([*argv, "--no-plots", "--out", str(tmp_path / "out")]) == 0
     settings = env_settings({"n_trailers": 2})
     length = int(rollout(make_baseline("zero", settings, REVERSE), REVERSE, 1, 3).lengths[0])
@@ -209,8 +240,12 @@ def test_evaluate_writes_a_video_of_one_episode(
     assert frames == expected and size == (600, 600)
     code = subprocess.run(
         [sys.executable, "-m", "agents.evaluate", *argv, "--no-plots", "--out", str(tmp_path)],
-        cwd=ROOT, capture_output=True, text=True, timeout=300, check=False,
-    )  # fmt: skip
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
     assert (
         code.returncode == 2 and "argument --video" in code.stderr and "--overwrite" in code.stderr
     )
@@ -258,12 +293,26 @@ def test_resuming_a_model_outside_a_run_starts_a_fresh_run_folder(
     assert run_dir_of_checkpoint(MODELS_DIR / "ppo_reverse_n2.zip") is None
     model = model_copy(tmp_path / "downloads", "ppo_reverse_n1")
     monkeypatch.chdir(tmp_path)
-    argv = ["--env", REVERSE, "--algo", "ppo", "--n-trailers", "1", "--resume", str(model),
-            "--timesteps", "1000", "--quiet", "--no-progress"]  # fmt: skip
+    argv = [
+        "--env",
+        REVERSE,
+        "--algo",
+        "ppo",
+        "--n-trailers",
+        "1",
+        "--resume",
+        str(model),
+        "--timesteps",
+        "1000",
+        "--quiet",
+        "--no-progress",
+    ]
     assert train.main(argv) == 0  # already past 1000 steps: nothing to train
     assert sorted(path.name for path in model.parent.iterdir()) == [
-        "ppo_reverse_n1.json", "ppo_reverse_n1.zip", "ppo_reverse_n1_vecnormalize.json"
-    ]  # fmt: skip
+        "ppo_reverse_n1.json",
+        "ppo_reverse_n1.zip",
+        "ppo_reverse_n1_vecnormalize.json",
+    ]
     config = json.loads((tmp_path / "runs" / "reverse_n1_ppo_s0" / "config.json").read_text())
     assert config["env_kwargs"] == {"n_trailers": 1}
     # A second resume into that folder is not a continuation of that run: refused.

@@ -74,8 +74,20 @@ def refused(
 
 
 def _evaluate_argv(model: Path, out: Path, *extra: str) -> list[str]:
-    return ["--env", REVERSE, "--n-trailers", "2", "--policy", str(model), "--episodes", "2",
-            "--no-plots", "--out", str(out), *extra]  # fmt: skip
+    return [
+        "--env",
+        REVERSE,
+        "--n-trailers",
+        "2",
+        "--policy",
+        str(model),
+        "--episodes",
+        "2",
+        "--no-plots",
+        "--out",
+        str(out),
+        *extra,
+    ]
 
 
 def _edit_json(path: Path, edit: Callable[[dict[str, Any]], None]) -> None:
@@ -98,8 +110,9 @@ def test_evaluate_refuses_a_bad_card(
 ) -> None:
     model = model_copy(tmp_path / "m")
     _edit_json(model.with_suffix(".json"), edit)
-    line = refused(evaluate.main, _evaluate_argv(model, tmp_path / "out"), message, tmp_path,
-                   capsys)  # fmt: skip
+    line = refused(
+        evaluate.main, _evaluate_argv(model, tmp_path / "out"), message, tmp_path, capsys
+    )
     assert "argument --policy" in line and "ppo_reverse_n2.json" in line
 
 
@@ -130,17 +143,22 @@ def _network(model: Path, net_arch: list[int]) -> None:
 @pytest.mark.parametrize(
     ("damage", "message"),
     [
-        (lambda model: model.with_suffix(".json").write_text("[" * 200_000 + "]" * 200_000),
-         "nested 200000 deep, over the limit of 64"),
-        (lambda model: model.with_name("ppo_reverse_n2_vecnormalize.json").unlink(),
-         "statistics ppo_reverse_n2_vecnormalize.json are missing"),
+        (
+            lambda model: model.with_suffix(".json").write_text("[" * 200_000 + "]" * 200_000),
+            "nested 200000 deep, over the limit of 64",
+        ),
+        (
+            lambda model: model.with_name("ppo_reverse_n2_vecnormalize.json").unlink(),
+            "statistics ppo_reverse_n2_vecnormalize.json are missing",
+        ),
         # 20 MiB of spaces deflate to about 20 kB: a zip bomb, refused before inflating.
-        (lambda model: rewrite_zip(model, {"data": b" " * (20 * 2**20)}, zipfile.ZIP_DEFLATED),
-         "member 'data' inflates to 20971520 bytes"),
-        (lambda model: _network(model, [40000, 40000]),
-         "parameters, over the limit of 10,000,000"),
+        (
+            lambda model: rewrite_zip(model, {"data": b" " * (20 * 2**20)}, zipfile.ZIP_DEFLATED),
+            "member 'data' inflates to 20971520 bytes",
+        ),
+        (lambda model: _network(model, [40000, 40000]), "parameters, over the limit of 10,000,000"),
     ],
-)  # fmt: skip
+)
 def test_evaluate_refuses_a_damaged_model(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], damage: Any, message: str
 ) -> None:
@@ -175,8 +193,16 @@ def test_evaluate_refuses_a_garbage_curve(
 def test_evaluate_bounds(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], extra: list[str], message: str
 ) -> None:
-    argv = ["--policy", "zero", "--no-plots", "--out", str(tmp_path / "out"), "--episodes", "2",
-            *extra]  # fmt: skip
+    argv = [
+        "--policy",
+        "zero",
+        "--no-plots",
+        "--out",
+        str(tmp_path / "out"),
+        "--episodes",
+        "2",
+        *extra,
+    ]
     refused(evaluate.main, argv, message, tmp_path, capsys)
 
 
@@ -192,21 +218,40 @@ def test_evaluate_checks_its_outputs_first(
     a_file = tmp_path / "FILE"
     a_file.write_text("x")
     base = ["--policy", "zero", "--episodes", "2", "--no-plots"]
-    refused(evaluate.main, [*base, "--out", str(a_file / "sub")],
-            f"argument --out: cannot create {a_file / 'sub'}: {a_file} is not a folder",
-            tmp_path, capsys)  # fmt: skip
+    refused(
+        evaluate.main,
+        [*base, "--out", str(a_file / "sub")],
+        f"argument --out: cannot create {a_file / 'sub'}: {a_file} is not a folder",
+        tmp_path,
+        capsys,
+    )
     out = tmp_path / "out"
-    refused(evaluate.main, [*base, "--out", str(out), "--video", str(a_file / "v.mp4")],
-            "argument --video: cannot create", tmp_path, capsys)  # fmt: skip
+    refused(
+        evaluate.main,
+        [*base, "--out", str(out), "--video", str(a_file / "v.mp4")],
+        "argument --video: cannot create",
+        tmp_path,
+        capsys,
+    )
     dangling = tmp_path / "v.gif"
     dangling.symlink_to(tmp_path / "elsewhere.gif")
-    refused(evaluate.main, [*base, "--out", str(out), "--video", str(dangling)],
-            "argument --video: ", tmp_path, capsys)  # fmt: skip
+    refused(
+        evaluate.main,
+        [*base, "--out", str(out), "--video", str(dangling)],
+        "argument --video: ",
+        tmp_path,
+        capsys,
+    )
     assert not (tmp_path / "elsewhere.gif").exists()
     out.mkdir()
     (out / "results.json").symlink_to(tmp_path / "target.json")
-    refused(evaluate.main, [*base, "--out", str(out)],
-            "results.json is a symbolic link", tmp_path, capsys)  # fmt: skip
+    refused(
+        evaluate.main,
+        [*base, "--out", str(out)],
+        "results.json is a symbolic link",
+        tmp_path,
+        capsys,
+    )
     (out / "results.json").unlink()
     locked = tmp_path / "ro"
     locked.mkdir()
@@ -214,9 +259,13 @@ def test_evaluate_checks_its_outputs_first(
     monkeypatch.setattr(
         files.os, "access", lambda path, mode: Path(path) != locked and real_access(path, mode)
     )
-    refused(evaluate.main, [*base, "--out", str(locked / "out")],
-            f"argument --out: cannot create {locked / 'out'}: {locked} is not writable",
-            tmp_path, capsys)  # fmt: skip
+    refused(
+        evaluate.main,
+        [*base, "--out", str(locked / "out")],
+        f"argument --out: cannot create {locked / 'out'}: {locked} is not writable",
+        tmp_path,
+        capsys,
+    )
 
 
 def test_evaluate_keeps_an_earlier_evaluation_unless_overwrite(
@@ -227,18 +276,33 @@ def test_evaluate_keeps_an_earlier_evaluation_unless_overwrite(
     base = ["--policy", "zero", "--episodes", "2", "--no-plots", "--out", str(out)]
     assert evaluate.main(base) == 0
     capsys.readouterr()
-    refused(evaluate.main, base,
-            f"argument --out: {out} holds results.json, results.md of an earlier evaluation; "
-            "pass --overwrite to replace them", tmp_path, capsys)  # fmt: skip
+    refused(
+        evaluate.main,
+        base,
+        f"argument --out: {out} holds results.json, results.md of an earlier evaluation; "
+        "pass --overwrite to replace them",
+        tmp_path,
+        capsys,
+    )
     (out / "results.json").unlink()
     (out / "results.md").unlink()
     (out / "curves.png").write_bytes(b"an earlier picture")
     assert evaluate.main(base) == 0  # --no-plots writes no picture: nothing to replace
     capsys.readouterr()
-    refused(evaluate.main, [*base, "--episodes", "3"], "holds results.json, results.md", tmp_path,
-            capsys)  # fmt: skip
-    refused(evaluate.main, [arg for arg in base if arg != "--no-plots"],
-            "holds results.json, results.md, curves.png", tmp_path, capsys)  # fmt: skip
+    refused(
+        evaluate.main,
+        [*base, "--episodes", "3"],
+        "holds results.json, results.md",
+        tmp_path,
+        capsys,
+    )
+    refused(
+        evaluate.main,
+        [arg for arg in base if arg != "--no-plots"],
+        "holds results.json, results.md, curves.png",
+        tmp_path,
+        capsys,
+    )
     assert evaluate.main([*base, "--episodes", "3", "--overwrite"]) == 0
     assert json.loads((out / "results.json").read_text())["episodes"] == 3
     assert (out / "curves.png").read_bytes() == b"an earlier picture"
@@ -248,11 +312,24 @@ def test_a_deeply_nested_set_value_is_a_one_line_error(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     deep = "[" * 100_000 + "]" * 100_000  # json.loads raised RecursionError
-    argv = ["--policy", "zero", "--episodes", "2", "--no-plots", "--out", str(tmp_path / "out"),
-            "--set", f"fidelity={deep}"]  # fmt: skip
-    refused(evaluate.main, argv,
-            "argument --set: fidelity: the value is nested 100000 deep, over the limit of 64",
-            tmp_path, capsys)  # fmt: skip
+    argv = [
+        "--policy",
+        "zero",
+        "--episodes",
+        "2",
+        "--no-plots",
+        "--out",
+        str(tmp_path / "out"),
+        "--set",
+        f"fidelity={deep}",
+    ]
+    refused(
+        evaluate.main,
+        argv,
+        "argument --set: fidelity: the value is nested 100000 deep, over the limit of 64",
+        tmp_path,
+        capsys,
+    )
     argv[-1] = "fidelity=" + "[" * 65 + "]" * 65
     refused(evaluate.main, argv, "nested 65 deep", tmp_path, capsys)
 
@@ -267,15 +344,25 @@ def test_a_deeply_nested_set_value_is_a_one_line_error(
     ],
 )
 def test_a_policy_module_whose_import_fails_is_a_one_line_error(
-    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch,
-    code: str, message: str,
-) -> None:  # fmt: skip
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    code: str,
+    message: str,
+) -> None:
     modules = tmp_path / "modules"
     modules.mkdir()
     (modules / "failing_policy_27.py").write_text(code + "\ndef act(obs):\n    return obs\n")
     monkeypatch.syspath_prepend(str(modules))
-    argv = ["--policy", "failing_policy_27:act", "--episodes", "2", "--no-plots", "--out",
-            str(tmp_path / "out")]  # fmt: skip
+    argv = [
+        "--policy",
+        "failing_policy_27:act",
+        "--episodes",
+        "2",
+        "--no-plots",
+        "--out",
+        str(tmp_path / "out"),
+    ]
     line = refused(evaluate.main, argv, message, tmp_path, capsys)
     assert line.endswith(
         f"error: argument --policy: policy 'failing_policy_27:act': importing "
@@ -291,8 +378,14 @@ def _hyperparams(folder: Path, **entry: Any) -> Path:
     import yaml
 
     folder.mkdir(parents=True, exist_ok=True)
-    base = {"n_envs": 2, "n_timesteps": 64, "policy": "MlpPolicy", "n_steps": 16,
-            "batch_size": 16, "n_epochs": 1}  # fmt: skip
+    base = {
+        "n_envs": 2,
+        "n_timesteps": 64,
+        "policy": "MlpPolicy",
+        "n_steps": 16,
+        "batch_size": 16,
+        "n_epochs": 1,
+    }
     (folder / "ppo.yml").write_text(yaml.safe_dump({REVERSE: {**base, **entry}}))
     return folder
 
@@ -335,8 +428,16 @@ def test_train_refuses_bad_hyperparameters(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], entry: dict[str, Any], message: str
 ) -> None:
     folder = _hyperparams(tmp_path / "hp", **entry)
-    argv = ["--env", REVERSE, "--algo", "ppo", "--hyperparams", str(folder),
-            "--run-dir", str(tmp_path / "run")]  # fmt: skip
+    argv = [
+        "--env",
+        REVERSE,
+        "--algo",
+        "ppo",
+        "--hyperparams",
+        str(folder),
+        "--run-dir",
+        str(tmp_path / "run"),
+    ]
     line = refused(train.main, argv, message, tmp_path, capsys)
     assert "argument --hyperparams" in line
 
@@ -348,9 +449,13 @@ def test_train_checks_export_and_run_folder_first(
     a_file.write_text("x")
     hp = _hyperparams(tmp_path / "hp")
     base = ["--env", REVERSE, "--algo", "ppo", "--hyperparams", str(hp), "--timesteps", "64"]
-    refused(train.main, [*base, "--run-dir", str(tmp_path / "run"), "--export",
-                         str(a_file / "m.zip")], "argument --export: cannot create",
-            tmp_path, capsys)  # fmt: skip
+    refused(
+        train.main,
+        [*base, "--run-dir", str(tmp_path / "run"), "--export", str(a_file / "m.zip")],
+        "argument --export: cannot create",
+        tmp_path,
+        capsys,
+    )
     assert not (tmp_path / "run").exists()
     # A symlinked checkpoints/ survives no --overwrite and receives nothing.
     run = tmp_path / "run"
@@ -360,14 +465,24 @@ def test_train_checks_export_and_run_folder_first(
     outside.mkdir()
     (outside / "keep.txt").write_text("mine")
     (run / "checkpoints").symlink_to(outside)
-    refused(train.main, [*base, "--run-dir", str(run), "--overwrite"],
-            "checkpoints is a symbolic link", tmp_path, capsys)  # fmt: skip
+    refused(
+        train.main,
+        [*base, "--run-dir", str(run), "--overwrite"],
+        "checkpoints is a symbolic link",
+        tmp_path,
+        capsys,
+    )
     (run / "checkpoints").unlink()
     # A config.json linked elsewhere is not written through.
     (run / CONFIG_FILE).unlink()
     (run / CONFIG_FILE).symlink_to(outside / "keep.txt")
-    refused(train.main, [*base, "--run-dir", str(run), "--overwrite"],
-            "config.json is a symbolic link", tmp_path, capsys)  # fmt: skip
+    refused(
+        train.main,
+        [*base, "--run-dir", str(run), "--overwrite"],
+        "config.json is a symbolic link",
+        tmp_path,
+        capsys,
+    )
     assert (outside / "keep.txt").read_text() == "mine"
 
 
@@ -377,15 +492,28 @@ def test_a_locked_run_folder_refuses_a_second_writer(
     run = tmp_path / "run"
     run.mkdir()
     (run / ".lock").write_text("1\n")  # pid 1 is alive
-    argv = ["--env", REVERSE, "--algo", "ppo", "--run-dir", str(run), "--timesteps", "64",
-            "--hyperparams", str(_hyperparams(tmp_path / "hp"))]  # fmt: skip
-    refused(train.main, argv, f"argument --run-dir: {run} is in use by process 1", tmp_path,
-            capsys)  # fmt: skip
+    argv = [
+        "--env",
+        REVERSE,
+        "--algo",
+        "ppo",
+        "--run-dir",
+        str(run),
+        "--timesteps",
+        "64",
+        "--hyperparams",
+        str(_hyperparams(tmp_path / "hp")),
+    ]
+    refused(train.main, argv, f"argument --run-dir: {run} is in use by process 1", tmp_path, capsys)
 
 
 def test_a_stale_lock_is_reclaimed_and_a_live_one_refuses(tmp_path: Path) -> None:
-    finished = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
-                              capture_output=True, text=True, check=True)  # fmt: skip
+    finished = subprocess.run(
+        [sys.executable, "-c", "import os; print(os.getpid())"],
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     (tmp_path / ".lock").write_text(finished.stdout)  # its process is gone
     with files.RunLock(tmp_path):
         assert (tmp_path / ".lock").read_text().strip() == str(os.getpid())
@@ -399,14 +527,27 @@ def test_a_stale_lock_is_reclaimed_and_a_live_one_refuses(tmp_path: Path) -> Non
 def test_rllib_address_and_runners_are_checked_before_ray(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    base = ["--backend", "rllib", "--env", REVERSE, "--algo", "ppo",
-            "--run-dir", str(tmp_path / "run")]  # fmt: skip
-    refused(train.main, [*base, "--address", "garbage"], "is not auto, HOST:PORT",
-            tmp_path, capsys)  # fmt: skip
-    refused(train.main, [*base, "--address", "garbage.invalid:1234"], "cannot reach",
-            tmp_path, capsys)  # fmt: skip
-    refused(train.main, [*base, "--num-env-runners", "1000"],
-            f"this machine has {os.cpu_count()} CPUs", tmp_path, capsys)  # fmt: skip
+    base = [
+        "--backend",
+        "rllib",
+        "--env",
+        REVERSE,
+        "--algo",
+        "ppo",
+        "--run-dir",
+        str(tmp_path / "run"),
+    ]
+    refused(train.main, [*base, "--address", "garbage"], "is not auto, HOST:PORT", tmp_path, capsys)
+    refused(
+        train.main, [*base, "--address", "garbage.invalid:1234"], "cannot reach", tmp_path, capsys
+    )
+    refused(
+        train.main,
+        [*base, "--num-env-runners", "1000"],
+        f"this machine has {os.cpu_count()} CPUs",
+        tmp_path,
+        capsys,
+    )
 
 
 # ---------------------------------------------------------------- certify, report, imitate
@@ -433,17 +574,29 @@ def test_certify_bounds(
 def _fake_certificate(seeds: list[int]) -> dict[str, Any]:
     import numpy as np
 
-    starts = [{"seed": seed, "status": "feasible", "screen_stroke_fraction": 0.5,
-               "planner_length": 3} for seed in seeds]  # fmt: skip
+    starts = [
+        {"seed": seed, "status": "feasible", "screen_stroke_fraction": 0.5, "planner_length": 3}
+        for seed in seeds
+    ]
     return {
-        "env_id": "trailer_env/Reverse-v1", "env_kwargs": {"n_trailers": 1},
-        "seeds": [min(seeds), max(seeds)], "episodes": len(seeds),
-        "planner": {"first_pass_safe": len(seeds), "first_pass_wall_time_s": 0.0,
-                    "wall_time_s": 0.0, "restarts": 0},
-        "screen": {"wall_time_s": 0.0}, "feasible": len(seeds), "not_recoverable": 0,
-        "open": 0, "ceiling": 1.0, "starts": starts,
+        "env_id": "trailer_env/Reverse-v1",
+        "env_kwargs": {"n_trailers": 1},
+        "seeds": [min(seeds), max(seeds)],
+        "episodes": len(seeds),
+        "planner": {
+            "first_pass_safe": len(seeds),
+            "first_pass_wall_time_s": 0.0,
+            "wall_time_s": 0.0,
+            "restarts": 0,
+        },
+        "screen": {"wall_time_s": 0.0},
+        "feasible": len(seeds),
+        "not_recoverable": 0,
+        "open": 0,
+        "ceiling": 1.0,
+        "starts": starts,
         "actions": {seed: np.zeros(3) for seed in seeds},
-    }  # fmt: skip
+    }
 
 
 def test_certify_overwrite_replaces_only_its_own_files(tmp_path: Path) -> None:
@@ -499,8 +652,13 @@ def test_edited_certificates_are_refused(tmp_path: Path, edit: Any, message: str
 def test_report_refuses_a_file_as_out(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     a_file = tmp_path / "FILE"
     a_file.write_text("x")
-    refused(report.main, ["--out", str(a_file), "--docs", str(tmp_path / "docs")],
-            f"argument --out: {a_file} exists and is not a folder", tmp_path, capsys)  # fmt: skip
+    refused(
+        report.main,
+        ["--out", str(a_file), "--docs", str(tmp_path / "docs")],
+        f"argument --out: {a_file} exists and is not a folder",
+        tmp_path,
+        capsys,
+    )
 
 
 @pytest.mark.parametrize(
@@ -573,8 +731,13 @@ def test_a_cut_last_row_is_tolerated_and_cut_on_append(tmp_path: Path) -> None:
 
 
 def test_python_m_agents_screen_is_no_command() -> None:
-    result = subprocess.run([sys.executable, "-m", "agents.screen", "--help"], cwd=ROOT,
-                            capture_output=True, text=True, timeout=120)  # fmt: skip
+    result = subprocess.run(
+        [sys.executable, "-m", "agents.screen", "--help"],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode != 0 and "No module named agents.screen" in result.stderr
 
 
@@ -590,8 +753,20 @@ def test_resume_does_not_write_through_a_linked_curve(
     outside = tmp_path / "outside.csv"
     outside.write_text("timesteps\n")
     (run / "evaluations.csv").symlink_to(outside)
-    argv = ["--env", REVERSE, "--algo", "ppo", "--n-trailers", "1", "--resume", str(checkpoint),
-            "--timesteps", "128", "--hyperparams", str(_hyperparams(tmp_path / "hp"))]  # fmt: skip
+    argv = [
+        "--env",
+        REVERSE,
+        "--algo",
+        "ppo",
+        "--n-trailers",
+        "1",
+        "--resume",
+        str(checkpoint),
+        "--timesteps",
+        "128",
+        "--hyperparams",
+        str(_hyperparams(tmp_path / "hp")),
+    ]
     refused(train.main, argv, "evaluations.csv is a symbolic link", tmp_path, capsys)
     assert outside.read_text() == "timesteps\n"
 
@@ -601,11 +776,21 @@ def test_main_and_convert_stats_check_first(
 ) -> None:
     from agents.commands import convert_stats, main
 
-    refused(main.main, ["--out", str(tmp_path / "out"), "--retrain", "--train-episodes", "1e6"],
-            "argument --train-episodes", tmp_path, capsys)  # fmt: skip
+    refused(
+        main.main,
+        ["--out", str(tmp_path / "out"), "--retrain", "--train-episodes", "1e6"],
+        "argument --train-episodes",
+        tmp_path,
+        capsys,
+    )
     pickled = tmp_path / "old.pkl"
     pickled.write_bytes(b"not read")
     link = tmp_path / "new.json"
     link.symlink_to(tmp_path / "elsewhere.json")
-    refused(convert_stats.main, ["--trust-pickle", str(pickled), str(link)],
-            "argument destination: ", tmp_path, capsys)  # fmt: skip
+    refused(
+        convert_stats.main,
+        ["--trust-pickle", str(pickled), str(link)],
+        "argument destination: ",
+        tmp_path,
+        capsys,
+    )

@@ -48,10 +48,7 @@ def test_seed_models_are_the_numbered_siblings(tmp_path: Path) -> None:
 
 
 def test_seeds_note_reports_mean_sd_and_range() -> None:
-    summaries = [
-        (seed, {"safe_rate": rate})
-        for seed, rate in ((0, 0.94), (1, 0.96), (2, 0.98))
-    ]  # fmt: skip
+    summaries = [(seed, {"safe_rate": rate}) for seed, rate in ((0, 0.94), (1, 0.96), (2, 0.98))]
     evaluation = Evaluation("m", "m.zip", {}, _results([True]), None, summaries)
     mean, sd, low, high = evaluation.seed_spread() or (0, 0, 0, 0)
     assert mean == pytest.approx(0.96) and sd == pytest.approx(np.std([0.94, 0.96, 0.98]))
@@ -59,8 +56,14 @@ def test_seeds_note_reports_mean_sd_and_range() -> None:
     assert seeds_note(evaluation) == "96 ± 2 (94-98, 3 seeds)"
     assert seeds_note(Evaluation("lqr", "lqr", {}, _results([True]))) == "-"
     assert training_note({}, "mpc").startswith("oracle")
-    card = {"algo": "ppo", "recipe": "dagger", "seed": 1, "timesteps": 614_400,
-            "selected_at_iteration": 3, "wall_time_s": 500}  # fmt: skip
+    card = {
+        "algo": "ppo",
+        "recipe": "dagger",
+        "seed": 1,
+        "timesteps": 614_400,
+        "selected_at_iteration": 3,
+        "wall_time_s": 500,
+    }
     assert training_note(card) == (
         "PPO policy by DAgger from mpc, seed 1, 0.614M labels (kept iteration 3), 500 s"
     )
@@ -126,8 +129,10 @@ def test_env_keywords_reach_the_episodes_and_the_json(tmp_path: Path) -> None:
     document = json.loads((out / "results.json").read_text())
     assert document["env_kwargs"] == {"n_trailers": 2, "M": 1.2, "fidelity": "dopri5"}
     nominal = tmp_path / "nominal"
-    assert command.main(["--policy", "lqr", "--episodes", "6", "--no-plots",
-                         "--out", str(nominal)]) == 0  # fmt: skip
+    assert (
+        command.main(["--policy", "lqr", "--episodes", "6", "--no-plots", "--out", str(nominal)])
+        == 0
+    )
     other = json.loads((nominal / "results.json").read_text())
     assert other["policies"][0]["mean_return"] != document["policies"][0]["mean_return"]
 

@@ -62,12 +62,17 @@ TRICKY = ["", "0", "1", "-1", "-5", "2", "1e7", "1e8", "1.5", "nan", "inf", "-in
 
 def _argv(command: Any) -> st.SearchStrategy[list[str]]:
     parser = command.build_parser()
-    flags = [flag for action in parser._actions for flag in action.option_strings
-             if flag not in ("-h", "--help")]  # fmt: skip
+    flags = [
+        flag
+        for action in parser._actions
+        for flag in action.option_strings
+        if flag not in ("-h", "--help")
+    ]
     value = st.one_of(st.sampled_from(TRICKY), st.text(max_size=8))
     pair = st.tuples(st.sampled_from(flags), value).map(list)
-    token = st.one_of(pair, st.sampled_from(flags).map(lambda flag: [flag]),
-                      value.map(lambda text: [text]))  # fmt: skip
+    token = st.one_of(
+        pair, st.sampled_from(flags).map(lambda flag: [flag]), value.map(lambda text: [text])
+    )
     required = {
         train: ["--env", "trailer_env/Reverse-v0", "--algo", "ppo"],
         certify: ["--out", "cert"],
@@ -184,9 +189,15 @@ def _yaml_text(document: Any) -> bytes:
     return json.dumps({"trailer_env/Reverse-v0": document}, allow_nan=True).encode()
 
 
-HYPERPARAMS = {"n_envs": 2, "n_timesteps": 64, "policy": "MlpPolicy", "n_steps": 16,
-               "batch_size": 16, "normalize": "dict(norm_obs=True)",
-               "policy_kwargs": "dict(net_arch=[8])"}  # fmt: skip
+HYPERPARAMS = {
+    "n_envs": 2,
+    "n_timesteps": 64,
+    "policy": "MlpPolicy",
+    "n_steps": 16,
+    "batch_size": 16,
+    "normalize": "dict(norm_obs=True)",
+    "policy_kwargs": "dict(net_arch=[8])",
+}
 
 
 def _loaders(folder: Path) -> dict[str, tuple[Callable[[bytes], Any], st.SearchStrategy[bytes]]]:
@@ -201,22 +212,25 @@ def _loaders(folder: Path) -> dict[str, tuple[Callable[[bytes], Any], st.SearchS
         return read_rllib_card(folder / "checkpoint")
 
     return {
-        "card": (lambda content: read_card(at("m.json", content).with_suffix(".zip")),
-                 FILE_BYTES),
+        "card": (lambda content: read_card(at("m.json", content).with_suffix(".zip")), FILE_BYTES),
         "stats": (lambda content: read_stats(at("s.json", content)), FILE_BYTES),
         "certificate": (lambda content: read_certificate(at("c.json", content)), FILE_BYTES),
-        "curve": (lambda content: read_curve(at("e.csv", content)),
-                  st.binary(max_size=64) | st.text(max_size=64).map(str.encode)),
-        "policy card": (rllib, FILE_BYTES),
-        "sb3 zip": (lambda content: read_sb3_data(at("z.zip", content)),
-                    st.binary(max_size=64) | FILE_BYTES.map(_zip_with_data)),
-        "hyperparameters": (
-            lambda content: load_hyperparams("ppo", "trailer_env/Reverse-v0",
-                                             at("ppo.yml", content).parent),
-            st.binary(max_size=64) | JSON.map(_yaml_text)
-            | _mutated(HYPERPARAMS).map(_yaml_text),
+        "curve": (
+            lambda content: read_curve(at("e.csv", content)),
+            st.binary(max_size=64) | st.text(max_size=64).map(str.encode),
         ),
-    }  # fmt: skip
+        "policy card": (rllib, FILE_BYTES),
+        "sb3 zip": (
+            lambda content: read_sb3_data(at("z.zip", content)),
+            st.binary(max_size=64) | FILE_BYTES.map(_zip_with_data),
+        ),
+        "hyperparameters": (
+            lambda content: load_hyperparams(
+                "ppo", "trailer_env/Reverse-v0", at("ppo.yml", content).parent
+            ),
+            st.binary(max_size=64) | JSON.map(_yaml_text) | _mutated(HYPERPARAMS).map(_yaml_text),
+        ),
+    }
 
 
 LOADERS = ["card", "stats", "certificate", "curve", "policy card", "sb3 zip", "hyperparameters"]

@@ -38,8 +38,13 @@ def test_main_runs_on_reverse_v1_with_the_committed_agent(
     document = json.loads((tmp_path / "results.json").read_text())
     names = [policy["name"] for policy in document["policies"]]
     assert names == [
-        "zero", "random", "lqr", "mpc-replay", "dagger_reverse_v1_n2", "ppo_reverse_v1_n2"
-    ]  # fmt: skip
+        "zero",
+        "random",
+        "lqr",
+        "mpc-replay",
+        "dagger_reverse_v1_n2",
+        "ppo_reverse_v1_n2",
+    ]
     assert document["policies"][3]["safe_rate"] == 1.0  # the certified records, replayed
     for learned in document["policies"][-2:]:
         assert len(learned["training_seeds"]) == 3

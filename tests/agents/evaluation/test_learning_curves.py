@@ -53,18 +53,26 @@ def test_plateau_refuses_bad_input(args: tuple, error: type, message: str) -> No
 
 
 def make_run(
-    folder: Path, seed: int, rates: list[float], algo: str = "ppo", n: int = 2,
+    folder: Path,
+    seed: int,
+    rates: list[float],
+    algo: str = "ppo",
+    n: int = 2,
     wall_per_eval: float = 10.0,
-) -> Path:  # fmt: skip
+) -> Path:
     """A synthetic run folder: config.json and evaluations.csv with ``rates`` as safe_rate."""
     folder.mkdir(parents=True)
     config = {"env_id": REVERSE, "algo": algo, "env_kwargs": {"n_trailers": n}, "seed": seed}
     (folder / "config.json").write_text(json.dumps(config))
     rows = [
-        {**dict.fromkeys(CURVE_COLUMNS, 0.0), "timesteps": step,
-         "wall_s": wall_per_eval * i, "safe_rate": rate}
+        {
+            **dict.fromkeys(CURVE_COLUMNS, 0.0),
+            "timesteps": step,
+            "wall_s": wall_per_eval * i,
+            "safe_rate": rate,
+        }
         for i, (step, rate) in enumerate(zip(STEPS, rates, strict=False))
-    ]  # fmt: skip
+    ]
     write_curve(folder / "evaluations.csv", rows, CURVE_COLUMNS)
     return folder
 
@@ -128,8 +136,9 @@ def test_command_writes_and_refuses(tmp_path: Path, capsys: pytest.CaptureFixtur
     make_run(runs / "s1", 1, [0.3, 0.5, 0.7, 0.7])
     out = tmp_path / "out"
     # A folder of runs; Reverse-v1 n = 2 has a committed certificate: its ceiling is drawn.
-    assert curves.main([str(runs), "--out", str(out), "--plateau", "2,0.0",
-                        "--level", "lqr=0.5"]) == 0  # fmt: skip
+    assert (
+        curves.main([str(runs), "--out", str(out), "--plateau", "2,0.0", "--level", "lqr=0.5"]) == 0
+    )
     text = (out / TABLE_FILE).read_text()
     assert "s0: 300 (0.70); s1: 300 (0.70)" in text
     assert "certified ceiling (test starts) 1.00, lqr 0.50" in text

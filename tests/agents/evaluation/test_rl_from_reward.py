@@ -31,12 +31,24 @@ def test_a_curve_climbing_at_its_end_has_no_final_plateau() -> None:
 
 def _score(seed: int, kept: float, final: float, flat: float | None) -> RunScore:
     return RunScore(
-        run=f"ppo_s{seed}", env_id="trailer_env/Reverse-v1", n_trailers=2, algo="ppo",
-        seed=seed, budget=10_000_000, wall_s=600.0, metric="safe_rate",
-        plateau_step=flat, plateau_level=None if flat is None else 0.97,
-        final_validation=0.96, best_validation=1.0, kept_at=6_500_000,
-        kept_test=kept, kept_fresh=kept, final_test=final, final_fresh=final,
-    )  # fmt: skip
+        run=f"ppo_s{seed}",
+        env_id="trailer_env/Reverse-v1",
+        n_trailers=2,
+        algo="ppo",
+        seed=seed,
+        budget=10_000_000,
+        wall_s=600.0,
+        metric="safe_rate",
+        plateau_step=flat,
+        plateau_level=None if flat is None else 0.97,
+        final_validation=0.96,
+        best_validation=1.0,
+        kept_at=6_500_000,
+        kept_test=kept,
+        kept_fresh=kept,
+        final_test=final,
+        final_fresh=final,
+    )
 
 
 def test_the_table_has_a_row_per_run_and_the_seed_mean() -> None:
@@ -65,12 +77,33 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
 
     tiny_ppo_hyperparams(tmp_path / "hp", "trailer_env/Coast-v0")
     for seed in (0, 1):
-        assert train.main([
-            "--env", "trailer_env/Coast-v0", "--algo", "ppo", "--n-trailers", "1",
-            "--hyperparams", str(tmp_path / "hp"), "--run-dir", str(tmp_path / f"runs/s{seed}"),
-            "--timesteps", "1024", "--eval-freq", "512", "--eval-episodes", "2",
-            "--seed", str(seed), "--no-progress", "--quiet",
-        ]) == 0  # fmt: skip
+        assert (
+            train.main(
+                [
+                    "--env",
+                    "trailer_env/Coast-v0",
+                    "--algo",
+                    "ppo",
+                    "--n-trailers",
+                    "1",
+                    "--hyperparams",
+                    str(tmp_path / "hp"),
+                    "--run-dir",
+                    str(tmp_path / f"runs/s{seed}"),
+                    "--timesteps",
+                    "1024",
+                    "--eval-freq",
+                    "512",
+                    "--eval-episodes",
+                    "2",
+                    "--seed",
+                    str(seed),
+                    "--no-progress",
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
     out, model = tmp_path / "table", tmp_path / "models" / "tiny.zip"
     argv = [str(tmp_path / "runs"), "--out", str(out), "--fresh-episodes", "3"]
     assert main([*argv, "--export", str(model)]) == 0
@@ -82,8 +115,9 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
     assert card["selection"]["chosen_seed"] in (0, 1)
     assert card["seed"] == card["selection"]["chosen_seed"]
     assert sorted(p.name for p in (tmp_path / "models" / "seeds").glob("*.zip")) == [
-        "tiny_s0.zip", "tiny_s1.zip"
-    ]  # fmt: skip
+        "tiny_s0.zip",
+        "tiny_s1.zip",
+    ]
     before = (out / "rl_from_reward.md").read_bytes()
     with pytest.raises(SystemExit):  # an existing table without --overwrite
         main(argv)

@@ -25,8 +25,14 @@ from agents.evaluation.tables import (
     training_label,
 )
 
-DAGGER_CARD = {"algo": "ppo", "recipe": "dagger", "seed": 1, "timesteps": 614_400,
-               "selected_at_iteration": 3, "wall_time_s": 500}  # fmt: skip
+DAGGER_CARD = {
+    "algo": "ppo",
+    "recipe": "dagger",
+    "seed": 1,
+    "timesteps": 614_400,
+    "selected_at_iteration": 3,
+    "wall_time_s": 500,
+}
 PPO_CARD = {"algo": "ppo", "seed": 0, "timesteps": 2_000_000, "selected_at_timesteps": 1_500_000}
 
 
@@ -153,8 +159,13 @@ def test_the_legend_words_each_scene_from_its_core() -> None:
         "none on Heading-v0",
         "success on Heading-v0",
     )
-    every = ["trailer_env/Reverse-v0", "trailer_env/Dock-v0", "trailer_env/Coast-v0",
-             "trailer_env/Reverse-v0", "trailer_env/Heading-v0"]  # fmt: skip
+    every = [
+        "trailer_env/Reverse-v0",
+        "trailer_env/Dock-v0",
+        "trailer_env/Coast-v0",
+        "trailer_env/Reverse-v0",
+        "trailer_env/Heading-v0",
+    ]
     assert _stop_and_headline(table_legend(every)) == (
         "Reverse-v0: the convoy stopped reversing; Dock-v0: a miss (the last axle ran past "
         "the dock); none on Coast-v0, Heading-v0",

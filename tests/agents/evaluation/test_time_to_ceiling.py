@@ -11,24 +11,36 @@ from agents.evaluation.time_to_ceiling import gap_of, main, time_to_ceiling_tabl
 
 
 def _document(env_id: str, n: int, policies: list[dict]) -> dict:
-    return {"env_id": env_id, "env_kwargs": {"n_trailers": n}, "episodes": 100,
-            "seeds": [1000, 1099], "policies": policies}  # fmt: skip
+    return {
+        "env_id": env_id,
+        "env_kwargs": {"n_trailers": n},
+        "episodes": 100,
+        "seeds": [1000, 1099],
+        "policies": policies,
+    }
 
 
 def _model(name: str, rate: float, wall: float, seeds: list[float] = ()) -> dict:
     return {
-        "name": name, "kind": "model", "training": {"wall_time_s": wall}, "safe_rate": rate,
+        "name": name,
+        "kind": "model",
+        "training": {"wall_time_s": wall},
+        "safe_rate": rate,
         "success_rate": rate,
         "training_seeds": [{"seed": k, "safe_rate": r} for k, r in enumerate(seeds)],
-    }  # fmt: skip
+    }
 
 
 def test_the_best_model_is_set_against_the_committed_ceiling(tmp_path: Path, capsys) -> None:
-    document = _document("trailer_env/Reverse-v1", 3, [
-        {"name": "lqr", "kind": "baseline", "safe_rate": 0.99, "training": {}},
-        _model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89]),
-        _model("fast", 0.975, 600.0),
-    ])  # fmt: skip
+    document = _document(
+        "trailer_env/Reverse-v1",
+        3,
+        [
+            {"name": "lqr", "kind": "baseline", "safe_rate": 0.99, "training": {}},
+            _model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89]),
+            _model("fast", 0.975, 600.0),
+        ],
+    )
     row = gap_of(document)
     # The committed Reverse-v1 n = 3 certificate leaves 1 of the test starts 1000-1099 open.
     assert row.ceiling == pytest.approx(0.99)

@@ -41,17 +41,30 @@ COMMITTED = {(V1, 1): 100, (V1, 2): 100, (V1, 3): 99, (DOCK, 1): 100, (DOCK, 2):
 
 
 def _open_certificate(env_id: str, n: int, seeds: list[int], planner: str) -> dict[str, Any]:
-    starts = [{"seed": seed, "status": OPEN, "screen_stroke_fraction": None,
-               "planner_length": 7} for seed in seeds]  # fmt: skip
+    starts = [
+        {"seed": seed, "status": OPEN, "screen_stroke_fraction": None, "planner_length": 7}
+        for seed in seeds
+    ]
     return {
-        "env_id": env_id, "env_kwargs": {"n_trailers": n},
-        "seeds": [min(seeds), max(seeds)], "episodes": len(seeds),
-        "planner": {"name": planner, "first_pass_safe": 0, "first_pass_wall_time_s": 0.0,
-                    "wall_time_s": 0.0, "restarts": 0},
-        "screen": {"applied": False, "wall_time_s": 0.0}, "feasible": 0,
-        "not_recoverable": 0, "open": len(seeds), "ceiling": 0.0, "starts": starts,
+        "env_id": env_id,
+        "env_kwargs": {"n_trailers": n},
+        "seeds": [min(seeds), max(seeds)],
+        "episodes": len(seeds),
+        "planner": {
+            "name": planner,
+            "first_pass_safe": 0,
+            "first_pass_wall_time_s": 0.0,
+            "wall_time_s": 0.0,
+            "restarts": 0,
+        },
+        "screen": {"applied": False, "wall_time_s": 0.0},
+        "feasible": 0,
+        "not_recoverable": 0,
+        "open": len(seeds),
+        "ceiling": 0.0,
+        "starts": starts,
         "actions": {},
-    }  # fmt: skip
+    }
 
 
 def test_an_agents_record_is_a_witness_and_replays() -> None:
@@ -60,8 +73,10 @@ def test_an_agents_record_is_a_witness_and_replays() -> None:
     assert (upgraded["feasible"], upgraded["open"], upgraded["ceiling"]) == (2, 0, 1.0)
     assert upgraded["sources"] == {"ppo_coast_n1": 2}
     runs = upgraded["witnesses"]["runs"]
-    assert runs == [{"source": "zero", "tried": 2, "solved": 0},
-                    {"source": "ppo_coast_n1", "tried": 2, "solved": 2}]  # fmt: skip
+    assert runs == [
+        {"source": "zero", "tried": 2, "solved": 0},
+        {"source": "ppo_coast_n1", "tried": 2, "solved": 2},
+    ]
     assert certificate["open"] == 2 and certificate["actions"] == {}  # not changed in place
     for start in upgraded["starts"]:
         record = upgraded["actions"][start["seed"]]
@@ -163,8 +178,15 @@ def test_the_oracle_row_replays_the_planners_records_only(tmp_path: Path) -> Non
 
 def test_the_default_witnesses_are_the_baselines_and_the_committed_models() -> None:
     names = [Path(spec).stem for spec in default_witnesses(DOCK, 2)]
-    assert names == ["zero", "random", "lqr", "ppo_dock_n2", "ppo_dock_n2_s0",
-                     "ppo_dock_n2_s1", "ppo_dock_n2_s2"]  # fmt: skip
+    assert names == [
+        "zero",
+        "random",
+        "lqr",
+        "ppo_dock_n2",
+        "ppo_dock_n2_s0",
+        "ppo_dock_n2_s1",
+        "ppo_dock_n2_s2",
+    ]
     generalist = [Path(spec).stem for spec in default_witnesses(V1, 3)]
     assert "dagger_reverse_v1_general" in generalist and "dagger_reverse_v1_n3" in generalist
 

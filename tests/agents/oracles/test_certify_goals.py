@@ -50,8 +50,9 @@ def test_committed_goal_records_replay_to_success(env_id: str, n: int) -> None:
     certificate = committed_certificate(env_id, n)
     records = committed_actions(env_id, n)
     assert certificate is not None and records is not None
-    feasible = {start["seed"]: start for start in certificate["starts"]
-                if start["status"] == FEASIBLE}  # fmt: skip
+    feasible = {
+        start["seed"]: start for start in certificate["starts"] if start["status"] == FEASIBLE
+    }
     assert set(records) == set(feasible)
     assert certificate["feasible"] == len(feasible) == CERTIFIED[env_id, n]
     assert certificate["open"] == 100 - CERTIFIED[env_id, n]

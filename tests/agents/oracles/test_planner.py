@@ -33,8 +33,9 @@ def reverse_core(n: int, seeds: list[int]) -> ReverseCore:
 def test_planner_without_spread_plays_the_lqr() -> None:
     settings = settings_from_kwargs(n_trailers=2)
     core = reverse_core(2, [1000, 1001, 1002])
-    config = PlannerConfig(samples=2, elites=1, horizon=3, tail=0, iterations=1,
-                           noise=1e-12, min_noise=0.0)  # fmt: skip
+    config = PlannerConfig(
+        samples=2, elites=1, horizon=3, tail=0, iterations=1, noise=1e-12, min_noise=0.0
+    )
     planner = SamplingPlanner(ReverseCore, settings, 3, config)
     lqr = LQRController(settings)
     for _ in range(5):

@@ -30,8 +30,13 @@ def test_every_record_names_a_scene_and_known_planners() -> None:
         assert set(record.weights) <= {field.name for field in dataclasses.fields(CostWeights)}
         assert {name for name, _ in record.task_residuals} <= set(record.weights)
     assert GOAL_SCENES == ("Dock", "Coast")
-    goals = {"Reverse-v0": False, "Reverse-v1": False, "Coast-v0": True, "Heading-v0": False,
-             "Dock-v0": True}  # fmt: skip
+    goals = {
+        "Reverse-v0": False,
+        "Reverse-v1": False,
+        "Coast-v0": True,
+        "Heading-v0": False,
+        "Dock-v0": True,
+    }
     assert {name: is_goal_scene(f"trailer_env/{name}") for name in goals} == goals
     assert scene_oracle(HEADING) is scene_oracle(HeadingCore) is NO_ORACLE
     assert scene_oracle("trailer_env/Reverse-v1") is SCENE_ORACLES["Reverse"]
@@ -39,8 +44,13 @@ def test_every_record_names_a_scene_and_known_planners() -> None:
 
 def test_the_baselines_that_fit_are_the_core_s_then_the_record_s() -> None:
     assert applicable_baselines("trailer_env/Reverse-v1") == (
-        "zero", "random", "lqr", "mpc", "mpc-replay", "ilqr",
-    )  # fmt: skip
+        "zero",
+        "random",
+        "lqr",
+        "mpc",
+        "mpc-replay",
+        "ilqr",
+    )
     assert applicable_baselines("trailer_env/Dock-v0") == ("zero", "random", "lqr", "ilqr")
     assert applicable_baselines(HEADING) == ("zero", "random", "lqr", "heading-p")
     with pytest.raises(ValueError, match="the ilqr baseline is for trailer_env/Reverse-v0, "):

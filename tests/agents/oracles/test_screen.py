@@ -31,9 +31,15 @@ def hand_stroke(x0: float, horizon: float) -> float:
 def test_minimal_stroke_matches_the_closed_form(x0: float, horizon: float) -> None:
     a_d, b_d = one_mode_system()
     result = minimal_stroke(
-        a_d, b_d, np.array([x0, 0.0, 0.0]), position=1, speed=2,
-        speed_max=1e3, accel_max=1e4, steps=round(horizon / DT),
-    )  # fmt: skip
+        a_d,
+        b_d,
+        np.array([x0, 0.0, 0.0]),
+        position=1,
+        speed=2,
+        speed_max=1e3,
+        accel_max=1e4,
+        steps=round(horizon / DT),
+    )
     # The discrete LP approaches the continuous optimum as dt -> 0 (error of order lam dt).
     assert result.stroke == pytest.approx(hand_stroke(x0, horizon), rel=0.02)
     assert result.unstable_eigenvalues.size == 1
@@ -45,9 +51,16 @@ def test_recoverable_set_is_the_interval_c_s_max_over_lam(x0: float, recoverable
     s_max = 0.2  # recoverable set |x0| < c s_max / lam = 0.1 for a long horizon
     a_d, b_d = one_mode_system(dt=0.02)
     result = minimal_stroke(
-        a_d, b_d, np.array([x0, 0.0, 0.0]), position=1, speed=2,
-        speed_max=1e3, accel_max=1e4, steps=300, s_max=s_max,  # 6 s: exp(-6) = 0.25 %
-    )  # fmt: skip
+        a_d,
+        b_d,
+        np.array([x0, 0.0, 0.0]),
+        position=1,
+        speed=2,
+        speed_max=1e3,
+        accel_max=1e4,
+        steps=300,
+        s_max=s_max,  # 6 s: exp(-6) = 0.25 %
+    )
     assert result.recoverable is recoverable
     assert result.stroke == pytest.approx(GROWTH * abs(x0) / COUPLING, rel=0.03)
 
@@ -55,9 +68,15 @@ def test_recoverable_set_is_the_interval_c_s_max_over_lam(x0: float, recoverable
 def test_tight_speed_bound_makes_it_infeasible() -> None:
     a_d, b_d = one_mode_system()
     result = minimal_stroke(
-        a_d, b_d, np.array([0.1, 0.0, 0.0]), position=1, speed=2,
-        speed_max=1e-3, accel_max=1e4, steps=round(1.0 / DT),
-    )  # fmt: skip
+        a_d,
+        b_d,
+        np.array([0.1, 0.0, 0.0]),
+        position=1,
+        speed=2,
+        speed_max=1e-3,
+        accel_max=1e4,
+        steps=round(1.0 / DT),
+    )
     assert result.stroke == math.inf
     assert not result.recoverable
 

@@ -16,8 +16,13 @@ REVERSE = "trailer_env/Reverse-v1"
 
 
 def test_gains_and_actions_are_those_designed_for_the_drawn_parameters() -> None:
-    envs = gym.make_vec(REVERSE, num_envs=5, vectorization_mode="vector_entry_point",
-                        n_trailers=2, randomize="mismatch20")  # fmt: skip
+    envs = gym.make_vec(
+        REVERSE,
+        num_envs=5,
+        vectorization_mode="vector_entry_point",
+        n_trailers=2,
+        randomize="mismatch20",
+    )
     native = envs.unwrapped
     obs, infos = envs.reset(seed=10)
     policy = make_baseline("lqr-adaptive", native.settings, REVERSE)
@@ -33,8 +38,9 @@ def test_gains_and_actions_are_those_designed_for_the_drawn_parameters() -> None
         np.testing.assert_array_equal(actions[i], direct(obs[i]))
     # The draws move the gains (mu and a by up to 20 %): not the nominal design.
     nominal = LQRController(native.settings)
-    assert not np.array_equal(policy.controller(native.core.param_values[0]).reverse_gains,
-                              nominal.reverse_gains)  # fmt: skip
+    assert not np.array_equal(
+        policy.controller(native.core.param_values[0]).reverse_gains, nominal.reverse_gains
+    )
     with pytest.raises(ValueError, match="needs each episode's drawn parameters"):
         policy(obs)
 

@@ -24,8 +24,11 @@ from tests.agents.helpers import rewrite_zip
 from trailer_env.sb3 import ConvoySB3VecEnv
 
 REVERSE = "trailer_env/Reverse-v1"
-KWARGS = dict(features_extractor_class=ConvoyEncoder, features_extractor_kwargs=dict(hidden=16,
-              body_hidden=16), net_arch=[16])  # fmt: skip
+KWARGS = dict(
+    features_extractor_class=ConvoyEncoder,
+    features_extractor_kwargs=dict(hidden=16, body_hidden=16),
+    net_arch=[16],
+)
 
 
 @pytest.fixture(autouse=True)
@@ -35,8 +38,16 @@ def one_thread() -> None:
 
 def _model(n_trailers: object = 2, n_steps: int = 64, seed: int = 0) -> PPO:
     venv = ConvoySB3VecEnv(REVERSE, num_envs=4, n_trailers=n_trailers, observation="trailers")
-    return PPO("MultiInputPolicy", venv, n_steps=n_steps, batch_size=64, n_epochs=1,
-               policy_kwargs=KWARGS, seed=seed, device="cpu")  # fmt: skip
+    return PPO(
+        "MultiInputPolicy",
+        venv,
+        n_steps=n_steps,
+        batch_size=64,
+        n_epochs=1,
+        policy_kwargs=KWARGS,
+        seed=seed,
+        device="cpu",
+    )
 
 
 def _observations(n: int, count: int = 3, seed: int = 0) -> dict[str, np.ndarray]:

@@ -75,10 +75,16 @@ def test_bad_options_exit_before_any_file_is_written(
 
 def test_a_small_generalist_run(tmp_path: Path) -> None:
     config = ImitationConfig(
-        V1, (1, 2), randomize="mismatch20", iterations=2, episodes=4, epochs=1,
-        validation_episodes=4, net_arch=(16,),
+        V1,
+        (1, 2),
+        randomize="mismatch20",
+        iterations=2,
+        episodes=4,
+        epochs=1,
+        validation_episodes=4,
+        net_arch=(16,),
         planner=PlannerConfig(samples=4, elites=1, iterations=1, horizon=5, tail=10),
-    )  # fmt: skip
+    )
     record = imitate(config, tmp_path / "run", verbose=0)
     assert record["timesteps"] == 2 * 4 * 400
     card = json.loads((tmp_path / "run" / "best_model.json").read_text())

@@ -79,15 +79,27 @@ def test_imitation_on_the_trailer_sequence_acts_on_unseen_n(tmp_path: Path) -> N
     from agents.policies.sb3 import TrailersPolicy
 
     planner = PlannerConfig(samples=4, elites=1, iterations=1, tail=10)
-    config = ImitationConfig(V1, (1, 3), iterations=2, episodes=4, epochs=2,
-                             validation_episodes=4, net_arch=(16,), planner=planner,
-                             observation="trailers", max_trailers=6)  # fmt: skip
+    config = ImitationConfig(
+        V1,
+        (1, 3),
+        iterations=2,
+        episodes=4,
+        epochs=2,
+        validation_episodes=4,
+        net_arch=(16,),
+        planner=planner,
+        observation="trailers",
+        max_trailers=6,
+    )
     record = imitate(config, tmp_path / "run", verbose=0)
     assert record["policy"] == "MultiInputPolicy" and record["normalize"] is None
     assert record["timesteps"] == 2 * 4 * 400
     card = json.loads((tmp_path / "run" / "best_model.json").read_text())
-    assert card["env_kwargs"] == {"n_trailers": [1, 3], "observation": "trailers",
-                                  "max_trailers": 6}  # fmt: skip
+    assert card["env_kwargs"] == {
+        "n_trailers": [1, 3],
+        "observation": "trailers",
+        "max_trailers": 6,
+    }
     assert not (tmp_path / "run" / "best_model_vecnormalize.json").exists()
     model = str(tmp_path / "run" / "best_model.zip")
     for n in (1, 4, 6):  # trained on 1..3: n = 4 and 6 zero-shot

@@ -26,9 +26,26 @@ COMMITTED_N3 = (
     Path(__file__).resolve().parents[3] / "agents" / "models" / "dagger_reverse_v1_n3.json"
 )
 #: A tiny budget: 2 iterations of 2 convoys, a 5-step plan with one iLQR iteration.
-TINY = ["--n-trailers", "1", "--seed", "3", "--expert", "ilqr", "--iterations", "2",
-        "--episodes", "2", "--epochs", "1", "--net-arch", "8", "--planner-horizon", "5",
-        "--planner-iterations", "1"]  # fmt: skip
+TINY = [
+    "--n-trailers",
+    "1",
+    "--seed",
+    "3",
+    "--expert",
+    "ilqr",
+    "--iterations",
+    "2",
+    "--episodes",
+    "2",
+    "--epochs",
+    "1",
+    "--net-arch",
+    "8",
+    "--planner-horizon",
+    "5",
+    "--planner-iterations",
+    "1",
+]
 
 
 def test_the_table_and_the_scene_defaults() -> None:
@@ -56,19 +73,31 @@ def test_the_table_and_the_scene_defaults() -> None:
 @pytest.mark.parametrize(
     ("kwargs", "error", "match"),
     [
-        ({"env_id": DOCK, "expert": "mpc"}, ValueError, "the mpc expert has no cost for "
-         "trailer_env/Dock-v0; use ilqr"),
+        (
+            {"env_id": DOCK, "expert": "mpc"},
+            ValueError,
+            "the mpc expert has no cost for trailer_env/Dock-v0; use ilqr",
+        ),
         ({"env_id": "trailer_env/Heading-v0"}, ValueError, "no planner to imitate"),
-        ({"n_trailers": (1, 3), "expert": "ilqr"}, ValueError, "one count of trailers, not a "
-         "range \\(1-3\\)"),
-        ({"randomize": "mismatch20", "expert": "ilqr"}, ValueError, "cannot label randomised "
-         "physical parameters"),
+        (
+            {"n_trailers": (1, 3), "expert": "ilqr"},
+            ValueError,
+            "one count of trailers, not a range \\(1-3\\)",
+        ),
+        (
+            {"randomize": "mismatch20", "expert": "ilqr"},
+            ValueError,
+            "cannot label randomised physical parameters",
+        ),
         ({"expert": "cem"}, ValueError, "unknown 'cem'"),
         ({"expert": 1}, TypeError, "expert must be a str, got int"),
-        ({"expert": "ilqr", "planner": PlannerConfig()}, TypeError, "the ilqr expert takes "
-         "ILQRConfig, got PlannerConfig"),
+        (
+            {"expert": "ilqr", "planner": PlannerConfig()},
+            TypeError,
+            "the ilqr expert takes ILQRConfig, got PlannerConfig",
+        ),
     ],
-)  # fmt: skip
+)
 def test_refused_combinations(kwargs: dict, error: type[Exception], match: str) -> None:
     with pytest.raises(error, match=match):
         ImitationConfig(**{"env_id": V1, "n_trailers": 1, **kwargs})
@@ -77,20 +106,32 @@ def test_refused_combinations(kwargs: dict, error: type[Exception], match: str) 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--env", DOCK, "--expert", "mpc"], "argument --expert: the mpc expert has no cost "
-         "for trailer_env/Dock-v0; use ilqr"),
-        (["--env", DOCK, "--planner-samples", "8"], "argument --expert: the ilqr expert takes "
-         "no planner option 'samples' (it takes iterations, horizon)"),
-        (["--planner-horizon", "8"], "argument --expert: the mpc expert takes no planner "
-         "option 'horizon' (it takes samples, iterations)"),
+        (
+            ["--env", DOCK, "--expert", "mpc"],
+            "argument --expert: the mpc expert has no cost for trailer_env/Dock-v0; use ilqr",
+        ),
+        (
+            ["--env", DOCK, "--planner-samples", "8"],
+            "argument --expert: the ilqr expert takes "
+            "no planner option 'samples' (it takes iterations, horizon)",
+        ),
+        (
+            ["--planner-horizon", "8"],
+            "argument --expert: the mpc expert takes no planner "
+            "option 'horizon' (it takes samples, iterations)",
+        ),
         (["--expert", "ilqr", "--n-trailers", "1-3"], "one count of trailers, not a range"),
         (["--expert", "ilqr", "--randomize", "mismatch10"], "cannot label randomised"),
-        (["--expert", "ilqr", "--planner-horizon", "201"], "argument --planner-horizon: "
-         "must be <= 200"),
-        (["--env", "trailer_env/Heading-v0"], "argument --expert: trailer_env/Heading-v0 has "
-         "no planner to imitate"),
+        (
+            ["--expert", "ilqr", "--planner-horizon", "201"],
+            "argument --planner-horizon: must be <= 200",
+        ),
+        (
+            ["--env", "trailer_env/Heading-v0"],
+            "argument --expert: trailer_env/Heading-v0 has no planner to imitate",
+        ),
     ],
-)  # fmt: skip
+)
 def test_refused_options_exit_before_anything_is_written(
     tmp_path: Path,
     capsys: pytest.CaptureFixture[str],
@@ -165,9 +206,14 @@ def test_a_tiny_ilqr_run_labels_the_same_states_the_same_twice(tmp_path: Path, e
         curve = read_curve(run_dir / "evaluations.csv")
         assert [row["timesteps"] for row in curve] == [800.0, 1600.0]
         assert {path.name for path in run_dir.iterdir()} >= {
-            "best_model.zip", "final_model.zip", "best_model.json", "evaluations.csv",
-            "best_model_vecnormalize.json", "config.json", DATASET_FILE,
-        }  # fmt: skip
+            "best_model.zip",
+            "final_model.zip",
+            "best_model.json",
+            "evaluations.csv",
+            "best_model_vecnormalize.json",
+            "config.json",
+            DATASET_FILE,
+        }
     (obs_a, labels_a), (obs_b, labels_b) = datasets
     assert obs_a.shape == (1600, obs_b.shape[1]) and labels_a.shape == (1600, 1)
     np.testing.assert_array_equal(obs_a, obs_b)

@@ -25,12 +25,29 @@ def test_a_flat_curve_stops_the_run(tmp_path: Path, capsys: pytest.CaptureFixtur
     tiny_ppo_hyperparams(tmp_path / "hp", "trailer_env/Reverse-v1")
     run = tmp_path / "run"
     # Any two evaluations are within 1.0 of their mean: flat at the second (512 steps).
-    code = train.main([
-        "--env", "trailer_env/Reverse-v1", "--algo", "ppo", "--n-trailers", "1",
-        "--hyperparams", str(tmp_path / "hp"), "--run-dir", str(run), "--timesteps", "8192",
-        "--eval-freq", "512", "--eval-episodes", "2", "--stop-on-plateau", "2,1.0",
-        "--no-progress",
-    ])  # fmt: skip
+    code = train.main(
+        [
+            "--env",
+            "trailer_env/Reverse-v1",
+            "--algo",
+            "ppo",
+            "--n-trailers",
+            "1",
+            "--hyperparams",
+            str(tmp_path / "hp"),
+            "--run-dir",
+            str(run),
+            "--timesteps",
+            "8192",
+            "--eval-freq",
+            "512",
+            "--eval-episodes",
+            "2",
+            "--stop-on-plateau",
+            "2,1.0",
+            "--no-progress",
+        ]
+    )
     assert code == 0
     assert [row["timesteps"] for row in read_curve(run / "evaluations.csv")] == [0, 512]
     card = json.loads((run / "final_model.json").read_text())
@@ -38,6 +55,5 @@ def test_a_flat_curve_stops_the_run(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert (card["stopped_on_plateau_at"], card["timesteps"]) == (512, 520)
     assert "stopped at 512 steps" in capsys.readouterr().out
     with pytest.raises(SystemExit):
-        train.main(["--env", "trailer_env/Reverse-v1", "--algo", "ppo",
-                    "--stop-on-plateau", "5"])  # fmt: skip
+        train.main(["--env", "trailer_env/Reverse-v1", "--algo", "ppo", "--stop-on-plateau", "5"])
     assert "expected WINDOW,EPS" in capsys.readouterr().err

@@ -52,9 +52,25 @@ def test_rllib_trains_with_a_remote_runner_and_its_checkpoint_evaluates(tmp_path
     (tmp_path / "hp").mkdir()
     (tmp_path / "hp" / "ppo.yml").write_text(TINY_PPO)
     run = tmp_path / "run"
-    argv = ["--backend", "rllib", "--env", REVERSE, "--algo", "ppo", "--n-trailers", "1",
-            "--num-env-runners", "1", "--timesteps", "2000", "--hyperparams",
-            str(tmp_path / "hp"), "--run-dir", str(run), "--quiet"]  # fmt: skip
+    argv = [
+        "--backend",
+        "rllib",
+        "--env",
+        REVERSE,
+        "--algo",
+        "ppo",
+        "--n-trailers",
+        "1",
+        "--num-env-runners",
+        "1",
+        "--timesteps",
+        "2000",
+        "--hyperparams",
+        str(tmp_path / "hp"),
+        "--run-dir",
+        str(run),
+        "--quiet",
+    ]
     assert train.main(argv) == 0
     assert not ray.is_initialized()  # the local Ray it started is shut down
     assert any((run / "ray_logs").iterdir())  # with its logs kept in the run folder
@@ -159,8 +175,18 @@ def test_an_unreachable_cluster_exits_2_naming_the_address(
 
     # (a real unreachable address makes Ray retry for minutes before it gives up)
     monkeypatch.setattr(ray, "init", refuse)
-    argv = ["--backend", "rllib", "--env", REVERSE, "--algo", "ppo", "--address",
-            "10.0.0.9:6379", "--run-dir", str(tmp_path / "run")]  # fmt: skip
+    argv = [
+        "--backend",
+        "rllib",
+        "--env",
+        REVERSE,
+        "--algo",
+        "ppo",
+        "--address",
+        "10.0.0.9:6379",
+        "--run-dir",
+        str(tmp_path / "run"),
+    ]
     with pytest.raises(SystemExit) as raised:
         train.main(argv)
     err = capsys.readouterr().err

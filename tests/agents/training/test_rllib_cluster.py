@@ -31,9 +31,13 @@ def test_two_nodes_each_run_an_env_runner(tmp_path: Path) -> None:
     # Token authentication on every process: head, second node and driver get the same
     # token (HOME apart, so that no ~/.ray/auth_token of the machine is read or written).
     environment = {
-        **os.environ, "RAY_AUTH_MODE": "token", "RAY_AUTH_TOKEN": secrets.token_hex(32),
-        "HOME": str(tmp_path / "home"), "PYTHONPATH": str(ROOT), "RAY_USAGE_STATS_ENABLED": "0",
-    }  # fmt: skip
+        **os.environ,
+        "RAY_AUTH_MODE": "token",
+        "RAY_AUTH_TOKEN": secrets.token_hex(32),
+        "HOME": str(tmp_path / "home"),
+        "PYTHONPATH": str(ROOT),
+        "RAY_USAGE_STATS_ENABLED": "0",
+    }
     (tmp_path / "home").mkdir()
     # Ray's unix sockets need a short path: the temp dirs live under a short /tmp folder.
     short = Path(tempfile.mkdtemp(prefix="rc", dir="/tmp"))
@@ -42,24 +46,55 @@ def test_two_nodes_each_run_an_env_runner(tmp_path: Path) -> None:
 
     def run(*command: str, timeout: int = 180) -> subprocess.CompletedProcess[str]:
         return subprocess.run(
-            command, env=environment, cwd=ROOT, capture_output=True, text=True,
-            timeout=timeout, check=False,
-        )  # fmt: skip
+            command,
+            env=environment,
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+            check=False,
+        )
 
     try:
-        head = run(ray, "start", "--head", f"--port={port}", "--num-cpus=1",
-                   f"--temp-dir={short / 'h'}", "--include-dashboard=false")  # fmt: skip
+        head = run(
+            ray,
+            "start",
+            "--head",
+            f"--port={port}",
+            "--num-cpus=1",
+            f"--temp-dir={short / 'h'}",
+            "--include-dashboard=false",
+        )
         assert head.returncode == 0, head.stderr[-2000:]
-        node = run(ray, "start", f"--address={address}", "--num-cpus=1",
-                   f"--temp-dir={short / 'n'}")  # fmt: skip
+        node = run(
+            ray, "start", f"--address={address}", "--num-cpus=1", f"--temp-dir={short / 'n'}"
+        )
         assert node.returncode == 0, node.stderr[-2000:]
         run_dir = tmp_path / "run"
         trained = run(
-            sys.executable, "-m", "agents.train", "--backend", "rllib",
-            "--env", "trailer_env/Reverse-v1", "--algo", "ppo", "--n-trailers", "1",
-            "--num-env-runners", "2", "--n-envs", "4", "--timesteps", "2000",
-            "--address", address, "--run-dir", str(run_dir), timeout=400,
-        )  # fmt: skip
+            sys.executable,
+            "-m",
+            "agents.train",
+            "--backend",
+            "rllib",
+            "--env",
+            "trailer_env/Reverse-v1",
+            "--algo",
+            "ppo",
+            "--n-trailers",
+            "1",
+            "--num-env-runners",
+            "2",
+            "--n-envs",
+            "4",
+            "--timesteps",
+            "2000",
+            "--address",
+            address,
+            "--run-dir",
+            str(run_dir),
+            timeout=400,
+        )
         assert trained.returncode == 0, trained.stderr[-3000:]
         config = json.loads((run_dir / "config.json").read_text())
         runners = config["runner_envs"]

@@ -61,11 +61,23 @@ def _hyperparams(tmp_path: Path) -> Path:
 def _train(tmp_path: Path, *extra: str, algo: str = "ppo") -> int:
     return train.main(
         [
-            "--env", REVERSE, "--algo", algo, "--n-trailers", "1", "--seed", "0",
-            "--hyperparams", str(tmp_path / "hyperparams"), "--no-progress", "--quiet",
-            "--eval-episodes", "10", *extra,
+            "--env",
+            REVERSE,
+            "--algo",
+            algo,
+            "--n-trailers",
+            "1",
+            "--seed",
+            "0",
+            "--hyperparams",
+            str(tmp_path / "hyperparams"),
+            "--no-progress",
+            "--quiet",
+            "--eval-episodes",
+            "10",
+            *extra,
         ]
-    )  # fmt: skip
+    )
 
 
 def test_smoke_training_beats_random(tmp_path: Path) -> None:

@@ -72,11 +72,28 @@ def test_search_spaces_are_checked(tmp_path: Path) -> None:
 
 
 def _tune(tmp_path: Path, out: Path, *extra: str) -> int:
-    return command.main([
-        "--env", REVERSE, "--algo", "ppo", "--n-trailers", "1", "--timesteps", "1024",
-        "--eval-episodes", "2", "--hyperparams", str(tmp_path / "hp"),
-        "--space", str(tmp_path / "space.yml"), "--out", str(out), "--quiet", *extra,
-    ])  # fmt: skip
+    return command.main(
+        [
+            "--env",
+            REVERSE,
+            "--algo",
+            "ppo",
+            "--n-trailers",
+            "1",
+            "--timesteps",
+            "1024",
+            "--eval-episodes",
+            "2",
+            "--hyperparams",
+            str(tmp_path / "hp"),
+            "--space",
+            str(tmp_path / "space.yml"),
+            "--out",
+            str(out),
+            "--quiet",
+            *extra,
+        ]
+    )
 
 
 def _snapshot(folder: Path) -> dict[str, bytes]:
