@@ -182,17 +182,23 @@ def main(argv: list[str] | None = None) -> int:
     files.write_json(
         args.out / "across_n.json",
         {
-            "env_id": args.env, "episodes": args.episodes, "seed": args.seed,
+            "env_id": args.env,
+            "episodes": args.episodes,
+            "seed": args.seed,
             "metric": headline_metric(args.env),
-            "lines": {label: {str(n): value for n, value in cells.items()}
-                      for label, cells in lines.items()},
+            "lines": {
+                label: {str(n): value for n, value in cells.items()}
+                for label, cells in lines.items()
+            },
         },
-    )  # fmt: skip
+    )
     title = f"{scene_title(args.env)}: {args.episodes} episodes per n ({seeds})"
     plot(lines, args.n, args.out / "across_n.png", title)
     print(table, end="")
-    print(f"wrote {', '.join(str(args.out / name) for name in OUTPUTS)} in "
-          f"{duration(time.perf_counter() - started)}")  # fmt: skip
+    print(
+        f"wrote {', '.join(str(args.out / name) for name in OUTPUTS)} in "
+        f"{duration(time.perf_counter() - started)}"
+    )
     return 0
 
 

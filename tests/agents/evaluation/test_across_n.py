@@ -27,8 +27,18 @@ def test_the_command_writes_table_json_and_chart(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     out = tmp_path / "across"
-    args = ["--n", "1-2", "--policy", "zero", "--specialist", "dagger_reverse_v1_n{n}",
-            "--episodes", "3", "--out", str(out)]  # fmt: skip
+    args = [
+        "--n",
+        "1-2",
+        "--policy",
+        "zero",
+        "--specialist",
+        "dagger_reverse_v1_n{n}",
+        "--episodes",
+        "3",
+        "--out",
+        str(out),
+    ]
     assert main(args) == 0
     document = json.loads((out / "across_n.json").read_text())
     lines = document["lines"]
