@@ -24,10 +24,9 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from agents.artifacts import files
+from agents.artifacts import files, limits
 from agents.artifacts.shipped import resolve_model
-from agents.commands import options as cli
-from agents.envs import HEADLINE_ENV_ID, headline_metric, scene_title
+from agents.envs import ENV_IDS, HEADLINE_ENV_ID, headline_metric, scene_title
 from agents.evaluation.results import evaluate_policies, policy_label
 from agents.oracles.certify import ceiling_fraction
 from agents.progress import Progress, duration
@@ -149,16 +148,16 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m agents.evaluation.across_n",
         description="The headline rate against the number of trailers (table, JSON, chart)",
     )
-    cli.add_env(parser, HEADLINE_ENV_ID)
+    parser.add_argument("--env", default=HEADLINE_ENV_ID, choices=ENV_IDS, metavar="ENV_ID")
     parser.add_argument("--n", type=_counts, default=_counts("1-6"), help="counts, e.g. 1-6")
     parser.add_argument("--policy", nargs="+", default=["lqr", "lqr-adaptive"], metavar="SPEC")
     parser.add_argument(
         "--specialist", default=None, metavar="SPEC", help="one model per n: {n} in the spec"
     )
-    cli.add_episodes(parser, 100, "episodes per cell (default 100)")
-    cli.add_seed(parser, TEST_SEED, f"first episode's seed (default {TEST_SEED}, the test seeds)")
+    parser.add_argument("--episodes", type=int, default=100, help="episodes per cell")
+    parser.add_argument("--seed", type=int, default=TEST_SEED, help="first episode's seed")
     parser.add_argument("--out", type=Path, default=Path("out") / "across_n")
-    cli.add_overwrite(parser, "replace the files of an earlier run in --out")
+    parser.add_argument("--overwrite", action="store_true", help="replace an earlier run's files")
     return parser
 
 
@@ -168,8 +167,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.specialist is not None and "{n}" not in args.specialist:
         parser.error("argument --specialist: the spec must hold {n}, e.g. dagger_reverse_v1_n{n}")
-    cli.check_seeds(parser, args.seed, args.episodes)
-    cli.check_out_folder(parser, args.out, files_in=OUTPUTS)
+    if not 1 <= args.episodes <= limits.MAX_EPISODES:
+        parser.error(f"argument --episodes: must lie in 1..{limits.MAX_EPISODES}")
+    problem = limits.seed_problem(args.seed, args.episodes) or files.writable_problem(
+        args.out, folder=True
+    )
+    if problem is not None:
+        parser.error(f"argument --seed or --out: {problem}")
     existing = [name for name in OUTPUTS if (args.out / name).exists()]
     if existing and not args.overwrite:
         parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")
