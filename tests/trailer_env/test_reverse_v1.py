@@ -50,8 +50,8 @@ def test_start_distribution(n: int) -> None:
 
 
 def test_radius_beyond_the_sized_counts() -> None:
-    sized = {1: 0.064, 2: 0.0365, 3: 0.0229, 4: 0.0122, 5: 0.00443, 6: 0.00151}
-    assert PERTURBATION_RADII == sized
+    assert PERTURBATION_RADII == {1: 0.064, 2: 0.0365, 3: 0.0229, 4: 0.0122, 5: 0.00443,
+                                  6: 0.00151}  # fmt: skip
     assert ReverseV1Core.perturbation_radius(0) == PERTURBATION_RADII[1]
     for n in (7, 8, 32):
         expected = 0.00151 * (6 / n) ** PERTURBATION_EXPONENT
