@@ -34,6 +34,20 @@ def test_the_records_replay_to_the_certified_ceiling(n: int) -> None:
     assert len(feasible) == round(100 * certificate["ceiling"])
 
 
+def test_the_four_trailer_records_replay_to_their_outcome() -> None:
+    # Seeds 1000-1011 (fast): the record of every feasible start keeps it safe, open 1010 folds.
+    certificate = committed_certificate(REVERSE_V1, 4)
+    records = committed_actions(REVERSE_V1, 4)
+    assert certificate is not None and records is not None
+    statuses = {start["seed"]: start["status"] for start in certificate["starts"]}
+    seeds = range(1000, 1012)
+    feasible = {seed for seed in seeds if statuses[seed] == FEASIBLE}
+    assert feasible == set(seeds) - {1010} and feasible == set(records) & set(seeds)
+    policy = load_policy("mpc-replay", REVERSE_V1, {"n_trailers": 4}, seed=1000)
+    results = rollout(policy, REVERSE_V1, len(seeds), 1000, {"n_trailers": 4})
+    assert {int(seed) for seed in results.seeds[results.safe]} == feasible
+
+
 def test_the_replay_refuses_other_physics() -> None:
     with pytest.raises(ValueError, match="default settings only"):
         load_policy("mpc-replay", REVERSE_V1, {"n_trailers": 2, "M": 1.2})
