@@ -248,10 +248,12 @@ class PotentialShapingVecEnv(VecEnvWrapper):
         after = self.potential(obs)
         terminated = dones.copy()
         reached = after.copy()
-        for i in np.flatnonzero(dones).tolist():
-            info = infos[i]
-            terminated[i] = not info["TimeLimit.truncated"]
-            reached[i] = self.potential(info["terminal_observation"])[0]
+        ended = np.flatnonzero(dones)
+        if ended.size:
+            terminated[ended] = [not infos[i]["TimeLimit.truncated"] for i in ended.tolist()]
+            reached[ended] = self.potential(
+                np.stack([infos[i]["terminal_observation"] for i in ended.tolist()])
+            )
         shaped = shaped_return_step(rewards, self._previous, reached, terminated, self.gamma)
         self.unshaped_rewards = rewards
         self._previous = after
