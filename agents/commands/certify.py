@@ -13,7 +13,14 @@ argument              bound
 ``--planner``         mpc (Reverse, the default there) or ilqr (Dock, Coast, the
                       default there); the other planner is refused for a scene
 ``--closed-loop``     dopri5 (goal scenes only)
+``--randomize``       a preset (mismatch10, mismatch20) or a JSON object of
+                      factor ranges; the sampling planner's scenes only
 ====================  ===================================================
+
+``--randomize PRESET_OR_JSON`` certifies randomised physics (:mod:`trailer_env.randomize`):
+each start's parameters are drawn from its seed as ``gym.make(..., randomize=...)``
+draws them, and the screen, the planner, the witnesses and the replays use them. The
+default witnesses then include ``lqr-adaptive``. Refused for Dock and Coast (iLQR).
 
 ``--witnesses SPEC ...`` (default: the scene's baselines and every committed model of
 that env and n) are then tried on the starts the planner leaves open, and a record of
@@ -31,6 +38,7 @@ certificate.md, actions/seed_*.npy) and nothing else; a link among them is refus
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 from typing import Any
 
@@ -52,7 +60,7 @@ from agents.evaluation.witnesses import (
     default_witnesses,
     warm_start,
 )
-from agents.oracles.certify import DEFAULT_RESTARTS, certify
+from agents.oracles.certify import DEFAULT_RESTARTS, certify, randomize_kwarg
 from agents.oracles.certify_goals import (
     CLOSED_LOOP_INTEGRATORS,
     DEFAULT_GOAL_RESTARTS,
@@ -62,6 +70,7 @@ from agents.oracles.certify_goals import (
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
 from agents.policies.registry import load_policy
+from trailer_env.randomize import PRESETS
 
 #: The defaults of --env, --n-trailers and --seeds.
 DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = "trailer_env/Reverse-v1", 2, "1000-1099"
@@ -122,6 +131,23 @@ def parse_seeds(text: str, maximum: int = limits.MAX_CERTIFY_SEEDS) -> list[int]
     return seeds
 
 
+def randomize_value(text: str) -> str | dict[str, Any]:
+    """``--randomize``: a preset name, or a JSON object of factor ranges (checked later
+    against the scene, :func:`agents.oracles.certify.randomize_kwarg`)."""
+    if text in PRESETS:
+        return text
+    try:
+        value = json.loads(text) if text.lstrip().startswith("{") else None
+    except json.JSONDecodeError:
+        value = None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(
+            f"expected a preset ({', '.join(sorted(PRESETS))}) or a JSON object of factor "
+            f'ranges such as \'{{"mu": [0.8, 1.2]}}\', got {text[:40]!r}'
+        )
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
@@ -148,6 +174,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--closed-loop", choices=CLOSED_LOOP_INTEGRATORS, default=None,
         help="goal scenes: also re-plan every start on a plant with this integrator "
         "(rtol = atol = 1e-8) and record whether it still reaches the goal",
+    )  # fmt: skip
+    parser.add_argument(
+        "--randomize", type=randomize_value, default=None, metavar="PRESET_OR_JSON",
+        help=f"randomised physics: a preset ({', '.join(sorted(PRESETS))}) or a JSON object "
+        "of factor ranges; each start's drawn parameters are planned with and replayed "
+        "(the sampling planner's scenes only)",
     )  # fmt: skip
     parser.add_argument(
         "--samples", type=cli.at_least(2, 1024), default=PlannerConfig.samples,
@@ -236,6 +268,21 @@ def main(argv: list[str] | None = None) -> int:
         env_settings({"n_trailers": n_trailers})
     except (TypeError, ValueError) as error:
         parser.error(f"argument --n-trailers: {error}")
+    randomize: Any = None
+    if args.randomize is not None:
+        try:
+            randomize = randomize_kwarg(env_id, args.randomize)
+            env_settings({"n_trailers": n_trailers, "randomize": randomize})
+        except (TypeError, ValueError) as error:
+            parser.error(f"argument --randomize: {error}")
+    if base is not None:
+        kept = base["env_kwargs"].get("randomize")
+        if args.randomize is not None and randomize != kept:
+            parser.error(f"argument --randomize: {randomize!r} is not the certificate's {kept!r}")
+        randomize = kept
+    env_kwargs: dict[str, Any] = {"n_trailers": n_trailers}
+    if randomize is not None:
+        env_kwargs["randomize"] = randomize
     try:
         seeds = parse_seeds(args.seeds or DEFAULT_SEEDS)
     except ValueError as error:
@@ -248,7 +295,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --warm-start: goal scenes only (iLQR), not {env_id}")
     specs = [] if args.no_witnesses else args.witnesses
     if specs is None:
-        specs = default_witnesses(env_id, n_trailers)
+        specs = default_witnesses(env_id, n_trailers, randomized=randomize is not None)
     warm = args.warm_start
     if warm == []:
         warm = [str(path) for path in committed_witnesses(env_id, n_trailers)]
@@ -275,7 +322,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --out: {problem}")
     for spec in [*specs, *(warm or [])]:
         try:
-            load_policy(spec, env_id, {"n_trailers": n_trailers})
+            load_policy(spec, env_id, env_kwargs)
         except (OSError, ValueError) as error:
             parser.error(f"argument --witnesses: {error}")
     if base is not None:
@@ -287,7 +334,9 @@ def main(argv: list[str] | None = None) -> int:
         )
     else:
         restarts = DEFAULT_RESTARTS if args.restarts is None else args.restarts
-        certificate = certify(env_id, n_trailers, seeds, config, restarts=restarts)
+        certificate = certify(
+            env_id, n_trailers, seeds, config, restarts=restarts, randomize=randomize
+        )
     if specs:
         certificate = add_witnesses(certificate, specs)
     if warm:

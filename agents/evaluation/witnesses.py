@@ -2,7 +2,9 @@
 
 A start of a certificate (:mod:`agents.oracles.certify`, :mod:`agents.oracles.certify_goals`)
 is feasible when *some* float64 action record, replayed open-loop in a fresh env
-(``gym.make``, ``reset(seed=seed)``), reaches the scene's success: Reverse, a safe episode
+(``gym.make(env_id, **env_kwargs)``, ``reset(seed=seed)``: a randomised certificate's
+``env_kwargs`` hold its ``randomize``, so the start's parameters are drawn again), reaches
+the scene's success: Reverse, a safe episode
 of the full length; Dock and Coast, the goal. The planner is one source of such records;
 a *witness* is another: a policy spec that :func:`agents.policies.load_policy` loads (a
 baseline such as ``lqr``, a committed model such as ``ppo_dock_n2``, a model path).
@@ -83,11 +85,18 @@ def committed_witnesses(env_id: str, n_trailers: int, directory: Path = MODELS_D
     return found
 
 
-def default_witnesses(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[str]:
-    """The scene's default baselines (:func:`agents.envs.scene_baselines`) then every
-    committed model of that env and n (:func:`committed_witnesses`), as policy specs."""
+def default_witnesses(
+    env_id: str, n_trailers: int, directory: Path = MODELS_DIR, *, randomized: bool = False
+) -> list[str]:
+    """The scene's default baselines (:func:`agents.envs.scene_baselines`), with
+    ``randomized`` physics ``lqr-adaptive`` after them (the regulator designed for each
+    start's drawn parameters; at nominal physics it is ``lqr``), then every committed model
+    of that env and n (:func:`committed_witnesses`), as policy specs."""
     models = [str(path) for path in committed_witnesses(env_id, n_trailers, directory)]
-    return [*scene_baselines(check_env_id(env_id)), *models]
+    baselines = list(scene_baselines(check_env_id(env_id)))
+    if randomized and "lqr" in baselines:
+        baselines.append("lqr-adaptive")
+    return [*baselines, *models]
 
 
 @dataclass(frozen=True)

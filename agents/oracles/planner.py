@@ -601,7 +601,9 @@ def plan_episodes(
 ) -> PlannedEpisodes:
     """Run the planner on a reset core (one row per episode, exact states) for ``steps`` steps.
 
-    ``progress`` (counting steps) advances once per planned step.
+    ``progress`` (counting steps) advances once per planned step. Under randomised
+    physics (:attr:`SamplingPlanner.per_row`) every row is planned with its episode's
+    drawn parameters (``core.param_values``).
 
     Rows whose episode ended are parked straight (their result is settled) so that a
     folded convoy is not integrated further.
@@ -616,7 +618,7 @@ def plan_episodes(
     running = np.ones(count, dtype=bool)
     step_action = np.zeros((count, 1))
     for t in range(steps):
-        planned = planner.plan(core.z, core.act)[:, 0]
+        planned = planner.label(core)[:, 0]
         step_action[:, 0] = np.where(running, planned, 0.0)
         actions[running, t] = step_action[running, 0]
         core.step(step_action)
