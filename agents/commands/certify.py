@@ -42,7 +42,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from agents.artifacts import limits
+from agents.artifacts import files, limits
 from agents.artifacts.certificates import (
     FEASIBLE,
     markdown,
@@ -136,6 +136,11 @@ def randomize_value(text: str) -> str | dict[str, Any]:
     against the scene, :func:`agents.oracles.certify.randomize_kwarg`)."""
     if text in PRESETS:
         return text
+    depth = files.json_depth(text.encode("utf-8", "surrogateescape"))
+    if depth > files.MAX_JSON_DEPTH:  # json.loads would end in a RecursionError
+        raise argparse.ArgumentTypeError(
+            f"the value is nested {depth} deep, over the limit of {files.MAX_JSON_DEPTH}"
+        )
     try:
         value = json.loads(text) if text.lstrip().startswith("{") else None
     except json.JSONDecodeError:

@@ -23,7 +23,10 @@ Closed loop: for each witnessed start the witness policy is also re-run closed-l
 a plant built with the adaptive Dormand-Prince integrator at ``rtol = atol =``
 :data:`agents.oracles.certify_goals.CLOSED_LOOP_TOLERANCE`, and the start records
 whether it still succeeds (``witness_closed_loop_success``): the counterpart of the
-planner's closed-loop re-planning.
+planner's closed-loop re-planning. Under randomised physics (``randomize`` in the
+certificate's ``env_kwargs``) the plant is RK4 with auto substeps at that tolerance
+instead (:data:`RANDOMIZED_CLOSED_LOOP`; the Dormand-Prince core integrates one
+parameter vector per batch), with the same drawn parameters.
 """
 
 from __future__ import annotations
@@ -66,6 +69,10 @@ from trailer_env.registry import core_class_of
 
 #: The integrator of the witnesses' closed-loop plant.
 WITNESS_CLOSED_LOOP = "dopri5"
+#: Its integrator under randomised physics (dopri5 integrates one parameter vector for
+#: the whole batch; RK4 takes each row's drawn parameters), with auto substeps at the
+#: same tolerance.
+RANDOMIZED_CLOSED_LOOP = "rk4"
 
 
 def committed_witnesses(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[Path]:
@@ -228,7 +235,7 @@ def add_witnesses(
         if solved and closed_loop:
             # A fresh copy of the policy: a stateful one (random) starts as it did above.
             again = load_policy(spec, env_id, env_kwargs, trust_pickle=trust_pickle)
-            plant = {**env_kwargs, "fidelity": _closed_loop_fidelity()}
+            plant = {**env_kwargs, "fidelity": _closed_loop_fidelity(env_kwargs)}
             checked = witness_run(again, env_id, plant, solved)
             for seed, reached in zip(solved, checked.success, strict=True):
                 by_seed[seed]["witness_closed_loop_success"] = bool(reached)
@@ -237,7 +244,7 @@ def add_witnesses(
         "runs": _merged_runs(certificate.get("witnesses"), runs),
         "success": "the record replayed open-loop in a fresh env (gym.make, "
         "reset(seed=seed)) reaches the scene's success, as a planner's record must",
-        "closed_loop": _closed_loop_summary(starts) if closed_loop else None,
+        "closed_loop": _closed_loop_summary(starts, env_kwargs) if closed_loop else None,
         "wall_time_s": round(time.perf_counter() - started, 1),
     }
     earlier = certificate.get("witnesses")
@@ -246,10 +253,12 @@ def add_witnesses(
     return _settled(certificate, starts, actions, block)
 
 
-def _closed_loop_summary(starts: list[dict[str, Any]]) -> dict[str, Any]:
+def _closed_loop_summary(
+    starts: list[dict[str, Any]], env_kwargs: dict[str, Any]
+) -> dict[str, Any]:
     witnessed = [start for start in starts if "witness_closed_loop_success" in start]
     return {
-        "integrator": WITNESS_CLOSED_LOOP,
+        "integrator": _closed_loop_fidelity(env_kwargs)["integrator"],
         "tolerance": CLOSED_LOOP_TOLERANCE,
         "meaning": "the witness policy (warm starts: the policy's steps, then the iLQR "
         "planner re-planning on its default model) re-run closed-loop on a plant with this "
@@ -408,7 +417,7 @@ def warm_start(
         "wall_time_s": round(time.perf_counter() - started, 1),
     }
     if closed_loop:
-        block["closed_loop"] = _closed_loop_summary(starts)
+        block["closed_loop"] = _closed_loop_summary(starts, env_kwargs)
     return _settled(certificate, starts, actions, block)
 
 
@@ -425,7 +434,7 @@ def _warm_closed_loop(
     (its model on the default fidelity, the first pass's settings) for the rest."""
     core_class = core_class_of(env_id)
     settings = env_settings(env_kwargs)
-    plant_settings = env_settings({**env_kwargs, "fidelity": _closed_loop_fidelity()})
+    plant_settings = env_settings({**env_kwargs, "fidelity": _closed_loop_fidelity(env_kwargs)})
     steps = core_class.max_episode_steps
     for label, (spec, _) in policies.items():
         seeds = [seed for seed, (name, _) in solved.items() if name == label]
@@ -441,8 +450,10 @@ def _warm_closed_loop(
             by_seed[seed]["witness_closed_loop_success"] = bool(reached)
 
 
-def _closed_loop_fidelity() -> dict[str, Any]:
-    return {"integrator": WITNESS_CLOSED_LOOP, "tolerance": CLOSED_LOOP_TOLERANCE}
+def _closed_loop_fidelity(env_kwargs: dict[str, Any]) -> dict[str, Any]:
+    randomized = env_kwargs.get("randomize") is not None
+    integrator = RANDOMIZED_CLOSED_LOOP if randomized else WITNESS_CLOSED_LOOP
+    return {"integrator": integrator, "tolerance": CLOSED_LOOP_TOLERANCE}
 
 
 def _merged_runs(earlier: Any, runs: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -454,6 +465,7 @@ def _merged_runs(earlier: Any, runs: list[dict[str, Any]]) -> list[dict[str, Any
 
 
 __all__ = [
+    "RANDOMIZED_CLOSED_LOOP",
     "WITNESS_CLOSED_LOOP",
     "WitnessRun",
     "add_witnesses",

@@ -110,6 +110,24 @@ def test_witnesses_play_under_the_same_randomisation(certificate: dict[str, Any]
 WITNESS_RUNS = [("lqr", 1, 0), ("lqr-adaptive", 1, 0)]
 
 
+def test_a_witness_is_rechecked_closed_loop_on_an_rk4_plant_with_the_drawn_physics() -> None:
+    starts = [{"seed": seed, "status": OPEN, "screen_stroke_fraction": None,
+               "planner_length": 0} for seed in SEEDS]  # fmt: skip
+    nothing = {"first_pass_safe": 0, "first_pass_wall_time_s": 0.0, "wall_time_s": 0.0,
+               "restarts": 0}  # fmt: skip
+    certificate = {
+        "env_id": V1, "env_kwargs": RANDOMIZED, "seeds": [1000, 1002], "episodes": 3,
+        "planner": nothing, "screen": {"wall_time_s": 0.0}, "feasible": 0,
+        "not_recoverable": 0, "open": 3, "ceiling": 0.0, "starts": starts, "actions": {},
+    }  # fmt: skip
+    upgraded = add_witnesses(certificate, ["lqr", "lqr-adaptive"])
+    assert [start.get("source") for start in upgraded["starts"]] == ["lqr", "lqr", None]
+    closed = upgraded["witnesses"]["closed_loop"]
+    # dopri5 integrates one parameter vector per batch: the drawn physics need RK4.
+    assert (closed["integrator"], closed["tolerance"]) == ("rk4", 1e-8)
+    assert (closed["success"], closed["of"]) == (2, 2)
+
+
 def test_the_default_witnesses_add_the_adaptive_regulator() -> None:
     nominal = [Path(spec).stem for spec in default_witnesses(V1, 2)]
     randomized = [Path(spec).stem for spec in default_witnesses(V1, 2, randomized=True)]
@@ -133,6 +151,7 @@ def test_randomize_is_validated_before_anything_runs() -> None:
         (["--randomize", "mismatch30"], r"expected a preset \(mismatch10, mismatch20\) or a JSON"),
         (["--randomize", '{"mu": [1.2, 0.8]}'], r"randomize\['mu'\] = \(1.2, 0.8\): low > high"),
         (["--randomize", '{"b": [0.9, 1.1]}'], "unknown name"),
+        (["--randomize", '{"mu": ' * 70 + "1" + "}" * 70], "nested 70 deep, over the limit"),
     ],
 )
 def test_a_refused_randomisation_writes_nothing(
