@@ -443,9 +443,16 @@ def _interp_rows(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
 def _row_gains(speed: np.ndarray, forward: np.ndarray, reverse: np.ndarray) -> np.ndarray:
     """:meth:`LQRController.gains` with each row's own gain tables (m, S, n+3)."""
     magnitude = np.clip(np.abs(speed), DESIGN_SPEEDS[0], DESIGN_SPEEDS[-1])
+    forwards = speed >= 0.0
+    # Every row of a Reverse batch backs up: interpolate only the table the rows use
+    # (row by row the same arithmetic, so the same bits), half the planner's feedback cost.
+    if not forwards.any():
+        return _interp_rows(magnitude, DESIGN_SPEEDS, reverse)
+    if forwards.all():
+        return _interp_rows(magnitude, DESIGN_SPEEDS, forward)
     ahead = _interp_rows(magnitude, DESIGN_SPEEDS, forward)
     back = _interp_rows(magnitude, DESIGN_SPEEDS, reverse)
-    return np.where((speed >= 0.0)[:, None], ahead, back)
+    return np.where(forwards[:, None], ahead, back)
 
 
 def state_from_observation(obs: np.ndarray, settings: EnvSettings) -> tuple[np.ndarray, np.ndarray]:
