@@ -251,8 +251,7 @@ def markdown(certificate: dict[str, Any]) -> str:
     count = certificate["episodes"]
     lines = [
         f"# {certificate['env_id']}, n = {certificate['env_kwargs']['n_trailers']}, "
-        f"seeds {certificate['seeds'][0]}-{certificate['seeds'][1]}"
-        + _physics_title(certificate),
+        f"seeds {certificate['seeds'][0]}-{certificate['seeds'][1]}" + _physics_title(certificate),
         "",
         *_physics_lines(certificate),
         f"ceiling (feasible, replayed): {certificate['feasible']}/{count} = "
@@ -291,7 +290,9 @@ def _physics_lines(certificate: dict[str, Any]) -> list[str]:
     block = certificate.get("randomize")
     if not isinstance(block, dict):
         return []
-    ranges = ", ".join(f"{name} x {low:g}-{high:g}" for name, (low, high) in block["ranges"].items())
+    ranges = ", ".join(
+        f"{name} x {low:g}-{high:g}" for name, (low, high) in block["ranges"].items()
+    )
     return [
         f"randomised physics ({ranges}): each start's parameters are drawn from its seed "
         "after the start, as gym.make(..., randomize=...) draws them; the screen, the "

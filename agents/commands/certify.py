@@ -148,7 +148,7 @@ def randomize_value(text: str) -> str | dict[str, Any]:
     if not isinstance(value, dict):
         raise argparse.ArgumentTypeError(
             f"expected a preset ({', '.join(sorted(PRESETS))}) or a JSON object of factor "
-            f'ranges such as \'{{"mu": [0.8, 1.2]}}\', got {text[:40]!r}'
+            f"ranges such as '{{\"mu\": [0.8, 1.2]}}', got {text[:40]!r}"
         )
     return value
 

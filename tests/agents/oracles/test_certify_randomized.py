@@ -14,6 +14,10 @@ import pytest
 from agents.artifacts.certificates import (
     FEASIBLE,
     OPEN,
+    actions_path,
+    certificate_path,
+    committed_actions,
+    committed_certificate,
     markdown,
     read_actions,
     read_certificate,
@@ -25,6 +29,7 @@ from agents.oracles.certify import certify, replay
 from agents.oracles.planner import PlannerConfig
 
 V1 = "trailer_env/Reverse-v1"
+DOCK = "trailer_env/Dock-v0"
 SMALL = PlannerConfig(samples=4, elites=1, iterations=1, tail=30)
 SEEDS = [1000, 1001, 1002]
 RANDOMIZED = {"n_trailers": 1, "randomize": "mismatch20"}
@@ -48,11 +53,8 @@ def test_the_certificate_records_the_randomisation(certificate: dict[str, Any]) 
     assert block["preset"] == "mismatch20"
     assert block["ranges"] == {name: [0.8, 1.2] for name in ("M", "J0", "a", "l", "mu")}
     assert [start["status"] for start in certificate["starts"]] == [FEASIBLE, FEASIBLE, OPEN]
-    assert (certificate["feasible"], certificate["open"], certificate["not_recoverable"]) == (
-        2,
-        1,
-        0,
-    )
+    counts = certificate["feasible"], certificate["open"], certificate["not_recoverable"]
+    assert counts == (2, 1, 0)
     text = markdown(certificate)
     assert text.startswith(f"# {V1}, n = 1, seeds 1000-1002, randomize=mismatch20\n")
     assert "randomised physics (M x 0.8-1.2, J0 x 0.8-1.2, a x 0.8-1.2" in text
@@ -96,6 +98,29 @@ def test_the_files_round_trip(certificate: dict[str, Any], tmp_path: Path) -> No
         assert records[seed].reshape(-1).tobytes() == certificate["actions"][seed].tobytes()
 
 
+def test_a_committed_randomised_certificate_is_found_by_its_preset(
+    certificate: dict[str, Any], tmp_path: Path
+) -> None:
+    write_certificate(certificate, tmp_path / "out", overwrite=False)
+    folder = tmp_path / "certificates"
+    folder.mkdir()
+    named = certificate_path(V1, 1, folder, randomize="mismatch20")
+    assert named.name == "reverse_v1_mismatch20_n1.json"
+    named.write_bytes((tmp_path / "out" / "certificate.json").read_bytes())
+    records = actions_path(V1, 1, folder, randomize="mismatch20")
+    assert records.name == "reverse_v1_mismatch20_n1_actions.npz"
+    records.write_bytes((tmp_path / "out" / "actions.npz").read_bytes())
+    found = committed_certificate(V1, 1, folder, randomize="mismatch20")
+    assert found is not None and found["env_kwargs"] == RANDOMIZED
+    assert committed_certificate(V1, 1, folder) is None  # nominal physics: another file
+    loaded = committed_actions(V1, 1, folder, randomize="mismatch20")
+    assert loaded is not None and sorted(loaded) == [1000, 1001]
+    # A randomised certificate under the nominal name is refused, not read as nominal.
+    certificate_path(V1, 1, folder).write_bytes(named.read_bytes())
+    with pytest.raises(ValueError, match="with n = 1 and nominal physics"):
+        committed_certificate(V1, 1, folder)
+
+
 def test_witnesses_play_under_the_same_randomisation(certificate: dict[str, Any]) -> None:
     upgraded = add_witnesses(certificate, ["lqr", "lqr-adaptive"], closed_loop=False)
     runs = [(run["source"], run["tried"], run["solved"]) for run in upgraded["witnesses"]["runs"]]
@@ -136,8 +161,9 @@ def test_the_default_witnesses_add_the_adaptive_regulator() -> None:
 
 
 def test_randomize_is_validated_before_anything_runs() -> None:
-    with pytest.raises(ValueError, match=r"mpc\) on trailer_env/Reverse-v0, trailer_env/Reverse-v1"):
-        certify("trailer_env/Dock-v0", 1, [1000], SMALL, randomize="mismatch20")
+    supported = r"mpc\) on trailer_env/Reverse-v0, trailer_env/Reverse-v1"
+    with pytest.raises(ValueError, match=supported):
+        certify(DOCK, 1, [1000], SMALL, randomize="mismatch20")
     with pytest.raises(ValueError, match="unknown preset 'mismatch30'"):
         certify(V1, 1, [1000], SMALL, randomize="mismatch30")
     with pytest.raises(TypeError, match="randomize must be None, a preset name or a dict"):
@@ -147,7 +173,7 @@ def test_randomize_is_validated_before_anything_runs() -> None:
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--env", "trailer_env/Dock-v0", "--randomize", "mismatch20"], "not for trailer_env/Dock-v0"),
+        (["--env", DOCK, "--randomize", "mismatch20"], "not for trailer_env/Dock-v0"),
         (["--randomize", "mismatch30"], r"expected a preset \(mismatch10, mismatch20\) or a JSON"),
         (["--randomize", '{"mu": [1.2, 0.8]}'], r"randomize\['mu'\] = \(1.2, 0.8\): low > high"),
         (["--randomize", '{"b": [0.9, 1.1]}'], "unknown name"),
