@@ -208,27 +208,46 @@ def read_certificate(path: Path) -> JSONObject:
     return check_certificate(files.read_json(path, "certificate"), str(path))
 
 
-def certificate_path(env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR) -> Path:
-    """Where the committed certificate of a scene and n lives: ``<scene>_n<n>.json``."""
+def certificate_path(
+    env_id: str,
+    n_trailers: int,
+    directory: Path = CERTIFICATES_DIR,
+    randomize: str | None = None,
+) -> Path:
+    """Where the committed certificate of a scene and n lives: ``<scene>_n<n>.json``, or
+    under the randomisation preset ``randomize`` ``<scene>_<preset>_n<n>.json``."""
     from agents.envs import scene_of
 
-    return directory / f"{scene_of(env_id)}_n{n_trailers}.json"
+    physics = "" if randomize is None else f"_{randomize}"
+    return directory / f"{scene_of(env_id)}{physics}_n{n_trailers}.json"
 
 
 def committed_certificate(
-    env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR
+    env_id: str,
+    n_trailers: int,
+    directory: Path = CERTIFICATES_DIR,
+    randomize: str | None = None,
 ) -> JSONObject | None:
-    """The committed certificate of ``env_id`` with ``n_trailers``, or None.
+    """The committed certificate of ``env_id`` with ``n_trailers`` (and the randomisation
+    preset ``randomize``; None: nominal physics), or None.
 
     Raises:
-        ValueError: If the file is not a certificate of that scene and n.
+        ValueError: If the file is not a certificate of that scene, n and randomisation.
     """
-    path = certificate_path(env_id, n_trailers, directory)
+    path = certificate_path(env_id, n_trailers, directory, randomize)
     if not path.is_file():
         return None
     document = read_certificate(path)
-    if document["env_id"] != env_id or document["env_kwargs"]["n_trailers"] != n_trailers:
-        raise ValueError(f"{path} is not a certificate of {env_id} with n = {n_trailers}")
+    kwargs = document["env_kwargs"]
+    if (
+        document["env_id"] != env_id
+        or kwargs["n_trailers"] != n_trailers
+        or kwargs.get("randomize") != randomize
+    ):
+        physics = "nominal physics" if randomize is None else f"randomize={randomize}"
+        raise ValueError(
+            f"{path} is not a certificate of {env_id} with n = {n_trailers} and {physics}"
+        )
     return document
 
 
@@ -237,8 +256,9 @@ def markdown(certificate: JSONObject) -> str:
     count = certificate["episodes"]
     lines = [
         f"# {certificate['env_id']}, n = {certificate['env_kwargs']['n_trailers']}, "
-        f"seeds {certificate['seeds'][0]}-{certificate['seeds'][1]}",
+        f"seeds {certificate['seeds'][0]}-{certificate['seeds'][1]}" + _physics_title(certificate),
         "",
+        *_physics_lines(certificate),
         f"ceiling (feasible, replayed): {certificate['feasible']}/{count} = "
         f"{100 * certificate['ceiling']:.0f}%; not recoverable (screen): "
         f"{certificate['not_recoverable']}; open: {certificate['open']}",
@@ -262,6 +282,29 @@ def markdown(certificate: JSONObject) -> str:
             f"{start['planner_length']} |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _physics_title(certificate: JSONObject) -> str:
+    randomize = certificate["env_kwargs"].get("randomize")
+    if randomize is None:
+        return ""
+    return f", randomize={randomize if isinstance(randomize, str) else 'custom'}"
+
+
+def _physics_lines(certificate: JSONObject) -> list[str]:
+    block = certificate.get("randomize")
+    if not isinstance(block, dict):
+        return []
+    ranges = ", ".join(
+        f"{name} x {low:g}-{high:g}" for name, (low, high) in block["ranges"].items()
+    )
+    return [
+        f"randomised physics ({ranges}): each start's parameters are drawn from its seed "
+        "after the start, as gym.make(..., randomize=...) draws them; the screen, the "
+        "planner, the witnesses and the replays use the start's drawn parameters "
+        "(per start in certificate.json, 'params')",
+        "",
+    ]
 
 
 def source_counts(certificate: JSONObject) -> dict[str, int]:
@@ -321,10 +364,16 @@ def _closed_loop_lines(certificate: Mapping[str, object]) -> list[str]:
 _MAX_RECORD = 100_000
 
 
-def actions_path(env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR) -> Path:
+def actions_path(
+    env_id: str,
+    n_trailers: int,
+    directory: Path = CERTIFICATES_DIR,
+    randomize: str | None = None,
+) -> Path:
     """Where the committed action records of a certificate live: ``<scene>_n<n>_actions.npz``
-    (one float64 array ``seed_<seed>`` per feasible start, one action per step)."""
-    path = certificate_path(env_id, n_trailers, directory)
+    (``<scene>_<preset>_n<n>_actions.npz`` under a randomisation preset; one float64
+    array ``seed_<seed>`` per feasible start, one action per step)."""
+    path = certificate_path(env_id, n_trailers, directory, randomize)
     return path.with_name(path.stem + "_actions.npz")
 
 
@@ -339,10 +388,14 @@ def write_actions(actions: dict[int, np.ndarray], path: Path) -> Path:
 
 
 def committed_actions(
-    env_id: str, n_trailers: int, directory: Path = CERTIFICATES_DIR
+    env_id: str,
+    n_trailers: int,
+    directory: Path = CERTIFICATES_DIR,
+    randomize: str | None = None,
 ) -> dict[int, np.ndarray] | None:
-    """The committed action records of ``env_id`` with ``n_trailers`` (seed -> (T, d)
-    float64 actions in [-1, 1]), or None when none are committed.
+    """The committed action records of ``env_id`` with ``n_trailers`` (and the preset
+    ``randomize``; seed -> (T, d) float64 actions in [-1, 1]), or None when none are
+    committed.
 
     Read with ``allow_pickle=False``: the file holds numbers only.
 
@@ -350,7 +403,7 @@ def committed_actions(
         ValueError: If the file holds anything but finite records in [-1, 1] named
             ``seed_<int>``.
     """
-    path = actions_path(env_id, n_trailers, directory)
+    path = actions_path(env_id, n_trailers, directory, randomize)
     if not path.is_file():
         return None
     return read_actions(path)

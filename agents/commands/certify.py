@@ -13,7 +13,14 @@ argument              bound
 ``--planner``         mpc (Reverse, the default there) or ilqr (Dock, Coast, the
                       default there); the other planner is refused for a scene
 ``--closed-loop``     dopri5 (goal scenes only)
+``--randomize``       a preset (mismatch10, mismatch20) or a JSON object of
+                      factor ranges; the sampling planner's scenes only
 ====================  ===================================================
+
+``--randomize PRESET_OR_JSON`` certifies randomised physics (:mod:`trailer_env.randomize`):
+each start's parameters are drawn from its seed as ``gym.make(..., randomize=...)``
+draws them, and the screen, the planner, the witnesses and the replays use them. The
+default witnesses then include ``lqr-adaptive``. Refused for Dock and Coast (iLQR).
 
 ``--witnesses SPEC ...`` (default: the scene's baselines and every committed model of
 that env and n) are then tried on the starts the planner leaves open, and a record of
@@ -31,10 +38,11 @@ certificate.md, actions/seed_*.npy) and nothing else; a link among them is refus
 from __future__ import annotations
 
 import argparse
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
-from agents.artifacts import limits
+from agents.artifacts import files, limits
 from agents.artifacts.certificates import (
     FEASIBLE,
     markdown,
@@ -52,7 +60,7 @@ from agents.evaluation.witnesses import (
     default_witnesses,
     warm_start,
 )
-from agents.oracles.certify import DEFAULT_RESTARTS, certify
+from agents.oracles.certify import DEFAULT_RESTARTS, certify, randomize_kwarg
 from agents.oracles.certify_goals import (
     CLOSED_LOOP_INTEGRATORS,
     DEFAULT_GOAL_RESTARTS,
@@ -64,6 +72,7 @@ from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
 from agents.policies.registry import load_policy
 from trailer_env.json_types import JSONObject
+from trailer_env.randomize import PRESETS
 
 #: The defaults of --env, --n-trailers and --seeds.
 DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = "trailer_env/Reverse-v1", 2, "1000-1099"
@@ -149,6 +158,28 @@ def parse_seeds(text: str, maximum: int = limits.MAX_CERTIFY_SEEDS) -> list[int]
     return seeds
 
 
+def randomize_value(text: str) -> str | JSONObject:
+    """``--randomize``: a preset name, or a JSON object of factor ranges (checked later
+    against the scene, :func:`agents.oracles.certify.randomize_kwarg`)."""
+    if text in PRESETS:
+        return text
+    depth = files.json_depth(text.encode("utf-8", "surrogateescape"))
+    if depth > files.MAX_JSON_DEPTH:  # json.loads would end in a RecursionError
+        raise argparse.ArgumentTypeError(
+            f"the value is nested {depth} deep, over the limit of {files.MAX_JSON_DEPTH}"
+        )
+    try:
+        value = json.loads(text) if text.lstrip().startswith("{") else None
+    except json.JSONDecodeError:
+        value = None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(
+            f"expected a preset ({', '.join(sorted(PRESETS))}) or a JSON object of factor "
+            f"ranges such as '{{\"mu\": [0.8, 1.2]}}', got {text[:40]!r}"
+        )
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
     parser = argparse.ArgumentParser(
@@ -182,6 +213,15 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="goal scenes: also re-plan every start on a plant with this integrator "
         "(rtol = atol = 1e-8) and record whether it still reaches the goal",
+    )
+    parser.add_argument(
+        "--randomize",
+        type=randomize_value,
+        default=None,
+        metavar="PRESET_OR_JSON",
+        help=f"randomised physics: a preset ({', '.join(sorted(PRESETS))}) or a JSON object "
+        "of factor ranges; each start's drawn parameters are planned with and replayed "
+        "(the sampling planner's scenes only)",
     )
     parser.add_argument(
         "--samples",
@@ -286,6 +326,21 @@ def main(argv: list[str] | None = None) -> int:
         env_settings({"n_trailers": n_trailers})
     except (TypeError, ValueError) as error:
         parser.error(f"argument --n-trailers: {error}")
+    randomize: str | JSONObject | None = None
+    if args.randomize is not None:
+        try:
+            randomize = randomize_kwarg(env_id, args.randomize)
+            env_settings({"n_trailers": n_trailers, "randomize": randomize})
+        except (TypeError, ValueError) as error:
+            parser.error(f"argument --randomize: {error}")
+    if base is not None:
+        kept = base["env_kwargs"].get("randomize")
+        if args.randomize is not None and randomize != kept:
+            parser.error(f"argument --randomize: {randomize!r} is not the certificate's {kept!r}")
+        randomize = kept
+    env_kwargs: JSONObject = {"n_trailers": n_trailers}
+    if randomize is not None:
+        env_kwargs["randomize"] = randomize
     try:
         seeds = parse_seeds(args.seeds or DEFAULT_SEEDS)
     except ValueError as error:
@@ -298,7 +353,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --warm-start: goal scenes only (iLQR), not {env_id}")
     specs = [] if args.no_witnesses else args.witnesses
     if specs is None:
-        specs = default_witnesses(env_id, n_trailers)
+        specs = default_witnesses(env_id, n_trailers, randomized=randomize is not None)
     warm = args.warm_start
     if warm == []:
         warm = [str(path) for path in committed_witnesses(env_id, n_trailers)]
@@ -325,7 +380,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --out: {problem}")
     for spec in [*specs, *(warm or [])]:
         try:
-            load_policy(spec, env_id, {"n_trailers": n_trailers})
+            load_policy(spec, env_id, env_kwargs)
         except (OSError, ValueError) as error:
             parser.error(f"argument --witnesses: {error}")
     if base is not None:
@@ -337,7 +392,9 @@ def main(argv: list[str] | None = None) -> int:
         )
     else:
         restarts = DEFAULT_RESTARTS if args.restarts is None else args.restarts
-        certificate = certify(env_id, n_trailers, seeds, config, restarts=restarts)
+        certificate = certify(
+            env_id, n_trailers, seeds, config, restarts=restarts, randomize=randomize
+        )
     if specs:
         certificate = add_witnesses(certificate, specs)
     if warm:

@@ -2,7 +2,9 @@
 
 A start of a certificate (:mod:`agents.oracles.certify`, :mod:`agents.oracles.certify_goals`)
 is feasible when *some* float64 action record, replayed open-loop in a fresh env
-(``gym.make``, ``reset(seed=seed)``), reaches the scene's success: Reverse, a safe episode
+(``gym.make(env_id, **env_kwargs)``, ``reset(seed=seed)``: a randomised certificate's
+``env_kwargs`` hold its ``randomize``, so the start's parameters are drawn again), reaches
+the scene's success: Reverse, a safe episode
 of the full length; Dock and Coast, the goal. The planner is one source of such records;
 a *witness* is another: a policy spec that :func:`agents.policies.load_policy` loads (a
 baseline such as ``lqr``, a committed model such as ``ppo_dock_n2``, a model path).
@@ -21,7 +23,10 @@ Closed loop: for each witnessed start the witness policy is also re-run closed-l
 a plant built with the adaptive Dormand-Prince integrator at ``rtol = atol =``
 :data:`agents.oracles.certify_goals.CLOSED_LOOP_TOLERANCE`, and the start records
 whether it still succeeds (``witness_closed_loop_success``): the counterpart of the
-planner's closed-loop re-planning.
+planner's closed-loop re-planning. Under randomised physics (``randomize`` in the
+certificate's ``env_kwargs``) the plant is RK4 with auto substeps at that tolerance
+instead (:data:`RANDOMIZED_CLOSED_LOOP`; the Dormand-Prince core integrates one
+parameter vector per batch), with the same drawn parameters.
 """
 
 from __future__ import annotations
@@ -65,6 +70,10 @@ from trailer_env.registry import core_class_of
 
 #: The integrator of the witnesses' closed-loop plant.
 WITNESS_CLOSED_LOOP = "dopri5"
+#: Its integrator under randomised physics (dopri5 integrates one parameter vector for
+#: the whole batch; RK4 takes each row's drawn parameters), with auto substeps at the
+#: same tolerance.
+RANDOMIZED_CLOSED_LOOP = "rk4"
 
 
 def committed_witnesses(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[Path]:
@@ -84,11 +93,18 @@ def committed_witnesses(env_id: str, n_trailers: int, directory: Path = MODELS_D
     return found
 
 
-def default_witnesses(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[str]:
-    """The scene's default baselines (:func:`agents.envs.scene_baselines`) then every
-    committed model of that env and n (:func:`committed_witnesses`), as policy specs."""
+def default_witnesses(
+    env_id: str, n_trailers: int, directory: Path = MODELS_DIR, *, randomized: bool = False
+) -> list[str]:
+    """The scene's default baselines (:func:`agents.envs.scene_baselines`), with
+    ``randomized`` physics ``lqr-adaptive`` after them (the regulator designed for each
+    start's drawn parameters; at nominal physics it is ``lqr``), then every committed model
+    of that env and n (:func:`committed_witnesses`), as policy specs."""
     models = [str(path) for path in committed_witnesses(env_id, n_trailers, directory)]
-    return [*scene_baselines(check_env_id(env_id)), *models]
+    baselines = list(scene_baselines(check_env_id(env_id)))
+    if randomized and "lqr" in baselines:
+        baselines.append("lqr-adaptive")
+    return [*baselines, *models]
 
 
 @dataclass(frozen=True)
@@ -220,7 +236,7 @@ def add_witnesses(
         if solved and closed_loop:
             # A fresh copy of the policy: a stateful one (random) starts as it did above.
             again = load_policy(spec, env_id, env_kwargs, trust_pickle=trust_pickle)
-            plant = {**env_kwargs, "fidelity": _closed_loop_fidelity()}
+            plant = {**env_kwargs, "fidelity": _closed_loop_fidelity(env_kwargs)}
             checked = witness_run(again, env_id, plant, solved)
             for seed, reached in zip(solved, checked.success, strict=True):
                 by_seed[seed]["witness_closed_loop_success"] = bool(reached)
@@ -229,7 +245,7 @@ def add_witnesses(
         "runs": _merged_runs(certificate.get("witnesses"), runs),
         "success": "the record replayed open-loop in a fresh env (gym.make, "
         "reset(seed=seed)) reaches the scene's success, as a planner's record must",
-        "closed_loop": _closed_loop_summary(starts) if closed_loop else None,
+        "closed_loop": _closed_loop_summary(starts, env_kwargs) if closed_loop else None,
         "wall_time_s": round(time.perf_counter() - started, 1),
     }
     earlier = certificate.get("witnesses")
@@ -238,10 +254,12 @@ def add_witnesses(
     return _settled(certificate, starts, actions, block)
 
 
-def _closed_loop_summary(starts: list[JSONObject]) -> JSONObject:
+def _closed_loop_summary(
+    starts: list[JSONObject], env_kwargs: JSONObject
+) -> JSONObject:
     witnessed = [start for start in starts if "witness_closed_loop_success" in start]
     return {
-        "integrator": WITNESS_CLOSED_LOOP,
+        "integrator": _closed_loop_fidelity(env_kwargs)["integrator"],
         "tolerance": CLOSED_LOOP_TOLERANCE,
         "meaning": "the witness policy (warm starts: the policy's steps, then the iLQR "
         "planner re-planning on its default model) re-run closed-loop on a plant with this "
@@ -408,7 +426,7 @@ def warm_start(
         "wall_time_s": round(time.perf_counter() - started, 1),
     }
     if closed_loop:
-        block["closed_loop"] = _closed_loop_summary(starts)
+        block["closed_loop"] = _closed_loop_summary(starts, env_kwargs)
     return _settled(certificate, starts, actions, block)
 
 
@@ -425,7 +443,7 @@ def _warm_closed_loop(
     (its model on the default fidelity, the first pass's settings) for the rest."""
     core_class = core_class_of(env_id)
     settings = env_settings(env_kwargs)
-    plant_settings = env_settings({**env_kwargs, "fidelity": _closed_loop_fidelity()})
+    plant_settings = env_settings({**env_kwargs, "fidelity": _closed_loop_fidelity(env_kwargs)})
     steps = core_class.max_episode_steps
     for label, (spec, _) in policies.items():
         seeds = [seed for seed, (name, _) in solved.items() if name == label]
@@ -441,8 +459,10 @@ def _warm_closed_loop(
             by_seed[seed]["witness_closed_loop_success"] = bool(reached)
 
 
-def _closed_loop_fidelity() -> JSONObject:
-    return {"integrator": WITNESS_CLOSED_LOOP, "tolerance": CLOSED_LOOP_TOLERANCE}
+def _closed_loop_fidelity(env_kwargs: JSONObject) -> JSONObject:
+    randomized = env_kwargs.get("randomize") is not None
+    integrator = RANDOMIZED_CLOSED_LOOP if randomized else WITNESS_CLOSED_LOOP
+    return {"integrator": integrator, "tolerance": CLOSED_LOOP_TOLERANCE}
 
 
 def _merged_runs(earlier: object, runs: list[JSONObject]) -> list[JSONObject]:
@@ -454,6 +474,7 @@ def _merged_runs(earlier: object, runs: list[JSONObject]) -> list[JSONObject]:
 
 
 __all__ = [
+    "RANDOMIZED_CLOSED_LOOP",
     "WITNESS_CLOSED_LOOP",
     "WitnessRun",
     "add_witnesses",

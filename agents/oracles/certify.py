@@ -25,6 +25,15 @@ The ceiling is the feasible fraction (a lower bound on what any controller can r
 ``1 - not recoverable`` is the screen's upper estimate). Writes ``certificate.json``
 (per start: seed, status, screen stroke fraction, planner length) and
 ``certificate.md``. An existing ``--out`` is refused unless ``--overwrite``.
+
+Randomised physics (``randomize=``, e.g. ``"mismatch20"``; :mod:`trailer_env.randomize`):
+the drawn parameters belong to the start. The core draws each start's parameters from
+its seed's generator as ``gym.make(env_id, randomize=...)`` does; the screen linearises
+with them, the planner's candidates are simulated with them (its per-row parameters:
+:class:`agents.oracles.planner.SamplingPlanner`), and the replay builds its env with the
+same ``randomize``, so the same parameters are drawn again. The certificate records the
+randomisation (``env_kwargs.randomize`` and a ``randomize`` block) and each start's
+drawn parameters (``params``, as ``info["params"]`` reports them).
 """
 
 from __future__ import annotations
@@ -46,16 +55,49 @@ from agents.artifacts.certificates import (
     planner_name,
     start_source,
 )
-from agents.envs import env_settings
+from agents.envs import ENV_IDS, env_settings
 from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
 from agents.oracles.screen import DEFAULT_HORIZON, screen_start
 from agents.progress import Progress, plural
+from trailer_env.core import ConvoyCore
 from trailer_env.json_types import JSONObject
+from trailer_env.randomize import Randomization
 from trailer_env.registry import core_class_of
+from trailer_env.settings import EnvSettings
 from trailer_env.vector import seed_generators
 
 #: Default number of planner restarts on the starts a pass did not keep safe.
 DEFAULT_RESTARTS = 3
+
+
+#: The scenes certified by surviving with the sampling planner; goal scenes (Dock, Coast)
+#: are certified by iLQR (:mod:`agents.oracles.certify_goals`), which does not take
+#: randomised physics.
+SURVIVAL_SCENES = ("Reverse", "Heading")
+
+
+def randomize_kwarg(env_id: str, randomize: object) -> str | dict[str, list[float]] | None:
+    """``randomize`` as the certificate's ``env_kwargs`` keep it: a preset's name, or the
+    dict of factor ranges as ``[low, high]`` lists (JSON); None for nominal physics.
+
+    Raises:
+        TypeError: As :meth:`trailer_env.randomize.Randomization.coerce` (a bad type).
+        ValueError: On an unknown preset or a bad range, or for a scene that this module
+            does not certify (the goal scenes): the message names the supported ones.
+    """
+    if randomize is None:
+        return None
+    if core_class_of(env_id).scene not in SURVIVAL_SCENES:
+        supported = [other for other in ENV_IDS if core_class_of(other).scene in SURVIVAL_SCENES]
+        raise ValueError(
+            f"randomize: certifying randomised physics is implemented for the sampling "
+            f"planner (mpc) on {', '.join(supported)}, not for {env_id} (certified by iLQR)"
+        )
+    randomization = Randomization.coerce(randomize)
+    assert randomization is not None
+    if randomization.preset is not None:
+        return randomization.preset
+    return {name: [low, high] for name, low, high in randomization.ranges}
 
 
 @dataclass(frozen=True)
@@ -96,6 +138,7 @@ def certify(
     config: PlannerConfig | None = None,
     screen_horizon: float = DEFAULT_HORIZON,
     restarts: int = 0,
+    randomize: str | JSONObject | Randomization | None = None,
 ) -> JSONObject:
     """Screen, plan and replay every seed; returns the certificate (with the action records).
 
@@ -103,12 +146,24 @@ def certify(
     this many times, each time in one batch of those starts with the next planner seed
     (the search is random, and near the edge of the basin its outcome is too).
 
+    ``randomize``: None (nominal physics), a preset of
+    :data:`trailer_env.randomize.PRESETS` or a dict of factor ranges; each start's drawn
+    parameters are screened, planned with and replayed (see the module docstring).
+
     The returned dict holds ``starts`` (one entry per seed) and ``actions`` (seed ->
     float64 array of the feasible starts' sequences, not JSON).
+
+    Raises:
+        ValueError: On a bad ``restarts`` or ``randomize`` (or ``randomize`` for a goal
+            scene), before anything is simulated.
+        TypeError: On a ``randomize`` of the wrong type.
     """
     if isinstance(restarts, bool) or not isinstance(restarts, int) or restarts < 0:
         raise ValueError(f"restarts must be an integer >= 0, got {restarts!r}")
-    env_kwargs = {"n_trailers": n_trailers}
+    randomized = randomize_kwarg(env_id, randomize)
+    env_kwargs: JSONObject = {"n_trailers": n_trailers}
+    if randomized is not None:
+        env_kwargs["randomize"] = randomized
     settings = env_settings(env_kwargs)
     core_class = core_class_of(env_id)
     count = len(seeds)
@@ -117,7 +172,11 @@ def certify(
     core.reset_rows(np.arange(count), seed_generators(seeds, count, None))
     strokes = [
         screen_start(
-            settings, core.z[i], s=core.act[i, 1], s_dot=core.act[i, 3], horizon=screen_horizon
+            start_settings(settings, core, i),
+            core.z[i],
+            s=core.act[i, 1],
+            s_dot=core.act[i, 3],
+            horizon=screen_horizon,
         ).stroke_fraction
         for i in range(count)
     ]
@@ -166,22 +225,25 @@ def certify(
             status = FEASIBLE if feasible else (OPEN if recoverable else NOT_RECOVERABLE)
             if feasible:
                 actions[seed] = sequence.astype(np.float64)
-            starts.append(
-                {
-                    "seed": seed,
-                    "status": status,
-                    "screen_stroke_fraction": None if not np.isfinite(strokes[i]) else strokes[i],
-                    "planner_safe": bool(planned.safe[i]),
-                    "planner_length": int(planned.lengths[i]),
-                    "planner_attempts": int(attempts[i]),
-                    "replay_safe": None if outcome is None else outcome.safe,
-                }
-            )
+            entry = {
+                "seed": seed,
+                "status": status,
+                "screen_stroke_fraction": None if not np.isfinite(strokes[i]) else strokes[i],
+                "planner_safe": bool(planned.safe[i]),
+                "planner_length": int(planned.lengths[i]),
+                "planner_attempts": int(attempts[i]),
+                "replay_safe": None if outcome is None else outcome.safe,
+            }
+            if randomized is not None:
+                entry["params"] = core.params_info(i)
+            starts.append(entry)
     feasible_count = sum(start["status"] == FEASIBLE for start in starts)
     unrecoverable = sum(start["status"] == NOT_RECOVERABLE for start in starts)
+    physics = {} if randomized is None else {"randomize": randomize_block(settings, randomized)}
     return {
         "env_id": env_id,
         "env_kwargs": env_kwargs,
+        **physics,
         "seeds": [min(seeds), max(seeds)],
         "episodes": count,
         "planner": {
@@ -203,6 +265,28 @@ def certify(
         "screen_upper_estimate": 1.0 - unrecoverable / count,
         "starts": starts,
         "actions": actions,
+    }
+
+
+def start_settings(settings: EnvSettings, core: ConvoyCore, row: int) -> EnvSettings:
+    """The settings of row ``row``'s episode: ``settings`` with the row's drawn parameters
+    and no randomisation (``settings`` itself when the physics are not randomised)."""
+    if settings.randomize is None:
+        return settings
+    return dataclasses.replace(settings, params=core.params_of(row), randomize=None)
+
+
+def randomize_block(
+    settings: EnvSettings, randomized: str | dict[str, list[float]]
+) -> JSONObject:
+    """What the certificate says about its randomised physics."""
+    assert settings.randomize is not None
+    return {
+        "preset": randomized if isinstance(randomized, str) else None,
+        "ranges": {name: [low, high] for name, low, high in settings.randomize.ranges},
+        "meaning": "each start's parameters are drawn from its seed's generator after the "
+        "start (gym.make(env_id, **env_kwargs), reset(seed=seed)); the screen, the planner "
+        "and the replays use them; per start 'params' is info['params']",
     }
 
 

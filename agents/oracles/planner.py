@@ -445,9 +445,16 @@ def _interp_rows(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
 def _row_gains(speed: np.ndarray, forward: np.ndarray, reverse: np.ndarray) -> np.ndarray:
     """:meth:`LQRController.gains` with each row's own gain tables (m, S, n+3)."""
     magnitude = np.clip(np.abs(speed), DESIGN_SPEEDS[0], DESIGN_SPEEDS[-1])
+    forwards = speed >= 0.0
+    # Every row of a Reverse batch backs up: interpolate only the table the rows use
+    # (row by row the same arithmetic, so the same bits), half the planner's feedback cost.
+    if not forwards.any():
+        return _interp_rows(magnitude, DESIGN_SPEEDS, reverse)
+    if forwards.all():
+        return _interp_rows(magnitude, DESIGN_SPEEDS, forward)
     ahead = _interp_rows(magnitude, DESIGN_SPEEDS, forward)
     back = _interp_rows(magnitude, DESIGN_SPEEDS, reverse)
-    return np.where((speed >= 0.0)[:, None], ahead, back)
+    return np.where(forwards[:, None], ahead, back)
 
 
 def state_from_observation(obs: np.ndarray, settings: EnvSettings) -> tuple[np.ndarray, np.ndarray]:
@@ -605,7 +612,9 @@ def plan_episodes(
 ) -> PlannedEpisodes:
     """Run the planner on a reset core (one row per episode, exact states) for ``steps`` steps.
 
-    ``progress`` (counting steps) advances once per planned step.
+    ``progress`` (counting steps) advances once per planned step. Under randomised
+    physics (:attr:`SamplingPlanner.per_row`) every row is planned with its episode's
+    drawn parameters (``core.param_values``).
 
     Rows whose episode ended are parked straight (their result is settled) so that a
     folded convoy is not integrated further.
@@ -620,7 +629,7 @@ def plan_episodes(
     running = np.ones(count, dtype=bool)
     step_action = np.zeros((count, 1))
     for t in range(steps):
-        planned = planner.plan(core.z, core.act)[:, 0]
+        planned = planner.label(core)[:, 0]
         step_action[:, 0] = np.where(running, planned, 0.0)
         actions[running, t] = step_action[running, 0]
         core.step(step_action)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -15,6 +16,7 @@ from agents.artifacts.certificates import (
     write_actions,
 )
 from agents.evaluation.metrics import rollout
+from agents.evaluation.witnesses import replays_to_success
 from agents.policies import load_policy
 
 REVERSE_V1 = "trailer_env/Reverse-v1"
@@ -81,3 +83,25 @@ def test_records_round_trip_bit_for_bit(tmp_path: Path) -> None:
     for seed, record in records.items():
         assert loaded[seed].tobytes() == record.tobytes()
     assert [path.name for path in tmp_path.iterdir()] == ["reverse_v1_n2_actions.npz"]
+
+
+#: The committed randomised certificates (``--randomize mismatch20``): n -> feasible starts.
+MISMATCH20 = {2: 98}
+
+
+@pytest.mark.parametrize("n", sorted(MISMATCH20))
+def test_the_randomised_records_replay_under_each_starts_drawn_physics(n: int) -> None:
+    certificate = committed_certificate(REVERSE_V1, n, randomize="mismatch20")
+    records = committed_actions(REVERSE_V1, n, randomize="mismatch20")
+    assert certificate is not None and records is not None
+    kwargs = {"n_trailers": n, "randomize": "mismatch20"}
+    assert certificate["env_kwargs"] == kwargs
+    feasible = {start["seed"] for start in certificate["starts"] if start["status"] == FEASIBLE}
+    assert set(records) == feasible and len(feasible) == MISMATCH20[n]
+    env = gym.make(REVERSE_V1, **kwargs)
+    for start in certificate["starts"]:
+        _, info = env.reset(seed=start["seed"])
+        assert start["params"] == info["params"]
+    env.close()
+    assert all(replays_to_success(REVERSE_V1, kwargs, seed, record)
+               for seed, record in records.items())  # fmt: skip
