@@ -254,9 +254,7 @@ def add_witnesses(
     return _settled(certificate, starts, actions, block)
 
 
-def _closed_loop_summary(
-    starts: list[JSONObject], env_kwargs: JSONObject
-) -> JSONObject:
+def _closed_loop_summary(starts: list[JSONObject], env_kwargs: JSONObject) -> JSONObject:
     witnessed = [start for start in starts if "witness_closed_loop_success" in start]
     return {
         "integrator": _closed_loop_fidelity(env_kwargs)["integrator"],

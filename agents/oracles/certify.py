@@ -276,9 +276,7 @@ def start_settings(settings: EnvSettings, core: ConvoyCore, row: int) -> EnvSett
     return dataclasses.replace(settings, params=core.params_of(row), randomize=None)
 
 
-def randomize_block(
-    settings: EnvSettings, randomized: str | dict[str, list[float]]
-) -> JSONObject:
+def randomize_block(settings: EnvSettings, randomized: str | dict[str, list[float]]) -> JSONObject:
     """What the certificate says about its randomised physics."""
     assert settings.randomize is not None
     return {
