@@ -24,6 +24,7 @@ from agents.artifacts.stats import (
     save_stats,
 )
 from agents.envs import make_sb3_env
+from agents.policies.extractors import feature_extractors
 from agents.policies.registry import load_policy
 from agents.policies.sb3 import load_model, load_stats
 from tests.agents.helpers import Touch, rewrite_zip, tiny_model
@@ -77,16 +78,26 @@ def test_damaged_statistics_are_refused(tmp_path: Path) -> None:
 def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     zips = sorted(MODELS_DIR.glob("*.zip"))
     seeds = sorted((MODELS_DIR / "seeds").glob("*.zip"))
-    assert len(zips) == 18 and not list(MODELS_DIR.glob("**/*.pkl"))  # with the generalist
-    assert len(seeds) == 27  # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model
+    # With the generalist and the sequence generalist (ConvoyEncoder).
+    assert len(zips) == 20 and not list(MODELS_DIR.glob("**/*.pkl"))
+    assert len(seeds) == 30  # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model
     for model in zips + seeds:
-        document = read_stats(stats_path(model))
-        assert document["norm_obs"] is True and document["norm_reward"] is False
-        # Every pickled entry of the zip has a safe replacement: nothing is unpickled.
         card = read_card(model)
+        sequence = card["env_kwargs"].get("observation") == "trailers"
+        if sequence:
+            # The encoder scales its own inputs: no observation statistics.
+            assert not stats_path(model).exists()
+        else:
+            document = read_stats(stats_path(model))
+            assert document["norm_obs"] is True and document["norm_reward"] is False
+        # Every pickled entry of the zip has a safe replacement: nothing is unpickled.
         probe = make_sb3_env(card["env_id"], 1, card["env_kwargs"])
         custom = safe_custom_objects(
-            model, card["algo"], probe.observation_space, probe.action_space
+            model,
+            card["algo"],
+            probe.observation_space,
+            probe.action_space,
+            extractors=feature_extractors() if sequence else None,
         )
         assert {"policy_class", "observation_space", "action_space"} <= set(custom)
 
