@@ -100,7 +100,8 @@ def _percent(value: float | None) -> str:
 def _verdict(value: float | None, target: float) -> str:
     if value is None:
         return "-"
-    return "yes" if value <= target else "no"
+    # Compared as shown (a 98 % agent under a 100 % ceiling is 2 points, not 2.0000000000000018).
+    return "yes" if round(value, 6) <= target else "no"
 
 
 def time_to_ceiling_table(documents: Sequence[Mapping[str, Any]]) -> str:

@@ -43,7 +43,7 @@ DOCUMENTS = sorted(
 AGENT_COMMANDS = {
     f"agents.{name}": f"agents.commands.{name}"
     for name in ("main", "train", "evaluate", "certify", "imitate", "report", "tune", "curves")
-}
+} | {"agents.evaluation.across_n": "agents.evaluation.across_n"}
 #: The example module that protocol.md's ``--policy my_module:act`` imports.
 MY_MODULE = "import numpy as np\n\n\ndef act(obs):\n    return np.zeros((len(obs), 1))\n"
 

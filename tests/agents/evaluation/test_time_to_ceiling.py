@@ -56,6 +56,8 @@ def test_the_best_model_is_set_against_the_committed_ceiling(tmp_path: Path, cap
     assert "| 8 | 91 % (3) | 25.0 min | no | no |" in time_to_ceiling_table(
         [_document("trailer_env/Reverse-v1", 3, [_model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89])])]
     )
+    at_target = _document("trailer_env/Reverse-v1", 1, [_model("edge", 0.98, 60.0)])
+    assert "| 2 | - | 1.0 min | yes | yes |" in time_to_ceiling_table([at_target])
     path = tmp_path / "results.json"
     path.write_text(json.dumps([document]))
     assert main([str(path)]) == 0
