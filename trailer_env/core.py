@@ -86,6 +86,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from dynamics.columns import ACT_WIDTH, ETA, ETA_DOT, OMEGA, XI, U
 from dynamics.jit import pack_params
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.generators import GeneratorBank, typed_generators
@@ -114,7 +115,7 @@ from trailer_env.randomize import (
     draw_factors,
 )
 from trailer_env.settings import EnvSettings
-from trailer_env.shaping import shaped_rewards
+from trailer_env.shaping import penalty_vector, shaped_rewards
 from trailer_env.substeps import GROWTH_LIMIT, MAX_STEP_WORK
 
 #: The ``info`` keys of every environment and the core arrays behind them (None:
@@ -268,8 +269,8 @@ class ConvoyCore:
                     f"other parameters)"
                 )
         self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
-        self.act = np.zeros((size, 6))
-        self.act[:, 0] = self.params.b
+        self.act = np.zeros((size, ACT_WIDTH))
+        self.act[:, XI] = self.params.b
         fidelity = settings.fidelity
         self.substeps = np.full(size, fidelity.fixed_substeps, dtype=np.int64)
         self.obs = np.zeros((size, self.obs_dim), dtype=np.float32)
@@ -536,9 +537,9 @@ class ConvoyCore:
         self.z[i] = 0.0
         self.z[i, : state.shape[0]] = state
         self.act[i] = 0.0
-        self.act[i, 0] = self._b
-        self.act[i, 1] = s
-        self.act[i, 3] = s_dot
+        self.act[i, XI] = self._b
+        self.act[i, ETA] = s
+        self.act[i, ETA_DOT] = s_dot
         self.refresh(rows)
         self.energy0[i] = self.energy[i]
         self.reward[i] = 0.0
@@ -610,7 +611,7 @@ class ConvoyCore:
         ``rngs`` is aligned with ``rows`` and the Python hook draws), then derive the rest."""
         self.z[rows] = 0.0
         self.act[rows] = 0.0
-        self.act[rows, 0] = self.params.b
+        self.act[rows, XI] = self.params.b
         if picks is None:
             for i, rng in zip(rows.tolist(), rngs, strict=True):
                 self._reset_row(i, rng)
@@ -828,7 +829,7 @@ class ConvoyCore:
             f"the step would take {work:.3g} body-substeps (substeps x {self.n + 1} bodies, "
             f"summed over {rows.size} environment(s)), over the budget of {MAX_STEP_WORK:.3g} "
             f"per control step (trailer_env.substeps.MAX_STEP_WORK): environment {worst} at "
-            f"u = {self.z[worst, 0]:.4g} m/s, omega = {self.z[worst, 1]:.4g} rad/s needs "
+            f"u = {self.z[worst, U]:.4g} m/s, omega = {self.z[worst, OMEGA]:.4g} rad/s needs "
             f"{int(self.substeps[worst])} substeps; nothing was stepped (lower the speed, dt, "
             "the number of environments or of trailers)"
         )
@@ -857,8 +858,8 @@ class ConvoyCore:
             values = self.z[failed]
             grew = (
                 self.accuracy_exceeded[failed].all()
-                and np.isnan(values[:, 0]).all()
-                and np.all(np.isfinite(values[:, 1:]))
+                and np.isnan(values[:, U]).all()
+                and np.all(np.isfinite(values[:, OMEGA:]))
             )
             if np.all(np.isfinite(values)):
                 bound = self.step_config.obs_settings[OBS_BOUND]
@@ -871,7 +872,7 @@ class ConvoyCore:
                 )
             else:
                 cause = "a non-finite value (NaN or inf)"
-            shown = f"u = {values[0, 0]:.4g} m/s" if np.isfinite(values[0, 0]) else ""
+            shown = f"u = {values[0, U]:.4g} m/s" if np.isfinite(values[0, U]) else ""
             self._give_up(stepped, failed, cause + (f", {shown}" if shown else ""), retried=True)
 
     def _give_up(
@@ -1000,16 +1001,13 @@ class ShapedCore(ConvoyCore):
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         super().__init__(settings, batch_size, track_pose=track_pose)
         self.previous_potential = np.zeros(self.batch_size)
-        #: The constants of :func:`trailer_env.shaping.shaped_reward`, in its order.
-        self.shaping_penalties = np.array(
-            [
-                self.time_penalty,
-                self.band_penalty,
-                self.success_bonus,
-                self.fold_penalty,
-                self.failure_penalty,
-            ],
-            dtype=np.float64,
+        #: The constants of :func:`trailer_env.shaping.shaped_reward`, at its named indices.
+        self.shaping_penalties = penalty_vector(
+            self.time_penalty,
+            self.band_penalty,
+            self.success_bonus,
+            self.fold_penalty,
+            self.failure_penalty,
         )
 
     def _potential(self) -> np.ndarray:

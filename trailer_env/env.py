@@ -14,6 +14,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from dynamics.columns import ETA, theta_column, x_column
 from dynamics.params import one_of, real_number
 from trailer_env.core import ConvoyCore
 from trailer_env.mixed import build_core, observation_view
@@ -378,7 +379,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         core = self.core
         return {
             "z": core.z[0].copy(),
-            "s": float(core.act[0, 1]),
+            "s": float(core.act[0, ETA]),
             "s_dot": float(core.act[0, 3]),
             **core.task_values(0),
         }
@@ -393,7 +394,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
     def _record_path(self) -> None:
         if self.core.with_pose:
             n = self.core.n
-            self._path.record(self.core.z[:1, n + 2 : n + 4])
+            self._path.record(self.core.z[:1, x_column(n) : theta_column(n)])
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]
         """Draw the convoy (top-down) in a window ("human") or return an RGB array ("rgb_array")."""

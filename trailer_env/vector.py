@@ -52,6 +52,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from dynamics.columns import theta_column, x_column
 from dynamics.params import bounded_integer
 from trailer_env.core import ConvoyCore
 from trailer_env.env import (
@@ -459,7 +460,7 @@ class ConvoyVectorEnv(VectorEnv):
     def _record_paths(self, rows: np.ndarray) -> None:
         assert self._paths is not None
         n = self.core.n
-        self._paths.record(self.core.z[rows, n + 2 : n + 4], rows)
+        self._paths.record(self.core.z[rows, x_column(n) : theta_column(n)], rows)
 
     def render(self) -> tuple[np.ndarray, ...] | None:  # type: ignore[override]
         """One ``(height, width, 3)`` uint8 frame per environment ("rgb_array") for the first

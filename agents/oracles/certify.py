@@ -50,6 +50,7 @@ from agents.envs import env_settings
 from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
 from agents.oracles.screen import DEFAULT_HORIZON, screen_start
 from agents.progress import Progress, plural
+from dynamics.columns import ETA, ETA_DOT
 from trailer_env.json_types import JSONObject
 from trailer_env.registry import core_class_of
 from trailer_env.vector import seed_generators
@@ -117,7 +118,11 @@ def certify(
     core.reset_rows(np.arange(count), seed_generators(seeds, count, None))
     strokes = [
         screen_start(
-            settings, core.z[i], s=core.act[i, 1], s_dot=core.act[i, 3], horizon=screen_horizon
+            settings,
+            core.z[i],
+            s=core.act[i, ETA],
+            s_dot=core.act[i, ETA_DOT],
+            horizon=screen_horizon,
         ).stroke_fraction
         for i in range(count)
     ]

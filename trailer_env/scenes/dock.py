@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from dynamics import body_poses
+from dynamics.columns import ALPHA, OMEGA, U, theta_column, x_column, y_column
 from dynamics.jit import cached_njit
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
@@ -50,14 +51,14 @@ def dock_starts(
     for j in range(rows.size):
         rng = generators[picks[j]]
         i = rows[j]
-        z[i, 0] = -rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
-        z[i, 1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
+        z[i, U] = -rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
+        z[i, OMEGA] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
         for k in range(n):
-            z[i, 2 + k] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE)
+            z[i, ALPHA + k] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE)
         total_angle = 0.0
         rods = 0.0
         for k in range(n):
-            total_angle += z[i, 2 + k]
+            total_angle += z[i, ALPHA + k]
             rods += np.cos(0.0 - total_angle)
         last_x = 0.0 - l * rods
         target[i, 0] = last_x - rng.uniform(DISTANCE_RANGE[0], DISTANCE_RANGE[1])
@@ -101,7 +102,11 @@ class DockCore(ShapedCore):
         n = self.n
         z = self.z[rows]
         xs, ys, thetas = body_poses(
-            self.params.l, z[:, n + 2], z[:, n + 3], z[:, n + 4], z[:, 2 : 2 + n]
+            self.params.l,
+            z[:, x_column(n)],
+            z[:, y_column(n)],
+            z[:, theta_column(n)],
+            z[:, ALPHA : ALPHA + n],
         )
         return xs[:, -1], ys[:, -1], thetas[:, -1]
 
