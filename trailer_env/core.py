@@ -540,13 +540,7 @@ class ConvoyCore:
         self.act[i, XI] = self._b
         self.act[i, ETA] = s
         self.act[i, ETA_DOT] = s_dot
-        self.refresh(rows)
-        self.energy0[i] = self.energy[i]
-        self.reward[i] = 0.0
-        self.terminated[i] = False
-        self.failed[i] = False
-        self._after_reset(rows)
-        self.success[i] = self._starting_success(rows)[0]
+        self._begin_episodes(rows)
 
     def render_markers(self, i: int) -> tuple[Any, ...]:
         """Row ``i``'s targets to draw (:class:`~trailer_env.rendering.Marker`); default none."""
@@ -619,6 +613,13 @@ class ConvoyCore:
             self.start_kernel(rngs, picks, rows, self.z, self._start_tuple())
         if self._draws is not None:
             self._draw_physics(rows, rngs, picks)
+        self._begin_episodes(rows)
+
+    def _begin_episodes(self, rows: np.ndarray) -> None:
+        """Start episodes in ``rows`` from the states already in ``z`` and ``act``: derive
+        the observation, the energy (the actuator work's zero), clear the step's outcome,
+        and run the scene's :meth:`_after_reset` and :meth:`_starting_success` (every
+        start, drawn or hand-built, goes through here)."""
         self.refresh(rows)
         self.energy0[rows] = self.energy[rows]
         self.reward[rows] = 0.0

@@ -126,6 +126,9 @@ def reverse_step(
     scene: tuple,
 ) -> tuple:
     """The control step of Reverse-v0 in one call: physics, then :func:`reverse_outcome`."""
+    # Written per scene on purpose (also trailer_env.scenes.coast.coast_step): a
+    # factory closing over the outcome, or the outcome passed as an argument, is
+    # recompiled in every process (numba's disk cache misses on both).
     result = step_serial(action, rows, prepare, config, state, outputs)
     # Not when refused (a bad action row, or kernels.OVER_BUDGET) nor when a row diverged:
     # the core redoes those rows, then runs the outcome once (ConvoyCore.step).
