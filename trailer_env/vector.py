@@ -60,7 +60,7 @@ from trailer_env.env import (
     as_action_array,
     checked_seed,
     checked_state,
-    refuse_masked,
+    real_array,
 )
 from trailer_env.episodes import count_step
 from trailer_env.generators import GeneratorBank
@@ -341,24 +341,8 @@ class ConvoyVectorEnv(VectorEnv):
         states = None
         if "state" in options:
             width = self.core.n + 2
-            given = refuse_masked(options["state"], "state")
-            if given is None or isinstance(given, (str, bytes, bool, np.bool_)):
-                raise TypeError(
-                    f"state must be an array of real numbers of shape ({self.num_envs}, "
-                    f"{width}), got {type(given).__name__} {given!r}"
-                )
-            try:
-                array = np.asarray(given)
-            except (ValueError, TypeError) as error:
-                raise ValueError(
-                    f"state must be an array of real numbers of shape ({self.num_envs}, {width})"
-                ) from error
-            if array.dtype.kind not in "iuf":
-                raise TypeError(
-                    f"state must hold real numbers (not bools, strings or complex numbers), "
-                    f"got dtype {array.dtype}"
-                )
-            states = array.astype(np.float64)
+            expected = f"an array of real numbers of shape ({self.num_envs}, {width})"
+            states = real_array("state", options["state"], expected).astype(np.float64)
             if states.shape != (self.num_envs, width):
                 raise ValueError(
                     f"state must have shape ({self.num_envs}, {width}), got {states.shape}"

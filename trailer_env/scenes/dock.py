@@ -11,7 +11,7 @@ from dynamics import body_poses
 from dynamics.columns import ALPHA, OMEGA, U, theta_column, x_column, y_column
 from dynamics.jit import cached_njit
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
-from trailer_env.env import ConvoyEnv
+from trailer_env.env import ConvoyEnv, real_array
 from trailer_env.json_types import JSONObject
 from trailer_env.rendering import Marker
 from trailer_env.scenes.heading import wrap_angle
@@ -122,22 +122,7 @@ class DockCore(ShapedCore):
         if "target" not in task:
             return {}
         given = task["target"]
-        shown = f"{type(given).__name__} {given!r}"
-        if given is None or isinstance(given, (str, bytes, bool, np.bool_)):
-            raise TypeError(f"target must be 3 real numbers (x, y, heading), got {shown}")
-        if isinstance(given, np.ma.MaskedArray) and np.ma.getmaskarray(given).any():
-            raise ValueError(f"target must not have masked entries, got {given!r}")
-        try:
-            array = np.asarray(given)
-        except (ValueError, TypeError) as error:
-            raise ValueError(
-                f"target must be 3 real numbers (x, y, heading), got {shown}"
-            ) from error
-        if array.dtype.kind not in "iuf":
-            raise TypeError(
-                f"target must be 3 real numbers (x, y, heading), got dtype {array.dtype}: {shown}"
-            )
-        target = array.astype(np.float64)
+        target = real_array("target", given, "3 real numbers (x, y, heading)").astype(np.float64)
         if target.shape != (3,) or not np.all(np.isfinite(target)):
             raise ValueError(f"target must be 3 finite numbers (x, y, heading), got {given!r}")
         if np.max(np.abs(target)) > MAX_TASK_MAGNITUDE:
