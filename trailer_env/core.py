@@ -86,14 +86,15 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from dynamics.columns import ACT_WIDTH, ETA, ETA_DOT, OMEGA, XI, U
+from dynamics.columns import ACT_WIDTH, ETA, ETA_DOT, XI
 from dynamics.jit import pack_params
+from trailer_env.core_infos import INFO_FIELDS, InfoMixin  # noqa: F401  (INFO_FIELDS: re-exported)
+from trailer_env.core_retry import RetryMixin
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.generators import GeneratorBank, typed_generators
 from trailer_env.json_types import JSONObject
 from trailer_env.kernels import (
     DIVERGENCE_BOUND,
-    OBS_BOUND,
     OVER_BUDGET,
     PARALLEL_MIN_ROWS,
     StepConfig,
@@ -116,19 +117,7 @@ from trailer_env.randomize import (
 )
 from trailer_env.settings import EnvSettings
 from trailer_env.shaping import penalty_vector, shaped_rewards
-from trailer_env.substeps import GROWTH_LIMIT, MAX_STEP_WORK
-
-#: The ``info`` keys of every environment and the core arrays behind them (None:
-#: ``actuator_work``, derived as ``energy - energy0``); the single env, the vector env
-#: and the SB3 adapter all build their infos from this table.
-INFO_FIELDS: tuple[tuple[str, str | None], ...] = (
-    ("cost", "cost"),
-    ("singular_margin", "singular_margin"),
-    ("energy", "energy"),
-    ("actuator_work", None),
-    ("is_success", "success"),
-    ("jackknifed", "jackknifed"),
-)
+from trailer_env.substeps import MAX_STEP_WORK
 
 
 class NonFiniteStateError(ValueError):
@@ -140,11 +129,8 @@ class NonFiniteStateError(ValueError):
 #: distances lose their meaning (1e308 gave a -inf observation).
 MAX_TASK_MAGNITUDE = 1e6
 
-#: Substeps used to retry a step whose result was not finite (never seen with "auto").
-_RETRY_FACTOR = 8
 
-
-class ConvoyCore:
+class ConvoyCore(InfoMixin, RetryMixin):
     """B environments of one scene (subclass it to make a scene).
 
     Args:
@@ -821,80 +807,6 @@ class ConvoyCore:
             self.terminated[:] = self._is_terminated()
             self.reward[:] = self._reward()
 
-    def _refuse_over_budget(self, rows: np.ndarray) -> None:
-        """Raise FloatingPointError for a step the auto rule priced over the work budget."""
-        counts = self.substeps[rows]
-        worst = int(rows[int(np.argmax(counts))])
-        work = float(counts.sum()) * (self.n + 1)
-        raise FloatingPointError(
-            f"the step would take {work:.3g} body-substeps (substeps x {self.n + 1} bodies, "
-            f"summed over {rows.size} environment(s)), over the budget of {MAX_STEP_WORK:.3g} "
-            f"per control step (trailer_env.substeps.MAX_STEP_WORK): environment {worst} at "
-            f"u = {self.z[worst, U]:.4g} m/s, omega = {self.z[worst, OMEGA]:.4g} rad/s needs "
-            f"{int(self.substeps[worst])} substeps; nothing was stepped (lower the speed, dt, "
-            "the number of environments or of trailers)"
-        )
-
-    def _retry_finer(self, action: np.ndarray, stepped: np.ndarray) -> None:
-        """Redo the rows whose step produced non-finite (or beyond the divergence bound)
-        values with more substeps, or give up.
-
-        Only the failed rows are redone; their substep counts are restored afterwards with
-        fixed substeps (the auto rule recomputes them at every step anyway).
-        """
-        rows = stepped[self._nonfinite[stepped]].astype(np.int64)
-        self.z[rows] = self._z_backup[rows]
-        self.act[rows] = self._act_backup[rows]
-        used = self.substeps[rows].copy()
-        if float(used.sum()) * _RETRY_FACTOR * (self.n + 1) > MAX_STEP_WORK:
-            self._give_up(stepped, rows, "non-finite or beyond the divergence bound", retried=False)
-        self.substeps[rows] = used * _RETRY_FACTOR
-        try:
-            _, nonfinite, _ = self._physics_step(action, rows, False, outcome=False)
-        finally:
-            if not self.settings.fidelity.auto:
-                self.substeps[rows] = used
-        if nonfinite:
-            failed = rows[self._nonfinite[rows]]
-            values = self.z[failed]
-            grew = (
-                self.accuracy_exceeded[failed].all()
-                and np.isnan(values[:, U]).all()
-                and np.all(np.isfinite(values[:, OMEGA:]))
-            )
-            if np.all(np.isfinite(values)):
-                bound = self.step_config.obs_settings[OBS_BOUND]
-                cause = f"a value beyond {bound:g} in magnitude"
-            elif grew:  # marked by the step kernel (trailer_env.substeps.GROWTH_LIMIT)
-                cause = (
-                    f"a speed max(|u|, l |omega|) more than {GROWTH_LIMIT:g} times its start's "
-                    "while fidelity.max_substeps = "
-                    f"{self.settings.fidelity.max_substeps} capped the substeps"
-                )
-            else:
-                cause = "a non-finite value (NaN or inf)"
-            shown = f"u = {values[0, U]:.4g} m/s" if np.isfinite(values[0, U]) else ""
-            self._give_up(stepped, failed, cause + (f", {shown}" if shown else ""), retried=True)
-
-    def _give_up(
-        self, stepped: np.ndarray, failed: np.ndarray, cause: str, *, retried: bool
-    ) -> None:
-        """Put every stepped row back at its state before the step and raise FloatingPointError."""
-        self.z[stepped] = self._z_backup[stepped]
-        self.act[stepped] = self._act_backup[stepped]
-        self.refresh(stepped)
-        self._after_restore(stepped)
-        how = (
-            f"even with {_RETRY_FACTOR} times the substeps"
-            if retried
-            else f"(a retry with {_RETRY_FACTOR} times the substeps would exceed the work budget)"
-        )
-        raise FloatingPointError(
-            f"the integration diverged in environment(s) {failed.tolist()[:8]}: the step's "
-            f"result holds {cause}, {how}; the state was left at the previous step "
-            "(use fidelity='auto', more substeps or a smaller dt)"
-        )
-
     def _step_records(self) -> tuple[np.ndarray, ...]:
         """The per-row arrays a completed step writes that the state alone does not give
         back (:meth:`save_step`): the step's results and flags. Scenes with per-step
@@ -922,7 +834,7 @@ class ConvoyCore:
         """Put ``rows`` back where they were before the last step, completed or refused,
         with everything a step changes (state, observation, results, flags, bookkeeping)
         as it was, but for what only that step reads (the mass's commanded accelerations,
-        ``act[:, 4:]``, and ``substeps``); :meth:`save_step` must have been called before
+        ``act[:, XI_DDOT:]``, and ``substeps``); :meth:`save_step` must have been called before
         that step.
 
         Raises:
@@ -941,46 +853,6 @@ class ConvoyCore:
         self._after_restore(indices)
         for array, saved in records:  # a fold seen between control instants is not in z
             array[indices] = saved[indices]
-
-    def _info_sources(self) -> list[tuple[str, np.ndarray | None]]:
-        # The arrays are updated in place for the core's life, so they are looked up once.
-        if self._info_arrays is None:
-            self._info_arrays = [
-                (key, None if name is None else getattr(self, name)) for key, name in INFO_FIELDS
-            ]
-        return self._info_arrays
-
-    def info_row(self, i: int) -> JSONObject:
-        """The ``info`` dict of environment ``i`` (Python scalars), keys :data:`INFO_FIELDS`,
-        and ``params`` (:meth:`params_info`, a dict) when the physics are randomised."""
-        info: JSONObject = {
-            key: self.energy.item(i) - self.energy0.item(i) if array is None else array.item(i)
-            for key, array in self._info_sources()
-        }
-        if self.randomization is not None:
-            info["params"] = self.params_info(i)
-        return info
-
-    def info_batch(self) -> JSONObject:
-        """The same quantities as arrays (B,) (copies); ``params`` is a dict of arrays
-        (:meth:`params_batch`)."""
-        infos: JSONObject = {}
-        for key, array in self._info_sources():
-            infos[key] = np.subtract(self.energy, self.energy0) if array is None else array.copy()
-        if self.randomization is not None:
-            infos["params"] = self.params_batch()
-        return infos
-
-    def info_rows(self) -> list[JSONObject]:
-        """One ``info`` dict per environment (Python scalars), as SB3's ``VecEnv`` wants."""
-        batch = self.info_batch()
-        batch.pop("params", None)
-        columns = [values.tolist() for values in batch.values()]
-        rows = [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
-        if self.randomization is not None:
-            for i, row in enumerate(rows):
-                row["params"] = self.params_info(i)
-        return rows
 
 
 class ShapedCore(ConvoyCore):
