@@ -6,6 +6,8 @@ is the one table of the keys.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from trailer_env.json_types import JSONObject
@@ -27,17 +29,15 @@ INFO_FIELDS: tuple[tuple[str, str | None], ...] = (
 class InfoMixin:
     """The ``info`` of :class:`trailer_env.core.ConvoyCore`'s environments."""
 
-    # What the methods read of the core (set by ConvoyCore.__init__).
-    energy: np.ndarray
-    energy0: np.ndarray
-    randomization: Randomization | None
-    _info_arrays: list[tuple[str, np.ndarray | None]] | None
+    if TYPE_CHECKING:  # what the methods read of the core (set by ConvoyCore.__init__)
+        energy: np.ndarray
+        energy0: np.ndarray
+        randomization: Randomization | None
+        _info_arrays: list[tuple[str, np.ndarray | None]] | None
 
-    def params_info(self, i: int) -> dict[str, float]:
-        raise NotImplementedError  # ConvoyCore's
+        def params_info(self, i: int) -> dict[str, float]: ...
 
-    def params_batch(self) -> dict[str, np.ndarray]:
-        raise NotImplementedError  # ConvoyCore's
+        def params_batch(self) -> dict[str, np.ndarray]: ...
 
     def _info_sources(self) -> list[tuple[str, np.ndarray | None]]:
         # The arrays are updated in place for the core's life, so they are looked up once.

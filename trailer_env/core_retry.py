@@ -8,6 +8,8 @@ times the substeps, else every stepped row is put back and FloatingPointError ra
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from dynamics.columns import OMEGA, U
@@ -22,28 +24,25 @@ RETRY_FACTOR = 8
 class RetryMixin:
     """The retry and refusal paths of :class:`trailer_env.core.ConvoyCore`'s step."""
 
-    # What the methods read of the core (set by ConvoyCore.__init__).
-    n: int
-    settings: EnvSettings
-    step_config: StepConfig
-    z: np.ndarray
-    act: np.ndarray
-    substeps: np.ndarray
-    accuracy_exceeded: np.ndarray
-    _nonfinite: np.ndarray
-    _z_backup: np.ndarray
-    _act_backup: np.ndarray
+    if TYPE_CHECKING:  # what the methods read of the core (set by ConvoyCore.__init__)
+        n: int
+        settings: EnvSettings
+        step_config: StepConfig
+        z: np.ndarray
+        act: np.ndarray
+        substeps: np.ndarray
+        accuracy_exceeded: np.ndarray
+        _nonfinite: np.ndarray
+        _z_backup: np.ndarray
+        _act_backup: np.ndarray
 
-    def _physics_step(
-        self, action: np.ndarray, rows: np.ndarray, prepare: bool, outcome: bool = True
-    ) -> tuple:
-        raise NotImplementedError  # ConvoyCore's
+        def _physics_step(
+            self, action: np.ndarray, rows: np.ndarray, prepare: bool, outcome: bool = True
+        ) -> tuple: ...
 
-    def refresh(self, rows: np.ndarray | None = None) -> None:
-        raise NotImplementedError  # ConvoyCore's
+        def refresh(self, rows: np.ndarray | None = None) -> None: ...
 
-    def _after_restore(self, rows: np.ndarray) -> None:
-        raise NotImplementedError  # ConvoyCore's
+        def _after_restore(self, rows: np.ndarray) -> None: ...
 
     def _refuse_over_budget(self, rows: np.ndarray) -> None:
         """Raise FloatingPointError for a step the auto rule priced over the work budget."""
