@@ -167,10 +167,10 @@ class SceneCost:
         w = self.weights
         z = core.z
         alpha = z[:, ALPHA : ALPHA + n]
-        stroke = core.act[:, 1:2] / core.params.s_max
+        stroke = core.act[:, ETA : ETA + 1] / core.params.s_max
         columns = [
             root["angle"] * alpha,
-            root["omega"] * z[:, 1:2],
+            root["omega"] * z[:, OMEGA : OMEGA + 1],
             root["rail"] * stroke,
             root["barrier"] * np.maximum(np.abs(alpha) - w.barrier_angle, 0.0),
             root["stroke"] * np.maximum(np.abs(stroke) - w.stroke_fraction, 0.0),
