@@ -7,11 +7,14 @@ Conventions (private to the package):
 
 * ``pv``: float64 array ``[M, J0, a, m, J, l, mu]`` (see :func:`pack_params`).
 * A row is ``(u, omega, alpha_1..alpha_n)``, optionally followed by the pose
-  ``(x, y, theta)`` of the cart's axle midpoint; ``with_pose`` says which.
-* ``act``: float64 array of shape ``(B, 6)`` holding the moving mass's body-frame
+  ``(x, y, theta)`` of the cart's axle midpoint; ``with_pose`` says which. Its columns
+  are named in :mod:`dynamics.columns` (``U``, ``OMEGA``, ``ALPHA + k``, ``theta_column(n)``).
+* ``act``: float64 array of shape ``(B, ACT_WIDTH)`` holding the moving mass's body-frame
   position, velocity and acceleration ``(xi, eta, xi_dot, eta_dot, xi_ddot,
-  eta_ddot)``. Over one integration call the acceleration is held constant (a
-  zero-order hold), so position and velocity are exact quadratics in time.
+  eta_ddot)`` (columns ``XI`` .. ``ETA_DDOT`` of :mod:`dynamics.columns`). Over one
+  integration call the acceleration is held constant (a zero-order hold), so position
+  and velocity are exact quadratics in time.
+* Blocks hold the same columns as their first index: ``y[OMEGA, lane]``, ``mass0[XI, lane]``.
 """
 
 from __future__ import annotations
@@ -23,6 +26,21 @@ from numba import prange, types
 from numba.extending import overload
 
 from dynamics._cache import cached_njit
+from dynamics.columns import (
+    ACT_WIDTH,
+    ALPHA,
+    ETA,
+    ETA_DDOT,
+    ETA_DOT,
+    OMEGA,
+    XI,
+    XI_DDOT,
+    XI_DOT,
+    U,
+    theta_column,
+    x_column,
+    y_column,
+)
 from dynamics.params import ConvoyParams
 
 P_M, P_J0, P_A, P_SMALL_M, P_J, P_L, P_MU = range(7)
@@ -337,7 +355,7 @@ def _hitch_terms(pv: np.ndarray, row: np.ndarray, n: int, A: np.ndarray) -> tupl
     """
     acc = _hitch_start()
     for k in range(n):
-        s, c = sincos(row[2 + k])
+        s, c = sincos(row[ALPHA + k])
         a_k, acc = _hitch_step(k, s, c, pv[P_L], acc)
         A[k] = a_k
     return _hitch_totals(pv, 0, acc)
@@ -358,21 +376,21 @@ def field_row(
     out: np.ndarray,
 ) -> None:
     """d(row)/dt for the planar moving mass (physics.md sections 3, 5 and 9)."""
-    u = row[0]
-    w = row[1]
-    r_trailers, dr_dalpha1, sum_a_dr = _hitch_terms(pv, row, n, out[2:])
+    u = row[U]
+    w = row[OMEGA]
+    r_trailers, dr_dalpha1, sum_a_dr = _hitch_terms(pv, row, n, out[ALPHA:])
     for k in range(n):
-        out[2 + k] *= u
+        out[ALPHA + k] *= u
     if n > 0:
-        out[2] += w
-    out[0], out[1] = _accelerations(
+        out[ALPHA] += w
+    out[U], out[OMEGA] = _accelerations(
         pv, 0, r_trailers, dr_dalpha1, sum_a_dr, u, w, xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot
     )
     if with_pose:
-        s_theta, c_theta = sincos(row[n + 4])
-        out[n + 2] = u * c_theta
-        out[n + 3] = u * s_theta
-        out[n + 4] = w
+        s_theta, c_theta = sincos(row[theta_column(n)])
+        out[x_column(n)] = u * c_theta
+        out[y_column(n)] = u * s_theta
+        out[theta_column(n)] = w
 
 
 @cached_njit(nogil=True)
@@ -381,7 +399,9 @@ def energy_row(
 ) -> float:
     """Energy of one row with the mass state ``act``; ``scratch`` (>= n) receives the A_k."""
     r_trailers, _, _ = _hitch_terms(pv, row, n, scratch)
-    return _energy(pv, 0, r_trailers, row[0], row[1], act[1], act[2], act[3], act[0])
+    return _energy(
+        pv, 0, r_trailers, row[U], row[OMEGA], act[ETA], act[XI_DOT], act[ETA_DOT], act[XI]
+    )
 
 
 @cached_njit()
@@ -396,12 +416,12 @@ def rhs_batch(
             z[i],
             n,
             with_pose,
-            act[i, 0],
-            act[i, 1],
-            act[i, 2],
-            act[i, 3],
-            act[i, 4],
-            act[i, 5],
+            act[i, XI],
+            act[i, ETA],
+            act[i, XI_DOT],
+            act[i, ETA_DOT],
+            act[i, XI_DDOT],
+            act[i, ETA_DDOT],
             out[i],
         )
     return out
@@ -480,13 +500,13 @@ def _hitch_accumulate(
     work: np.ndarray,
     nb: int,
 ) -> None:
-    """Hitch k of every lane (:func:`_hitch_step` on ``work``); A_k into ``deriv[2 + k]``."""
+    """Hitch k of every lane (:func:`_hitch_step` on ``work``); A_k into ``deriv[ALPHA + k]``."""
     l = pv[P_L]  # a shared scalar, or the lanes' lengths (:func:`lane_at`)
     for lane in range(nb):
         a_k, acc = _hitch_step(
             k, sin_k[lane], cos_k[lane], lane_at(l, lane), _accumulators(work, lane)
         )
-        deriv[2 + k, lane] = a_k
+        deriv[ALPHA + k, lane] = a_k
         for j in range(N_HITCH):
             work[j, lane] = acc[j]
 
@@ -495,12 +515,12 @@ def _hitch_accumulate(
 def _hitch_block(
     pv: np.ndarray, y: np.ndarray, n: int, deriv: np.ndarray, work: np.ndarray, nb: int
 ) -> None:
-    """Hitch accumulators of every lane into ``work[:N_HITCH]``; A_k into ``deriv[2 + k]``."""
+    """Hitch accumulators of every lane into ``work[:N_HITCH]``; A_k into ``deriv[ALPHA + k]``."""
     _hitch_start_block(work, nb)
     sin_k = work[_W_SIN]
     cos_k = work[_W_COS]
     for k in range(n):
-        sincos_block(y[2 + k], sin_k, cos_k, nb)
+        sincos_block(y[ALPHA + k], sin_k, cos_k, nb)
         _hitch_accumulate(pv, k, sin_k, cos_k, deriv, work, nb)
 
 
@@ -518,19 +538,19 @@ def field_block(
 ) -> None:
     """d(y)/dt of the first ``nb`` lanes of the block ``y`` (width, LANES) into ``deriv``.
 
-    ``mass0`` (6, LANES) holds each lane's mass state at the start of the call; the
+    ``mass0`` (ACT_WIDTH, LANES) holds each lane's mass state at the start of the call; the
     field is taken at time ``tau`` into it (the mass's motion is an exact quadratic).
     ``work`` is scratch of shape (_W_ROWS, LANES). Per lane, the arithmetic is
     :func:`field_row`'s.
     """
     _hitch_block(pv, y, n, deriv, work, nb)
     for lane in range(nb):
-        u = y[0, lane]
-        w = y[1, lane]
-        xi_ddot = mass0[4, lane]
-        eta_ddot = mass0[5, lane]
+        u = y[U, lane]
+        w = y[OMEGA, lane]
+        xi_ddot = mass0[XI_DDOT, lane]
+        eta_ddot = mass0[ETA_DDOT, lane]
         r_trailers, dr_dalpha1, sum_a_dr = _hitch_totals(pv, lane, _accumulators(work, lane))
-        deriv[0, lane], deriv[1, lane] = _accelerations(
+        deriv[U, lane], deriv[OMEGA, lane] = _accelerations(
             pv,
             lane,
             r_trailers,
@@ -538,27 +558,27 @@ def field_block(
             sum_a_dr,
             u,
             w,
-            mass0[0, lane] + mass0[2, lane] * tau + 0.5 * xi_ddot * tau * tau,
-            mass0[1, lane] + mass0[3, lane] * tau + 0.5 * eta_ddot * tau * tau,
-            mass0[2, lane] + xi_ddot * tau,
-            mass0[3, lane] + eta_ddot * tau,
+            mass0[XI, lane] + mass0[XI_DOT, lane] * tau + 0.5 * xi_ddot * tau * tau,
+            mass0[ETA, lane] + mass0[ETA_DOT, lane] * tau + 0.5 * eta_ddot * tau * tau,
+            mass0[XI_DOT, lane] + xi_ddot * tau,
+            mass0[ETA_DOT, lane] + eta_ddot * tau,
             xi_ddot,
             eta_ddot,
         )
     for k in range(n):
         for lane in range(nb):
-            deriv[2 + k, lane] *= y[0, lane]
+            deriv[ALPHA + k, lane] *= y[U, lane]
     if n > 0:
         for lane in range(nb):
-            deriv[2, lane] += y[1, lane]
+            deriv[ALPHA, lane] += y[OMEGA, lane]
     if with_pose:
         sin_t = work[_W_SIN]
         cos_t = work[_W_COS]
-        sincos_block(y[n + 4], sin_t, cos_t, nb)
+        sincos_block(y[theta_column(n)], sin_t, cos_t, nb)
         for lane in range(nb):
-            deriv[n + 2, lane] = y[0, lane] * cos_t[lane]
-            deriv[n + 3, lane] = y[0, lane] * sin_t[lane]
-            deriv[n + 4, lane] = y[1, lane]
+            deriv[x_column(n), lane] = y[U, lane] * cos_t[lane]
+            deriv[y_column(n), lane] = y[U, lane] * sin_t[lane]
+            deriv[theta_column(n), lane] = y[OMEGA, lane]
 
 
 @cached_njit(nogil=True)
@@ -580,12 +600,12 @@ def energy_block(
             pv,
             lane,
             r_trailers,
-            y[0, lane],
-            y[1, lane],
-            mass0[1, lane],
-            mass0[2, lane],
-            mass0[3, lane],
-            mass0[0, lane],
+            y[U, lane],
+            y[OMEGA, lane],
+            mass0[ETA, lane],
+            mass0[XI_DOT, lane],
+            mass0[ETA_DOT, lane],
+            mass0[XI, lane],
         )
 
 
@@ -611,12 +631,12 @@ def energy_block_from_trig(
             pv,
             lane,
             r_trailers,
-            y[0, lane],
-            y[1, lane],
-            mass0[1, lane],
-            mass0[2, lane],
-            mass0[3, lane],
-            mass0[0, lane],
+            y[U, lane],
+            y[OMEGA, lane],
+            mass0[ETA, lane],
+            mass0[XI_DOT, lane],
+            mass0[ETA_DOT, lane],
+            mass0[XI, lane],
         )
 
 
@@ -647,7 +667,7 @@ def new_workspace(width: int) -> tuple:
         block,
         block,
         block,
-        6 * LANES,
+        ACT_WIDTH * LANES,
         _W_ROWS * LANES,
         3 * LANES,
         2 * block,
@@ -663,8 +683,8 @@ def new_workspace(width: int) -> tuple:
     deriv = _carve(buffer, start + 2 * block, width, LANES)
     total_deriv = _carve(buffer, start + 3 * block, width, LANES)
     offset = start + 4 * block
-    mass = _carve(buffer, offset, 6, LANES)
-    offset += 6 * LANES
+    mass = _carve(buffer, offset, ACT_WIDTH, LANES)
+    offset += ACT_WIDTH * LANES
     work = _carve(buffer, offset, _W_ROWS, LANES)
     offset += _W_ROWS * LANES
     lane_scalars = _carve(buffer, offset, 3, LANES)
@@ -694,7 +714,7 @@ def gather_block(
     for j in range(z.shape[1]):
         for lane in range(nb):
             y[j, lane] = z[rows[lane], j]
-    for j in range(6):
+    for j in range(ACT_WIDTH):
         for lane in range(nb):
             mass0[j, lane] = act[rows[lane], j]
 
@@ -715,14 +735,14 @@ def scatter_block(
 @cached_njit(nogil=True)
 def advance_mass_row(act: np.ndarray, i: int, dt: float) -> None:
     """The mass state of row ``i`` after ``dt`` under its held acceleration (exact)."""
-    xi_ddot = act[i, 4]
-    eta_ddot = act[i, 5]
-    xi_dot0 = act[i, 2]
-    eta_dot0 = act[i, 3]
-    act[i, 0] = act[i, 0] + xi_dot0 * dt + 0.5 * xi_ddot * dt * dt
-    act[i, 1] = act[i, 1] + eta_dot0 * dt + 0.5 * eta_ddot * dt * dt
-    act[i, 2] = xi_dot0 + xi_ddot * dt
-    act[i, 3] = eta_dot0 + eta_ddot * dt
+    xi_ddot = act[i, XI_DDOT]
+    eta_ddot = act[i, ETA_DDOT]
+    xi_dot0 = act[i, XI_DOT]
+    eta_dot0 = act[i, ETA_DOT]
+    act[i, XI] = act[i, XI] + xi_dot0 * dt + 0.5 * xi_ddot * dt * dt
+    act[i, ETA] = act[i, ETA] + eta_dot0 * dt + 0.5 * eta_ddot * dt * dt
+    act[i, XI_DOT] = xi_dot0 + xi_ddot * dt
+    act[i, ETA_DOT] = eta_dot0 + eta_ddot * dt
 
 
 #: Blocks of at most this many rows take the row path (:func:`advance_row`): the block
@@ -743,17 +763,17 @@ def _field_at(
     out: np.ndarray,
 ) -> None:
     """:func:`field_row` at time ``tau`` into the call (the mass's exact quadratic motion)."""
-    xi_ddot = act[i, 4]
-    eta_ddot = act[i, 5]
+    xi_ddot = act[i, XI_DDOT]
+    eta_ddot = act[i, ETA_DDOT]
     field_row(
         pv,
         row,
         n,
         with_pose,
-        act[i, 0] + act[i, 2] * tau + 0.5 * xi_ddot * tau * tau,
-        act[i, 1] + act[i, 3] * tau + 0.5 * eta_ddot * tau * tau,
-        act[i, 2] + xi_ddot * tau,
-        act[i, 3] + eta_ddot * tau,
+        act[i, XI] + act[i, XI_DOT] * tau + 0.5 * xi_ddot * tau * tau,
+        act[i, ETA] + act[i, ETA_DOT] * tau + 0.5 * eta_ddot * tau * tau,
+        act[i, XI_DOT] + xi_ddot * tau,
+        act[i, ETA_DOT] + eta_ddot * tau,
         xi_ddot,
         eta_ddot,
         out,
@@ -818,15 +838,15 @@ def advance_row(
             current = energy_row(pv, row, n, act[i], deriv)
             if current > 0.0:
                 scale = math.sqrt(target / current)
-                row[0] *= scale
-                row[1] *= scale
+                row[U] *= scale
+                row[OMEGA] *= scale
         if check_fold:
             near = 0.0
             for k in range(n):
-                near = max(near, abs(row[2 + k]))
+                near = max(near, abs(row[ALPHA + k]))
             if near >= near_fold:
                 for k in range(n):
-                    if _wrapped_folded(row[2 + k], fold_angle):
+                    if _wrapped_folded(row[ALPHA + k], fold_angle):
                         folded[i] = True
 
 
@@ -897,19 +917,19 @@ def advance_block(
             for lane in range(nb):
                 if current[lane] > 0.0:
                     scale = math.sqrt(target[lane] / current[lane])
-                    y[0, lane] *= scale
-                    y[1, lane] *= scale
+                    y[U, lane] *= scale
+                    y[OMEGA, lane] *= scale
         if check_fold:
             near = work[_W_SIN]
             for lane in range(nb):
                 near[lane] = 0.0
             for k in range(n):
                 for lane in range(nb):
-                    near[lane] = max(near[lane], abs(y[2 + k, lane]))
+                    near[lane] = max(near[lane], abs(y[ALPHA + k, lane]))
             for lane in range(nb):
                 if near[lane] >= near_fold:  # rare: the exact wrapped test
                     for k in range(n):
-                        if _wrapped_folded(y[2 + k, lane], fold_angle):
+                        if _wrapped_folded(y[ALPHA + k, lane], fold_angle):
                             folded[rows[lane]] = True
 
 

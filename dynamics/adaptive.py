@@ -32,6 +32,7 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from dynamics import _kernel
+from dynamics.columns import ACT_WIDTH, ETA, ETA_DDOT, ETA_DOT, XI, XI_DDOT, XI_DOT
 from dynamics.jit import cached_njit
 from dynamics.model import FloatArray, check_state, rail_actuator
 from dynamics.params import ConvoyParams
@@ -89,8 +90,8 @@ def _eval(
     out: np.ndarray,
 ) -> None:
     """The field at time ``tau`` into the call: the mass's quadratic motion is evaluated exactly."""
-    xi = act[0] + act[2] * tau + 0.5 * act[4] * tau * tau
-    eta = act[1] + act[3] * tau + 0.5 * act[5] * tau * tau
+    xi = act[XI] + act[XI_DOT] * tau + 0.5 * act[XI_DDOT] * tau * tau
+    eta = act[ETA] + act[ETA_DOT] * tau + 0.5 * act[ETA_DDOT] * tau * tau
     _kernel.field_row(
         pv,
         y,
@@ -98,10 +99,10 @@ def _eval(
         with_pose,
         xi,
         eta,
-        act[2] + act[4] * tau,
-        act[3] + act[5] * tau,
-        act[4],
-        act[5],
+        act[XI_DOT] + act[XI_DDOT] * tau,
+        act[ETA_DOT] + act[ETA_DDOT] * tau,
+        act[XI_DDOT],
+        act[ETA_DDOT],
         out,
     )
 
@@ -241,10 +242,10 @@ def _dopri_row(
                 status = 2
                 break
     # The mass has moved for the time actually covered.
-    act[0] += act[2] * t + 0.5 * act[4] * t * t
-    act[1] += act[3] * t + 0.5 * act[5] * t * t
-    act[2] += act[4] * t
-    act[3] += act[5] * t
+    act[XI] += act[XI_DOT] * t + 0.5 * act[XI_DDOT] * t * t
+    act[ETA] += act[ETA_DOT] * t + 0.5 * act[ETA_DDOT] * t * t
+    act[XI_DOT] += act[XI_DDOT] * t
+    act[ETA_DOT] += act[ETA_DDOT] * t
     return h, accepted, rejected, evaluations, status
 
 
@@ -371,7 +372,7 @@ class AdaptiveStepper:
         if (
             rows < 0
             or z.shape[1] != self.width
-            or act.shape != (rows, 6)
+            or act.shape != (rows, ACT_WIDTH)
             or step_size.shape != (rows,)
         ):
             raise ValueError(
@@ -535,8 +536,8 @@ def integrate_adaptive(
             samples[interval] = rows
     return AdaptiveResult(
         z=rows.reshape(array.shape),
-        s=act[:, 1].reshape(batch_shape),
-        s_dot=act[:, 3].reshape(batch_shape),
+        s=act[:, ETA].reshape(batch_shape),
+        s_dot=act[:, ETA_DOT].reshape(batch_shape),
         accepted=totals[0].reshape(batch_shape),
         rejected=totals[1].reshape(batch_shape),
         evaluations=totals[2].reshape(batch_shape),

@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 from scipy.optimize import brentq
 
+from dynamics.columns import ALPHA, OMEGA, U
 from dynamics.model import FloatArray, energy, inertia_R, rhs
 from dynamics.params import ConvoyParams
 
@@ -133,10 +134,10 @@ def to_torus(params: ConvoyParams, z: ArrayLike) -> tuple[FloatArray, FloatArray
     """
     free = free_params(params)
     states = _reduced_state(free, z)
-    alpha = states[..., 2:].copy()
+    alpha = states[..., ALPHA:].copy()
     R = inertia_R(free, alpha)
     E = energy(free, states)
-    beta = np.arctan2(math.sqrt(free.I0) * states[..., 1], np.sqrt(R) * states[..., 0])
+    beta = np.arctan2(math.sqrt(free.I0) * states[..., OMEGA], np.sqrt(R) * states[..., U])
     return np.asarray(E, dtype=np.float64), beta, alpha
 
 
@@ -189,9 +190,9 @@ def from_torus(params: ConvoyParams, E: ArrayLike, beta: ArrayLike, alpha: Array
     E_b, beta_b, alpha_b = _torus_arrays(free, E, beta, alpha)
     R = inertia_R(free, alpha_b)
     z = np.empty((*beta_b.shape, free.n_trailers + 2))
-    z[..., 0] = np.sqrt(2.0 * E_b / R) * np.cos(beta_b)
-    z[..., 1] = np.sqrt(2.0 * E_b / free.I0) * np.sin(beta_b)
-    z[..., 2:] = alpha_b
+    z[..., U] = np.sqrt(2.0 * E_b / R) * np.cos(beta_b)
+    z[..., OMEGA] = np.sqrt(2.0 * E_b / free.I0) * np.sin(beta_b)
+    z[..., ALPHA:] = alpha_b
     return z
 
 
@@ -219,7 +220,7 @@ def torus_field(
     E_b, beta_b, alpha_b = _torus_arrays(free, E, beta, alpha)
     R = inertia_R(free, alpha_b)
     beta_dot = -(free.M * free.a / free.I0) * np.sqrt(2.0 * E_b / R) * np.sin(beta_b)
-    alpha_dot = rhs(free, from_torus(free, E_b, beta_b, alpha_b))[..., 2:]
+    alpha_dot = rhs(free, from_torus(free, E_b, beta_b, alpha_b))[..., ALPHA:]
     return beta_dot, alpha_dot
 
 
@@ -320,8 +321,8 @@ def equilibria(params: ConvoyParams, E: float) -> list[Equilibrium]:
     found = []
     for sigma in itertools.product((1, -1), repeat=free.n_trailers + 1):
         z = np.zeros(free.n_trailers + 2)
-        z[2:] = np.where(np.asarray(sigma[1:]) > 0, 0.0, np.pi)
-        z[0] = sigma[0] * math.sqrt(2.0 * energy_level / float(inertia_R(free, z[2:])))
+        z[ALPHA:] = np.where(np.asarray(sigma[1:]) > 0, 0.0, np.pi)
+        z[U] = sigma[0] * math.sqrt(2.0 * energy_level / float(inertia_R(free, z[ALPHA:])))
         lam = equilibrium_eigenvalues(free, energy_level, sigma)
         kind = _classify(lam)
         z.setflags(write=False)
@@ -531,7 +532,7 @@ def one_trailer_hitch_rate(
         raise ValueError("alpha contains non-finite values (NaN or inf)")
     R = inertia_R(free, angles[..., None])
     z = np.stack([np.sqrt(budget / R), np.full(angles.shape, turn), angles], axis=-1)
-    return rhs(free, z)[..., 2]
+    return rhs(free, z)[..., ALPHA]
 
 
 def _periodic_midpoint(

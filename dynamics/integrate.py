@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from dynamics import _kernel
+from dynamics.columns import ACT_WIDTH, ETA, ETA_DOT, XI_DOT
 from dynamics.jit import cached_njit
 from dynamics.model import (
     FloatArray,
@@ -102,7 +103,7 @@ def _check_stepper_arguments(
         and substeps.dtype is _INT64
         and z.ndim == 2
         and z.shape[1] == width
-        and act.shape == (z.shape[0], 6)
+        and act.shape == (z.shape[0], ACT_WIDTH)
         and substeps.shape == (z.shape[0],)
         and type(dt) is float
         and 0.0 < dt < math.inf
@@ -133,7 +134,7 @@ def _explain_bad_stepper_arguments(
             )
     assert isinstance(z, np.ndarray) and isinstance(act, np.ndarray)
     rows = z.shape[0] if z.ndim == 2 else -1
-    if z.ndim != 2 or z.shape[1] != width or act.shape != (rows, 6):
+    if z.ndim != 2 or z.shape[1] != width or act.shape != (rows, ACT_WIDTH):
         raise ValueError(
             f"expected z of shape (B, {width}) and act of shape (B, 6); "
             f"got {z.shape} and {act.shape}"
@@ -224,7 +225,7 @@ class Stepper:
         ):
             _check_stepper_arguments(self.width, z, act, dt, substeps, target_energy)
             self._checked_arrays = (z, act, substeps, target_energy)
-        if self.preserve_energy and self.params.mu > 0.0 and np.any(act[:, 2:] != 0.0):
+        if self.preserve_energy and self.params.mu > 0.0 and np.any(act[:, XI_DOT:] != 0.0):
             raise ValueError(
                 "preserve_energy needs a conserved energy: mu = 0 or a mass at rest on the cart "
                 "(xi_dot = eta_dot = xi_ddot = eta_ddot = 0)"
@@ -266,7 +267,7 @@ def _step(
         rows, act, _check_dt(dt), counts
     )
     finite_result("the RK4 step", rows, params.n_trailers)
-    return rows.reshape(array.shape), act.reshape(*batch_shape, 6)
+    return rows.reshape(array.shape), act.reshape(*batch_shape, ACT_WIDTH)
 
 
 def step_rk4(
@@ -314,7 +315,7 @@ def step_rk4(
         lambda shape: rail_actuator(params, shape, s, s_dot, s_ddot),
         preserve_energy,
     )
-    return z_new, act[..., 1], act[..., 3]
+    return z_new, act[..., ETA], act[..., ETA_DOT]
 
 
 def step_rk4_planar(
@@ -423,11 +424,11 @@ def simulate(
     states = np.empty((int(n_steps) + 1, *array.shape))
     rail = np.empty((int(n_steps) + 1, rows.shape[0], 2))
     states[0] = array
-    rail[0] = act[:, [1, 3]]
+    rail[0] = act[:, [ETA, ETA_DOT]]
     for k in range(1, int(n_steps) + 1):
         stepper.step(rows, act, step, counts, target)
         states[k] = rows.reshape(array.shape)
-        rail[k] = act[:, [1, 3]]
+        rail[k] = act[:, [ETA, ETA_DOT]]
     finite_result("simulate", states, params.n_trailers)
     times = step * np.arange(int(n_steps) + 1, dtype=np.float64)
     return Trajectory(

@@ -18,6 +18,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from dynamics import _kernel
+from dynamics.columns import ACT_WIDTH, ALPHA, U, x_column
 from dynamics.params import ConvoyParams
 
 FloatArray = NDArray[np.float64]
@@ -25,11 +26,11 @@ FloatArray = NDArray[np.float64]
 
 def state_component_name(column: int, n: int) -> str:
     """Name of column ``column`` of a (possibly extended) state with ``n`` trailers."""
-    if column < 2:
+    if column < ALPHA:
         return ("u", "omega")[column]
-    if column < n + 2:
-        return f"alpha_{column - 1}"
-    return ("x", "y", "theta")[column - n - 2]
+    if column < x_column(n):
+        return f"alpha_{column - ALPHA + 1}"
+    return ("x", "y", "theta")[column - x_column(n)]
 
 
 def finite_result(what: str, out: FloatArray, n: int, names: str = "state") -> FloatArray:
@@ -106,7 +107,7 @@ def planar_actuator(
     xi_ddot: ArrayLike = 0.0,
     eta_ddot: ArrayLike = 0.0,
 ) -> FloatArray:
-    """The mass at body coordinates (xi, eta), broadcast to ``(prod(batch_shape), 6)``.
+    """The mass at body coordinates (xi, eta), broadcast to ``(prod(batch_shape), ACT_WIDTH)``.
 
     Raises:
         ValueError: If a value does not broadcast to the batch or is not finite.
@@ -128,8 +129,8 @@ def _actuator_columns(
     batch_shape: tuple[int, ...], columns: list[tuple[str, ArrayLike]]
 ) -> FloatArray:
     size = int(np.prod(batch_shape, dtype=np.int64))
-    act = np.empty((size, 6), dtype=np.float64)
-    for column, (name, value) in enumerate(columns):
+    act = np.empty((size, ACT_WIDTH), dtype=np.float64)
+    for column, (name, value) in enumerate(columns):  # in the order XI .. ETA_DDOT
         array = real_array(name, value)
         try:
             act[:, column] = np.broadcast_to(array, batch_shape).reshape(size)
@@ -266,12 +267,12 @@ def inertia_R(params: ConvoyParams, alpha: ArrayLike) -> FloatArray:
         )
     # Energy at u = 1, omega = 0 with the mass switched off is R / 2.
     z = np.zeros((*alpha_array.shape[:-1], n + 2))
-    z[..., 0] = 1.0
-    z[..., 2:] = alpha_array
+    z[..., U] = 1.0
+    z[..., ALPHA:] = alpha_array
     if not np.all(np.isfinite(z)):
         raise ValueError("alpha contains non-finite values (NaN or inf)")
     rows = z.reshape(-1, n + 2)
     pv = _kernel.pack_params(params)
     pv[_kernel.P_MU] = 0.0
-    out = _kernel.energy_batch(pv, rows, np.zeros((rows.shape[0], 6)), n)
+    out = _kernel.energy_batch(pv, rows, np.zeros((rows.shape[0], ACT_WIDTH)), n)
     return 2.0 * out.reshape(z.shape[:-1])

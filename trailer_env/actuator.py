@@ -41,6 +41,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from dynamics.columns import ETA, ETA_DDOT, ETA_DOT, XI, XI_DDOT, XI_DOT
 from dynamics.jit import cached_njit
 
 #: The action modes, the keys of :data:`ACTUATORS` in its order.
@@ -108,9 +109,9 @@ def servo_target_for_accel(
 
 
 # ----------------------------------------------------------------- the modes
-# Each mode: a jitted row function writing act[i, 4:6] from the finite action[i] (same
-# arguments for every mode), the inverse a controller needs (an acceleration -> the
-# action on the lateral axis), and an entry in ACTUATORS.
+# Each mode: a jitted row function writing act[i, XI_DDOT] and act[i, ETA_DDOT] from the
+# finite action[i] (same arguments for every mode), the inverse a controller needs (an
+# acceleration -> the action on the lateral axis), and an entry in ACTUATORS.
 
 
 @cached_njit(nogil=True, inline="always")
@@ -126,7 +127,9 @@ def servo_row(
 ) -> None:
     """ "servo": the action is the target position ``a s_max`` on the rail."""
     command = min(max(action[i, 0], -1.0), 1.0)
-    act[i, 5] = servo_accel(command * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt, frequency)
+    act[i, ETA_DDOT] = servo_accel(
+        command * s_max, act[i, ETA], act[i, ETA_DOT], s_max, accel_max, dt, frequency
+    )
 
 
 @cached_njit(nogil=True, inline="always")
@@ -142,7 +145,9 @@ def accel_row(
 ) -> None:
     """ "accel": the action is the rail acceleration ``a A``, through the guard."""
     command = min(max(action[i, 0], -1.0), 1.0)
-    act[i, 5] = guard_accel(command * accel_max, act[i, 1], act[i, 3], s_max, accel_max, dt)
+    act[i, ETA_DDOT] = guard_accel(
+        command * accel_max, act[i, ETA], act[i, ETA_DOT], s_max, accel_max, dt
+    )
 
 
 @cached_njit(nogil=True, inline="always")
@@ -158,11 +163,13 @@ def planar_row(
 ) -> None:
     """ "planar": axis 0 is a target ``xi - b = a_0 s_max``, axis 1 ``eta = a_1 s_max``."""
     command = min(max(action[i, 0], -1.0), 1.0)
-    act[i, 4] = servo_accel(
-        command * s_max, act[i, 0] - b, act[i, 2], s_max, accel_max, dt, frequency
+    act[i, XI_DDOT] = servo_accel(
+        command * s_max, act[i, XI] - b, act[i, XI_DOT], s_max, accel_max, dt, frequency
     )
     lateral = min(max(action[i, 1], -1.0), 1.0)
-    act[i, 5] = servo_accel(lateral * s_max, act[i, 1], act[i, 3], s_max, accel_max, dt, frequency)
+    act[i, ETA_DDOT] = servo_accel(
+        lateral * s_max, act[i, ETA], act[i, ETA_DOT], s_max, accel_max, dt, frequency
+    )
 
 
 def _servo_command(
@@ -193,7 +200,8 @@ class Actuator:
 
     Attributes:
         row: The jitted ``row(action, i, act, b, s_max, accel_max, dt, frequency)`` that
-            writes the guarded accelerations of the finite ``action[i]`` into ``act[i, 4:6]``.
+            writes the guarded accelerations of the finite ``action[i]`` into
+            ``act[i, XI_DDOT]`` and ``act[i, ETA_DDOT]`` (:mod:`dynamics.columns`).
         command_for_accel: ``(accel, s, s_dot, s_max, accel_max, frequency) -> action``
             on the lateral axis for a wanted lateral acceleration (controllers).
         action_dim: The action's length.
@@ -265,5 +273,5 @@ def first_non_finite_row(action: np.ndarray, rows: np.ndarray) -> int:
 @cached_njit(nogil=True)
 def clamp_row_to_rail(act: np.ndarray, i: int, b: float, s_max: float) -> None:
     """Remove rounding-level excursions past the rail's ends (the guard keeps them below 1e-15)."""
-    act[i, 1] = min(max(act[i, 1], -s_max), s_max)
-    act[i, 0] = min(max(act[i, 0], b - s_max), b + s_max)
+    act[i, ETA] = min(max(act[i, ETA], -s_max), s_max)
+    act[i, XI] = min(max(act[i, XI], b - s_max), b + s_max)

@@ -86,13 +86,16 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from dynamics.columns import ACT_WIDTH, ETA, ETA_DOT, XI
 from dynamics.jit import pack_params
+from trailer_env.core_infos import INFO_FIELDS, InfoMixin  # noqa: F401  (INFO_FIELDS: re-exported)
+from trailer_env.core_physics import PhysicsMixin
+from trailer_env.core_retry import RetryMixin
 from trailer_env.fidelity import AccuracyWarning, RK4Integrator
 from trailer_env.generators import GeneratorBank, typed_generators
 from trailer_env.json_types import JSONObject
 from trailer_env.kernels import (
     DIVERGENCE_BOUND,
-    OBS_BOUND,
     OVER_BUDGET,
     PARALLEL_MIN_ROWS,
     StepConfig,
@@ -108,26 +111,10 @@ from trailer_env.randomize import (
     MAX_FACTOR,
     NAMES,
     PARAMETERS,
-    SPEED,
-    apply_factors,
-    apply_params,
-    draw_factors,
 )
 from trailer_env.settings import EnvSettings
-from trailer_env.shaping import shaped_rewards
-from trailer_env.substeps import GROWTH_LIMIT, MAX_STEP_WORK
-
-#: The ``info`` keys of every environment and the core arrays behind them (None:
-#: ``actuator_work``, derived as ``energy - energy0``); the single env, the vector env
-#: and the SB3 adapter all build their infos from this table.
-INFO_FIELDS: tuple[tuple[str, str | None], ...] = (
-    ("cost", "cost"),
-    ("singular_margin", "singular_margin"),
-    ("energy", "energy"),
-    ("actuator_work", None),
-    ("is_success", "success"),
-    ("jackknifed", "jackknifed"),
-)
+from trailer_env.shaping import penalty_vector, shaped_rewards
+from trailer_env.substeps import MAX_STEP_WORK
 
 
 class NonFiniteStateError(ValueError):
@@ -139,11 +126,8 @@ class NonFiniteStateError(ValueError):
 #: distances lose their meaning (1e308 gave a -inf observation).
 MAX_TASK_MAGNITUDE = 1e6
 
-#: Substeps used to retry a step whose result was not finite (never seen with "auto").
-_RETRY_FACTOR = 8
 
-
-class ConvoyCore:
+class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
     """B environments of one scene (subclass it to make a scene).
 
     Args:
@@ -268,8 +252,8 @@ class ConvoyCore:
                     f"other parameters)"
                 )
         self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
-        self.act = np.zeros((size, 6))
-        self.act[:, 0] = self.params.b
+        self.act = np.zeros((size, ACT_WIDTH))
+        self.act[:, XI] = self.params.b
         fidelity = settings.fidelity
         self.substeps = np.full(size, fidelity.fixed_substeps, dtype=np.int64)
         self.obs = np.zeros((size, self.obs_dim), dtype=np.float32)
@@ -536,16 +520,10 @@ class ConvoyCore:
         self.z[i] = 0.0
         self.z[i, : state.shape[0]] = state
         self.act[i] = 0.0
-        self.act[i, 0] = self._b
-        self.act[i, 1] = s
-        self.act[i, 3] = s_dot
-        self.refresh(rows)
-        self.energy0[i] = self.energy[i]
-        self.reward[i] = 0.0
-        self.terminated[i] = False
-        self.failed[i] = False
-        self._after_reset(rows)
-        self.success[i] = self._starting_success(rows)[0]
+        self.act[i, XI] = self._b
+        self.act[i, ETA] = s
+        self.act[i, ETA_DOT] = s_dot
+        self._begin_episodes(rows)
 
     def render_markers(self, i: int) -> tuple[Any, ...]:
         """Row ``i``'s targets to draw (:class:`~trailer_env.rendering.Marker`); default none."""
@@ -610,7 +588,7 @@ class ConvoyCore:
         ``rngs`` is aligned with ``rows`` and the Python hook draws), then derive the rest."""
         self.z[rows] = 0.0
         self.act[rows] = 0.0
-        self.act[rows, 0] = self.params.b
+        self.act[rows, XI] = self.params.b
         if picks is None:
             for i, rng in zip(rows.tolist(), rngs, strict=True):
                 self._reset_row(i, rng)
@@ -618,6 +596,13 @@ class ConvoyCore:
             self.start_kernel(rngs, picks, rows, self.z, self._start_tuple())
         if self._draws is not None:
             self._draw_physics(rows, rngs, picks)
+        self._begin_episodes(rows)
+
+    def _begin_episodes(self, rows: np.ndarray) -> None:
+        """Start episodes in ``rows`` from the states already in ``z`` and ``act``: derive
+        the observation, the energy (the actuator work's zero), clear the step's outcome,
+        and run the scene's :meth:`_after_reset` and :meth:`_starting_success` (every
+        start, drawn or hand-built, goes through here)."""
         self.refresh(rows)
         self.energy0[rows] = self.energy[rows]
         self.reward[rows] = 0.0
@@ -625,98 +610,6 @@ class ConvoyCore:
         self.failed[rows] = False
         self._after_reset(rows)
         self.success[rows] = self._starting_success(rows)
-
-    def _draw_physics(
-        self, rows: np.ndarray, rngs: Sequence[np.random.Generator], picks: np.ndarray | None
-    ) -> None:
-        """The episode's factors of ``rows`` from their generators, after the start's draws
-        (:mod:`trailer_env.randomize`), and what they set: parameters, auto settings, speed
-        and the parameter features."""
-        assert self._draws is not None
-        if picks is None:  # the Python hook drew from rngs, aligned with rows
-            rngs, picks = typed_generators(rngs), np.arange(len(rows), dtype=np.int64)
-        indices = np.asarray(rows, dtype=np.int64)
-        columns, low, high = self._draws
-        draw_factors(rngs, picks, indices, columns, low, high, self.factors)
-        if self._unscaled.size:
-            self.factors[np.ix_(indices, self._unscaled)] = 1.0
-        apply_factors(
-            indices,
-            self.factors,
-            self._packed,
-            self.param_values,
-            self._nominal_auto,
-            self._row_auto,
-            float(self._b),
-            float(self._s_max),
-            self.planar,
-            self.z,
-        )
-        if self.n_param_features:
-            offset = self.param_offset
-            self.obs[indices, offset:] = np.log(self.factors[indices, : len(PARAMETERS)])
-
-    def set_row_params(self, rows: np.ndarray, values: np.ndarray) -> None:
-        """Give ``rows`` (int array) the parameters ``values`` (len(rows), 7), columns
-        :data:`trailer_env.randomize.PARAMETERS`, and the auto rule's settings they imply
-        (as a reset's draws would); their factors become ``values / nominal`` (1 where the
-        nominal value is 0). For a core
-        whose settings randomise a physical parameter (the kernels take per-row
-        parameters only then); the speed and the state are left as they are.
-
-        Raises:
-            ValueError: If the core's parameters are shared, or on bad shapes or values.
-        """
-        if self.step_config.pv is not self.param_values:
-            raise ValueError(
-                "set_row_params needs per-row parameters: build the core with settings "
-                "that randomise a physical parameter (randomize=...)"
-            )
-        indices = np.asarray(rows, dtype=np.int64)
-        values = np.asarray(values, dtype=np.float64)
-        if values.shape != (indices.size, len(PARAMETERS)):
-            raise ValueError(
-                f"values must be ({indices.size}, {len(PARAMETERS)}), got {values.shape}"
-            )
-        if not (np.all(np.isfinite(values)) and np.all(values > 0.0)):
-            raise ValueError("parameter values must be finite and > 0")
-        if indices.size and (indices.min() < 0 or indices.max() >= self.batch_size):
-            raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
-        apply_params(
-            indices,
-            values,
-            self.param_values,
-            self._nominal_auto,
-            self._row_auto,
-            float(self._b),
-            float(self._s_max),
-            self.planar,
-        )
-        nominal = np.broadcast_to(self._packed, values.shape)
-        self.factors[indices, : len(PARAMETERS)] = np.divide(
-            values, nominal, out=np.ones_like(values), where=nominal != 0.0
-        )
-
-    def params_info(self, i: int) -> dict[str, float]:
-        """Row ``i``'s episode parameters (``info["params"]``): the seven randomisable
-        :class:`dynamics.ConvoyParams` fields' values and ``speed_factor``, the factor on
-        the start's speed (1 where not randomised)."""
-        values = self.param_values[i].tolist()
-        return {
-            **dict(zip(PARAMETERS, values, strict=True)),
-            "speed_factor": float(self.factors[i, SPEED]),
-        }
-
-    def params_batch(self) -> dict[str, np.ndarray]:
-        """:meth:`params_info` of every row as arrays (B,) (copies)."""
-        infos = {name: self.param_values[:, k].copy() for k, name in enumerate(PARAMETERS)}
-        infos["speed_factor"] = self.factors[:, SPEED].copy()
-        return infos
-
-    def params_of(self, i: int) -> Any:
-        """Row ``i``'s episode parameters as a :class:`dynamics.ConvoyParams`."""
-        values = dict(zip(PARAMETERS, self.param_values[i].tolist(), strict=True))
-        return self.params.replace(**values)
 
     def refresh(self, rows: np.ndarray | None = None) -> None:
         """Recompute everything derived from the state of ``rows`` (int array; default all).
@@ -819,80 +712,6 @@ class ConvoyCore:
             self.terminated[:] = self._is_terminated()
             self.reward[:] = self._reward()
 
-    def _refuse_over_budget(self, rows: np.ndarray) -> None:
-        """Raise FloatingPointError for a step the auto rule priced over the work budget."""
-        counts = self.substeps[rows]
-        worst = int(rows[int(np.argmax(counts))])
-        work = float(counts.sum()) * (self.n + 1)
-        raise FloatingPointError(
-            f"the step would take {work:.3g} body-substeps (substeps x {self.n + 1} bodies, "
-            f"summed over {rows.size} environment(s)), over the budget of {MAX_STEP_WORK:.3g} "
-            f"per control step (trailer_env.substeps.MAX_STEP_WORK): environment {worst} at "
-            f"u = {self.z[worst, 0]:.4g} m/s, omega = {self.z[worst, 1]:.4g} rad/s needs "
-            f"{int(self.substeps[worst])} substeps; nothing was stepped (lower the speed, dt, "
-            "the number of environments or of trailers)"
-        )
-
-    def _retry_finer(self, action: np.ndarray, stepped: np.ndarray) -> None:
-        """Redo the rows whose step produced non-finite (or beyond the divergence bound)
-        values with more substeps, or give up.
-
-        Only the failed rows are redone; their substep counts are restored afterwards with
-        fixed substeps (the auto rule recomputes them at every step anyway).
-        """
-        rows = stepped[self._nonfinite[stepped]].astype(np.int64)
-        self.z[rows] = self._z_backup[rows]
-        self.act[rows] = self._act_backup[rows]
-        used = self.substeps[rows].copy()
-        if float(used.sum()) * _RETRY_FACTOR * (self.n + 1) > MAX_STEP_WORK:
-            self._give_up(stepped, rows, "non-finite or beyond the divergence bound", retried=False)
-        self.substeps[rows] = used * _RETRY_FACTOR
-        try:
-            _, nonfinite, _ = self._physics_step(action, rows, False, outcome=False)
-        finally:
-            if not self.settings.fidelity.auto:
-                self.substeps[rows] = used
-        if nonfinite:
-            failed = rows[self._nonfinite[rows]]
-            values = self.z[failed]
-            grew = (
-                self.accuracy_exceeded[failed].all()
-                and np.isnan(values[:, 0]).all()
-                and np.all(np.isfinite(values[:, 1:]))
-            )
-            if np.all(np.isfinite(values)):
-                bound = self.step_config.obs_settings[OBS_BOUND]
-                cause = f"a value beyond {bound:g} in magnitude"
-            elif grew:  # marked by the step kernel (trailer_env.substeps.GROWTH_LIMIT)
-                cause = (
-                    f"a speed max(|u|, l |omega|) more than {GROWTH_LIMIT:g} times its start's "
-                    "while fidelity.max_substeps = "
-                    f"{self.settings.fidelity.max_substeps} capped the substeps"
-                )
-            else:
-                cause = "a non-finite value (NaN or inf)"
-            shown = f"u = {values[0, 0]:.4g} m/s" if np.isfinite(values[0, 0]) else ""
-            self._give_up(stepped, failed, cause + (f", {shown}" if shown else ""), retried=True)
-
-    def _give_up(
-        self, stepped: np.ndarray, failed: np.ndarray, cause: str, *, retried: bool
-    ) -> None:
-        """Put every stepped row back at its state before the step and raise FloatingPointError."""
-        self.z[stepped] = self._z_backup[stepped]
-        self.act[stepped] = self._act_backup[stepped]
-        self.refresh(stepped)
-        self._after_restore(stepped)
-        how = (
-            f"even with {_RETRY_FACTOR} times the substeps"
-            if retried
-            else f"(a retry with {_RETRY_FACTOR} times the substeps would exceed the work budget)"
-        )
-        raise FloatingPointError(
-            f"the integration diverged in environment(s) {failed.tolist()[:8]}: the step's "
-            f"result holds {cause}, {how}; the state was left at the previous step "
-            "(use fidelity='auto', more substeps or a smaller dt)"
-        )
-
     def _step_records(self) -> tuple[np.ndarray, ...]:
         """The per-row arrays a completed step writes that the state alone does not give
         back (:meth:`save_step`): the step's results and flags. Scenes with per-step
@@ -920,7 +739,7 @@ class ConvoyCore:
         """Put ``rows`` back where they were before the last step, completed or refused,
         with everything a step changes (state, observation, results, flags, bookkeeping)
         as it was, but for what only that step reads (the mass's commanded accelerations,
-        ``act[:, 4:]``, and ``substeps``); :meth:`save_step` must have been called before
+        ``act[:, XI_DDOT:]``, and ``substeps``); :meth:`save_step` must have been called before
         that step.
 
         Raises:
@@ -939,46 +758,6 @@ class ConvoyCore:
         self._after_restore(indices)
         for array, saved in records:  # a fold seen between control instants is not in z
             array[indices] = saved[indices]
-
-    def _info_sources(self) -> list[tuple[str, np.ndarray | None]]:
-        # The arrays are updated in place for the core's life, so they are looked up once.
-        if self._info_arrays is None:
-            self._info_arrays = [
-                (key, None if name is None else getattr(self, name)) for key, name in INFO_FIELDS
-            ]
-        return self._info_arrays
-
-    def info_row(self, i: int) -> JSONObject:
-        """The ``info`` dict of environment ``i`` (Python scalars), keys :data:`INFO_FIELDS`,
-        and ``params`` (:meth:`params_info`, a dict) when the physics are randomised."""
-        info: JSONObject = {
-            key: self.energy.item(i) - self.energy0.item(i) if array is None else array.item(i)
-            for key, array in self._info_sources()
-        }
-        if self.randomization is not None:
-            info["params"] = self.params_info(i)
-        return info
-
-    def info_batch(self) -> JSONObject:
-        """The same quantities as arrays (B,) (copies); ``params`` is a dict of arrays
-        (:meth:`params_batch`)."""
-        infos: JSONObject = {}
-        for key, array in self._info_sources():
-            infos[key] = np.subtract(self.energy, self.energy0) if array is None else array.copy()
-        if self.randomization is not None:
-            infos["params"] = self.params_batch()
-        return infos
-
-    def info_rows(self) -> list[JSONObject]:
-        """One ``info`` dict per environment (Python scalars), as SB3's ``VecEnv`` wants."""
-        batch = self.info_batch()
-        batch.pop("params", None)
-        columns = [values.tolist() for values in batch.values()]
-        rows = [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
-        if self.randomization is not None:
-            for i, row in enumerate(rows):
-                row["params"] = self.params_info(i)
-        return rows
 
 
 class ShapedCore(ConvoyCore):
@@ -1000,16 +779,13 @@ class ShapedCore(ConvoyCore):
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         super().__init__(settings, batch_size, track_pose=track_pose)
         self.previous_potential = np.zeros(self.batch_size)
-        #: The constants of :func:`trailer_env.shaping.shaped_reward`, in its order.
-        self.shaping_penalties = np.array(
-            [
-                self.time_penalty,
-                self.band_penalty,
-                self.success_bonus,
-                self.fold_penalty,
-                self.failure_penalty,
-            ],
-            dtype=np.float64,
+        #: The constants of :func:`trailer_env.shaping.shaped_reward`, at its named indices.
+        self.shaping_penalties = penalty_vector(
+            self.time_penalty,
+            self.band_penalty,
+            self.success_bonus,
+            self.fold_penalty,
+            self.failure_penalty,
         )
 
     def _potential(self) -> np.ndarray:

@@ -14,6 +14,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from dynamics.columns import ETA, theta_column, x_column
 from dynamics.params import one_of, real_number
 from trailer_env.core import ConvoyCore
 from trailer_env.mixed import build_core, observation_view
@@ -107,6 +108,35 @@ class RenderModes(list[str]):
         return super().__contains__(item)
 
 
+def real_array(name: str, value: object, expected: str) -> np.ndarray:
+    """``value`` as a numpy array of real numbers (any shape, not copied where possible).
+
+    The one type check of what users hand in as numbers (actions, states, task values):
+    ``expected`` describes what ``name`` must be, e.g. ``"3 real numbers (x, y, heading)"``,
+    and every message names both. The caller checks the shape and the values.
+
+    Raises:
+        TypeError: For None, bools, strings or bytes, or an array of anything but
+            integers and floats (bools, strings, complex numbers, objects).
+        ValueError: For a ragged sequence, or a numpy masked array with masked entries.
+    """
+    if isinstance(value, np.ndarray):
+        array = refuse_masked(value, name)
+    elif value is None or isinstance(value, (str, bytes, bool, np.bool_)):
+        raise TypeError(f"{name} must be {expected}, got {type(value).__name__} {value!r}")
+    else:
+        try:
+            array = np.asarray(value)
+        except (ValueError, TypeError) as error:
+            raise ValueError(f"{name} must be {expected}, got {value!r}") from error
+    if array.dtype.kind not in "iuf":
+        raise TypeError(
+            f"{name} must be {expected} (not bools, strings or complex numbers), "
+            f"got dtype {array.dtype}"
+        )
+    return array
+
+
 def as_action_array(
     action: object,
     shape: tuple[int, ...],
@@ -124,24 +154,7 @@ def as_action_array(
         ValueError: For a wrong shape (a ragged sequence included), or a numpy masked
             array with masked entries.
     """
-    if isinstance(action, np.ndarray):
-        array = refuse_masked(action, name)
-    elif action is None or isinstance(action, (str, bytes, bool, np.bool_)):
-        raise TypeError(
-            f"{name} must be an array of real numbers of shape {shape}, "
-            f"got {type(action).__name__} {action!r}"
-        )
-    else:
-        try:
-            array = np.asarray(action)
-        except (ValueError, TypeError) as error:
-            raise ValueError(
-                f"{name} must be an array of real numbers of shape {shape}, got {action!r}"
-            ) from error
-    if array.dtype.kind not in "iuf":
-        raise TypeError(
-            f"{name} must be an array of real numbers of shape {shape}, got dtype {array.dtype}"
-        )
+    array = real_array(name, action, f"an array of real numbers of shape {shape}")
     if array.shape != shape and not (alternative and array.shape == alternative):
         shown = f"{shape} or {alternative}" if alternative else f"{shape}"
         raise ValueError(f"{name} must have shape {shown}, got {array.shape}")
@@ -165,18 +178,7 @@ def checked_state(z: object, s: object, s_dot: object) -> tuple[np.ndarray, floa
             (:data:`MAX_STATE_MAGNITUDE`), ``z`` is ragged, or a masked array with masked
             entries.
     """
-    if isinstance(z, np.ndarray):
-        given = refuse_masked(z, "z")
-    elif z is None or isinstance(z, (str, bytes, bool, np.bool_)):
-        raise TypeError(f"z must be a sequence of real numbers, got {type(z).__name__}")
-    else:
-        try:
-            given = np.asarray(z)
-        except (ValueError, TypeError) as error:
-            raise ValueError(f"z must be a flat sequence of real numbers, got {z!r}") from error
-    if given.dtype.kind not in "iuf":
-        raise TypeError(f"z must hold real numbers, got dtype {given.dtype}")
-    state = given.astype(np.float64)
+    state = real_array("z", z, "a flat sequence of real numbers").astype(np.float64)
     if not np.all(np.isfinite(state)):
         raise ValueError("z must be finite")
     if state.size and np.max(np.abs(state)) > MAX_STATE_MAGNITUDE:
@@ -378,7 +380,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         core = self.core
         return {
             "z": core.z[0].copy(),
-            "s": float(core.act[0, 1]),
+            "s": float(core.act[0, ETA]),
             "s_dot": float(core.act[0, 3]),
             **core.task_values(0),
         }
@@ -393,7 +395,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
     def _record_path(self) -> None:
         if self.core.with_pose:
             n = self.core.n
-            self._path.record(self.core.z[:1, n + 2 : n + 4])
+            self._path.record(self.core.z[:1, x_column(n) : theta_column(n)])
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]
         """Draw the convoy (top-down) in a window ("human") or return an RGB array ("rgb_array")."""

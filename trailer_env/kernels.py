@@ -37,6 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import prange
 
+from dynamics.columns import ALPHA, OMEGA, U
 from dynamics.jit import (
     LANES,
     ROW_PATH_MAX_ROWS,
@@ -176,7 +177,7 @@ def observe_block(
             # Stays 0 unless a value is NaN, infinite or beyond the bound.
             finite[lane] += value * 0.0 + (abs(value) > limit)
     for k in range(n):
-        sincos_block(y[2 + k], trig[k], trig[n + k], nb)
+        sincos_block(y[ALPHA + k], trig[k], trig[n + k], nb)
     energies = lane_scalars[0]
     energy_block_from_trig(lane_pv, y, n, mass0, trig, deriv, work, energies, nb)
     b = settings[OBS_B]
@@ -193,8 +194,8 @@ def observe_block(
             bad += 1
             continue
         nonfinite[i] = False
-        obs[i, 0] = y[0, lane]
-        obs[i, 1] = y[1, lane]
+        obs[i, 0] = y[U, lane]
+        obs[i, 1] = y[OMEGA, lane]
         row_margin = 1.0
         for k in range(n):
             sin_k = trig[k, lane]
@@ -407,8 +408,8 @@ def _step_chunk(
                 i = block[lane]
                 settings = row_params(config.auto_settings, i)
                 if state.exceeded[i] and grew_absurdly_row(z, state.z_backup, settings, i):
-                    z[i, 0] = np.nan
-                    y[0, lane] = np.nan
+                    z[i, U] = np.nan
+                    y[U, lane] = np.nan
         bad += observe_block(
             z,
             block,

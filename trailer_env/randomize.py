@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from dynamics.columns import U
 from dynamics.jit import cached_njit
 from trailer_env.substeps import AUTO_LENGTH, AUTO_SPEED_RATE, cart_rate
 
@@ -226,13 +227,13 @@ def apply_factors(
     """The episode's parameters of ``rows``: ``pv[i] = nominal * factors[i, :P]``, the auto
     rule's settings recomputed from them (exactly as
     :func:`trailer_env.substeps.auto_settings` computes them for fixed parameters), and the
-    start's speed ``z[i, 0]`` scaled by the speed factor."""
+    start's speed ``z[i, U]`` scaled by the speed factor."""
     count = nominal.size
     for i in rows:
         for k in range(count):
             pv[i, k] = nominal[k] * factors[i, k]
         _row_auto(i, pv, nominal_auto, auto, b, s_max, planar)
-        z[i, 0] = z[i, 0] * factors[i, count]
+        z[i, U] = z[i, U] * factors[i, count]
 
 
 @cached_njit()

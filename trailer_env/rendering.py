@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from dynamics import ConvoyParams, body_poses
+from dynamics.columns import ALPHA, ETA, XI, theta_column, x_column, y_column
 from trailer_env.randomize import PARAMETERS
 
 if TYPE_CHECKING:
@@ -135,12 +136,14 @@ def core_frame(core: ConvoyCore, i: int, path: np.ndarray) -> RenderFrame:
     n = core.n
     z = core.z[i]
     length = float(core.param_values[i, PARAMETERS.index("l")])  # the episode's (randomize)
-    xs, ys, thetas = body_poses(length, z[n + 2], z[n + 3], z[n + 4], z[2 : 2 + n])
+    xs, ys, thetas = body_poses(
+        length, z[x_column(n)], z[y_column(n)], z[theta_column(n)], z[ALPHA : ALPHA + n]
+    )
     return RenderFrame(
         xs=xs,
         ys=ys,
         thetas=thetas,
-        mass_xy_body=(float(core.act[i, 0]), float(core.act[i, 1])),
+        mass_xy_body=(float(core.act[i, XI]), float(core.act[i, ETA])),
         singular_margin=float(core.singular_margin[i]),
         path=path,
         markers=core.render_markers(i),

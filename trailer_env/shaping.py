@@ -25,6 +25,28 @@ if TYPE_CHECKING:
     from trailer_env.settings import EnvSettings
 
 
+#: Indices of the penalty vector of :func:`shaped_reward`
+#: (:attr:`trailer_env.core.ShapedCore.shaping_penalties`, built by :func:`penalty_vector`).
+TIME_PENALTY, BAND_PENALTY, SUCCESS_BONUS, FOLD_PENALTY, FAILURE_PENALTY = range(5)
+
+
+def penalty_vector(
+    time_penalty: float,
+    band_penalty: float,
+    success_bonus: float,
+    fold_penalty: float,
+    failure_penalty: float,
+) -> np.ndarray:
+    """The penalty vector of :func:`shaped_reward`: each constant at its named index."""
+    penalties = np.empty(5, dtype=np.float64)
+    penalties[TIME_PENALTY] = time_penalty
+    penalties[BAND_PENALTY] = band_penalty
+    penalties[SUCCESS_BONUS] = success_bonus
+    penalties[FOLD_PENALTY] = fold_penalty
+    penalties[FAILURE_PENALTY] = failure_penalty
+    return penalties
+
+
 @cached_njit(nogil=True)
 def shaped_reward(
     potential: float,
@@ -38,17 +60,17 @@ def shaped_reward(
     """``potential - previous - time_penalty - band_penalty * cost + success_bonus * success
     - fold_penalty * jackknifed - failure_penalty * failed``.
 
-    ``penalties`` is :attr:`trailer_env.core.ShapedCore.shaping_penalties`: (time_penalty,
-    band_penalty, success_bonus, fold_penalty, failure_penalty).
+    ``penalties`` is :attr:`trailer_env.core.ShapedCore.shaping_penalties` (from
+    :func:`penalty_vector`), indexed by :data:`TIME_PENALTY` .. :data:`FAILURE_PENALTY`.
     """
     return (
         potential
         - previous
-        - penalties[0]
-        - penalties[1] * cost
-        + penalties[2] * success
-        - penalties[3] * jackknifed
-        - penalties[4] * failed
+        - penalties[TIME_PENALTY]
+        - penalties[BAND_PENALTY] * cost
+        + penalties[SUCCESS_BONUS] * success
+        - penalties[FOLD_PENALTY] * jackknifed
+        - penalties[FAILURE_PENALTY] * failed
     )
 
 

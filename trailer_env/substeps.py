@@ -64,6 +64,7 @@ import math
 import numpy as np
 
 from dynamics import ConvoyParams
+from dynamics.columns import ETA_DDOT, ETA_DOT, OMEGA, XI_DDOT, XI_DOT, U
 from dynamics.jit import cached_njit
 
 #: RK4's usable stability limit of ``dt r`` by number of trailers (linear interpolation
@@ -230,10 +231,10 @@ def auto_substeps_row(z: np.ndarray, act: np.ndarray, settings: np.ndarray, i: i
     """
     speed_rate = settings[AUTO_SPEED_RATE]
     dt = settings[AUTO_DT]
-    x_plain = dt * max(abs(z[i, 0]) * speed_rate, abs(z[i, 1]))
-    mass = settings[AUTO_MASS_SPEED] * (abs(act[i, 2]) + abs(act[i, 3])) + settings[
+    x_plain = dt * max(abs(z[i, U]) * speed_rate, abs(z[i, OMEGA]))
+    mass = settings[AUTO_MASS_SPEED] * (abs(act[i, XI_DOT]) + abs(act[i, ETA_DOT])) + settings[
         AUTO_MASS_ACCEL
-    ] * math.sqrt(abs(act[i, 4]) + abs(act[i, 5]))
+    ] * math.sqrt(abs(act[i, XI_DDOT]) + abs(act[i, ETA_DDOT]))
     x = max(settings[AUTO_CHAIN] * x_plain, dt * mass)
     inv_x_safe = settings[AUTO_INV_X_SAFE]
     if x <= settings[AUTO_X_ONE] and x_plain * inv_x_safe <= 1.0:
@@ -252,8 +253,8 @@ def grew_absurdly_row(z: np.ndarray, start: np.ndarray, settings: np.ndarray, i:
     """Whether row ``i``'s speed scale grew more than :data:`GROWTH_LIMIT`-fold from
     ``start[i]`` (the step's start) to ``z[i]``, over the mass's speed scale."""
     length = settings[AUTO_LENGTH]
-    before = max(abs(start[i, 0]), length * abs(start[i, 1])) + settings[AUTO_SPEED_FLOOR]
-    after = max(abs(z[i, 0]), length * abs(z[i, 1]))
+    before = max(abs(start[i, U]), length * abs(start[i, OMEGA])) + settings[AUTO_SPEED_FLOOR]
+    after = max(abs(z[i, U]), length * abs(z[i, OMEGA]))
     return after > GROWTH_LIMIT * before
 
 

@@ -52,6 +52,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from dynamics.columns import theta_column, x_column
 from dynamics.params import bounded_integer
 from trailer_env.core import ConvoyCore
 from trailer_env.env import (
@@ -59,7 +60,7 @@ from trailer_env.env import (
     as_action_array,
     checked_seed,
     checked_state,
-    refuse_masked,
+    real_array,
 )
 from trailer_env.episodes import count_step
 from trailer_env.generators import GeneratorBank
@@ -340,24 +341,8 @@ class ConvoyVectorEnv(VectorEnv):
         states = None
         if "state" in options:
             width = self.core.n + 2
-            given = refuse_masked(options["state"], "state")
-            if given is None or isinstance(given, (str, bytes, bool, np.bool_)):
-                raise TypeError(
-                    f"state must be an array of real numbers of shape ({self.num_envs}, "
-                    f"{width}), got {type(given).__name__} {given!r}"
-                )
-            try:
-                array = np.asarray(given)
-            except (ValueError, TypeError) as error:
-                raise ValueError(
-                    f"state must be an array of real numbers of shape ({self.num_envs}, {width})"
-                ) from error
-            if array.dtype.kind not in "iuf":
-                raise TypeError(
-                    f"state must hold real numbers (not bools, strings or complex numbers), "
-                    f"got dtype {array.dtype}"
-                )
-            states = array.astype(np.float64)
+            expected = f"an array of real numbers of shape ({self.num_envs}, {width})"
+            states = real_array("state", options["state"], expected).astype(np.float64)
             if states.shape != (self.num_envs, width):
                 raise ValueError(
                     f"state must have shape ({self.num_envs}, {width}), got {states.shape}"
@@ -459,7 +444,7 @@ class ConvoyVectorEnv(VectorEnv):
     def _record_paths(self, rows: np.ndarray) -> None:
         assert self._paths is not None
         n = self.core.n
-        self._paths.record(self.core.z[rows, n + 2 : n + 4], rows)
+        self._paths.record(self.core.z[rows, x_column(n) : theta_column(n)], rows)
 
     def render(self) -> tuple[np.ndarray, ...] | None:  # type: ignore[override]
         """One ``(height, width, 3)`` uint8 frame per environment ("rgb_array") for the first

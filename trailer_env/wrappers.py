@@ -24,6 +24,7 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from dynamics.columns import theta_column
 from trailer_env.env import ConvoyEnv
 from trailer_env.json_types import JSONObject
 from trailer_env.scenes.dock import SUCCESS_HEADING, SUCCESS_RADIUS, DockCore
@@ -161,7 +162,7 @@ def goal_observation(core: DockCore | HeadingCore, obs: np.ndarray) -> dict[str,
         achieved = np.column_stack([x, y, _angle_features(heading)])
         desired = np.column_stack([core.target[:, :2], _angle_features(core.target[:, 2])])
     else:
-        achieved = _angle_features(core.z[:, core.n + 4])
+        achieved = _angle_features(core.z[:, theta_column(core.n)])
         desired = _angle_features(core.target_heading)
     return {
         "observation": np.asarray(obs[:, : core.n_common], dtype=np.float32),

@@ -59,6 +59,7 @@ from agents.envs import ENV_IDS, env_settings
 from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
 from agents.oracles.screen import DEFAULT_HORIZON, screen_start
 from agents.progress import Progress, plural
+from dynamics.columns import ETA, ETA_DOT
 from trailer_env.core import ConvoyCore
 from trailer_env.json_types import JSONObject
 from trailer_env.randomize import Randomization
@@ -174,8 +175,8 @@ def certify(
         screen_start(
             start_settings(settings, core, i),
             core.z[i],
-            s=core.act[i, 1],
-            s_dot=core.act[i, 3],
+            s=core.act[i, ETA],
+            s_dot=core.act[i, ETA_DOT],
             horizon=screen_horizon,
         ).stroke_fraction
         for i in range(count)

@@ -54,6 +54,7 @@ import numpy as np
 
 from agents.oracles.ilqr_costs import CostWeights, SceneCost, scene_horizon
 from agents.oracles.ilqr_kernels import backward_pass, feedback
+from dynamics.columns import ACT_WIDTH, ALPHA, ETA, ETA_DOT, OMEGA, U
 from trailer_env.controllers import LQRController
 from trailer_env.core import ConvoyCore
 from trailer_env.fidelity import Fidelity
@@ -248,7 +249,7 @@ class ILQRPlanner:
 
     # ----------------------------------------------------------------- model
     def _state(self, core: ConvoyCore) -> np.ndarray:
-        return np.column_stack([core.z, core.act[:, 1], core.act[:, 3]])
+        return np.column_stack([core.z, core.act[:, ETA], core.act[:, ETA_DOT]])
 
     def _command(self, fraction: np.ndarray, core: ConvoyCore) -> np.ndarray:
         """The action (clipped to [-1, 1]) asking the actuator for ``fraction`` of the bound.
@@ -262,8 +263,8 @@ class ILQRPlanner:
         accel_max = settings.rail_accel_max
         command = settings.actuator.command_for_accel(
             fraction * accel_max,
-            core.act[:, 1],
-            core.act[:, 3],
+            core.act[:, ETA],
+            core.act[:, ETA_DOT],
             settings.params.s_max,
             accel_max,
             settings.servo_frequency,
@@ -274,8 +275,10 @@ class ILQRPlanner:
         """The LQR's acceleration for every row of ``core``, as a clipped fraction."""
         n = self.n
         z = core.z
-        state = np.column_stack([z[:, 1], z[:, 2 : 2 + n], core.act[:, 1], core.act[:, 3]])
-        accel = -np.sum(self.lqr.gains(z[:, 0]) * state, axis=1)
+        state = np.column_stack(
+            [z[:, OMEGA], z[:, ALPHA : ALPHA + n], core.act[:, ETA], core.act[:, ETA_DOT]]
+        )
+        accel = -np.sum(self.lqr.gains(z[:, U]) * state, axis=1)
         return np.clip(accel / self.settings.rail_accel_max, -1.0, 1.0)
 
     def _set_task(self, core: ConvoyCore, task: dict[str, np.ndarray], repeat: int) -> None:
@@ -308,7 +311,7 @@ class ILQRPlanner:
         out = Trajectory(
             x=x,
             z=np.empty((rows, horizon + 1, self.width)),
-            act=np.empty((rows, horizon + 1, 6)),
+            act=np.empty((rows, horizon + 1, ACT_WIDTH)),
             v=np.zeros((rows, horizon)),
             actions=np.zeros((rows, horizon)),
             substeps=np.ones((rows, horizon), dtype=np.int64),
@@ -358,7 +361,7 @@ class ILQRPlanner:
                 core.act[parked] = 0.0
                 core.act[parked, 0] = core.params.b
                 core.refresh(parked)
-        out.speed_index[:] = cost_model.speed_index(core.z[:, 0])
+        out.speed_index[:] = cost_model.speed_index(core.z[:, U])
         out.terminal[:] = cost_model.terminal_residuals(core.z, core.act, out.speed_index)
         out.cost += np.where(alive, np.sum(out.terminal**2, axis=1), 0.0)
         return out
@@ -373,10 +376,10 @@ class ILQRPlanner:
         delta = self._delta
         z = nominal.z[:, :, None, :] + delta[None, None, :, :width]
         act = np.repeat(nominal.act[:, :, None, :], p, axis=2)
-        act[..., 1] += delta[:, width]
-        act[..., 3] += delta[:, width + 1]
+        act[..., ETA] += delta[:, width]
+        act[..., ETA_DOT] += delta[:, width + 1]
         jac.z[:] = z.reshape(-1, width)
-        jac.act[:] = act.reshape(-1, 6)
+        jac.act[:] = act.reshape(-1, ACT_WIDTH)
         jac.refresh()
         plus, minus, divisor = self._plus, self._minus, self._divisor
         residual = self.cost.stage_residuals(jac).reshape(count, horizon + 1, p, -1)
@@ -422,7 +425,7 @@ class ILQRPlanner:
         count, width = self.batch_size, self.width
         z = np.asarray(z, dtype=np.float64)
         act = np.asarray(act, dtype=np.float64)
-        if z.ndim != 2 or z.shape[0] != count or act.shape != (count, 6):
+        if z.ndim != 2 or z.shape[0] != count or act.shape != (count, ACT_WIDTH):
             raise ValueError(f"expected {count} states, got z {z.shape} and act {act.shape}")
         if z.shape[1] < width and (self.model.with_pose or z.shape[1] < self.n + 2):
             raise ValueError(

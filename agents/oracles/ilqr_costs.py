@@ -36,6 +36,7 @@ import numpy as np
 
 from agents.oracles.planner import riccati_matrices
 from agents.oracles.scenes import scene_oracle
+from dynamics.columns import ALPHA, ETA, ETA_DOT, OMEGA, U
 from trailer_env.controllers import DESIGN_SPEEDS
 from trailer_env.core import ConvoyCore
 from trailer_env.settings import EnvSettings
@@ -165,11 +166,11 @@ class SceneCost:
         root = self._root
         w = self.weights
         z = core.z
-        alpha = z[:, 2 : 2 + n]
-        stroke = core.act[:, 1:2] / core.params.s_max
+        alpha = z[:, ALPHA : ALPHA + n]
+        stroke = core.act[:, ETA : ETA + 1] / core.params.s_max
         columns = [
             root["angle"] * alpha,
-            root["omega"] * z[:, 1:2],
+            root["omega"] * z[:, OMEGA : OMEGA + 1],
             root["rail"] * stroke,
             root["barrier"] * np.maximum(np.abs(alpha) - w.barrier_angle, 0.0),
             root["stroke"] * np.maximum(np.abs(stroke) - w.stroke_fraction, 0.0),
@@ -178,7 +179,7 @@ class SceneCost:
             gap = self.settings.singular_band + w.band_pad - core.singular_margin
             columns.append(root["band"] * np.maximum(gap, 0.0)[:, None])
         if self.min_speed > 0.0:
-            excess = z[:, 0] + self.min_speed + w.speed_pad
+            excess = z[:, U] + self.min_speed + w.speed_pad
             columns.append(root["speed"] * np.maximum(excess, 0.0)[:, None])
         for name, feature in self.task_residuals:  # task arrays are current after refresh/step
             columns.append(root[name] * feature(core)[:, None])
@@ -188,7 +189,9 @@ class SceneCost:
         """Residuals (B, n+3) ``L^T x`` of the terminal cost of core rows ``z``, ``act``
         (as :attr:`ConvoyCore.z`, :attr:`ConvoyCore.act`), with the matrices ``index``."""
         n = self.n
-        state = np.column_stack([z[:, 1], z[:, 2 : 2 + n], act[:, 1], act[:, 3]])
+        state = np.column_stack(
+            [z[:, OMEGA], z[:, ALPHA : ALPHA + n], act[:, ETA], act[:, ETA_DOT]]
+        )
         return np.einsum("bji,bj->bi", self.factors[index], state)
 
 

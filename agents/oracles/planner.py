@@ -43,6 +43,7 @@ import numpy as np
 import scipy.linalg
 
 from agents.progress import Progress
+from dynamics.columns import ETA, ETA_DOT, XI
 from trailer_env.controllers import (
     ACCEL_WEIGHT,
     ANGLE_WEIGHT,
@@ -255,7 +256,7 @@ class SamplingPlanner:
                 core.z[rows] = 0.0
                 core.z[rows, 0] = -1.0
                 core.act[rows] = 0.0
-                core.act[rows, 0] = settings.params.b
+                core.act[rows, XI] = settings.params.b
                 core.refresh(rows)
         # Terminal cost x^T P x with the Riccati matrix at the nearest design speed.
         nearest = np.abs(core.z[:used, :1] - self.speeds[None, :]).argmin(axis=1)
@@ -473,9 +474,9 @@ def state_from_observation(obs: np.ndarray, settings: EnvSettings) -> tuple[np.n
         [batch[:, :2], np.arctan2(batch[:, 2 : 2 + n], batch[:, 2 + n : 2 + 2 * n])]
     )
     act = np.zeros((batch.shape[0], 6))
-    act[:, 0] = settings.params.b
-    act[:, 1] = batch[:, 2 + 2 * n] * settings.params.s_max
-    act[:, 3] = batch[:, 3 + 2 * n] * settings.rail_speed_max
+    act[:, XI] = settings.params.b
+    act[:, ETA] = batch[:, 2 + 2 * n] * settings.params.s_max
+    act[:, ETA_DOT] = batch[:, 3 + 2 * n] * settings.rail_speed_max
     return z, act
 
 
@@ -647,7 +648,7 @@ def plan_episodes(
             core.z[rows, 1:] = 0.0
             core.z[rows, 0] = -1.0
             core.act[rows] = 0.0
-            core.act[rows, 0] = core.params.b
+            core.act[rows, XI] = core.params.b
             core.refresh(rows)
     return PlannedEpisodes(actions, lengths, failed, band_steps)
 

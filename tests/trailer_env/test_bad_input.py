@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from tests.trailer_env.helpers import make
+from trailer_env.env import real_array
 from trailer_env.vector import as_action_batch
 
 
@@ -158,7 +159,8 @@ class TestSetState:
             env.set_state([1e200, 1e200, 0.0, 0.0])
         with pytest.raises(ValueError, match="z is too large"):
             env.reset(options={"state": [1.0, 2e30, 0.0, 0.0]})
-        with pytest.raises(TypeError, match="z must hold real numbers"):
+        flat = r"z must be a flat sequence of real numbers .*got dtype <U1"
+        with pytest.raises(TypeError, match=flat):
             env.reset(options={"state": ["1", "0", "0", "0"]})
         with pytest.raises(TypeError, match="s must be a real number"):
             env.reset(options={"state": [1.0, 0.0, 0.0, 0.0], "s": "0.1"})
@@ -187,3 +189,25 @@ def test_pickling_after_render_works_and_renders_again() -> None:
     np.testing.assert_array_equal(clone.step(action)[0], env.step(action)[0])
     env.close()
     clone.close()
+
+
+def test_real_array_is_the_one_number_check() -> None:
+    expected = "3 real numbers (x, y, heading)"
+    np.testing.assert_array_equal(real_array("target", [1, 2, 3], expected), [1, 2, 3])
+    must = r"^target must be 3 real numbers \(x, y, heading\), got "
+    with pytest.raises(TypeError, match=must + "NoneType None$"):
+        real_array("target", None, expected)
+    with pytest.raises(ValueError, match=must + r"\[\[1\], \[1, 2\]\]$"):
+        real_array("target", [[1], [1, 2]], expected)
+    with pytest.raises(TypeError, match=r"complex numbers\), got dtype complex128$"):
+        real_array("target", [1j, 0, 0], expected)
+    masked = r"^target is a masked array with masked entries \(1 of 3\)"
+    with pytest.raises(ValueError, match=masked):
+        real_array("target", np.ma.masked_array([1.0, 2.0, 3.0], mask=[0, 1, 0]), expected)
+    # Dock's task check reads it: a refused target changes nothing.
+    env = make("Dock").unwrapped
+    env.reset(seed=0)
+    before = env.core.target.copy()
+    with pytest.raises(TypeError, match="target must be 3 real numbers"):
+        env.reset(options={"target": ["1", "2", "3"]})
+    np.testing.assert_array_equal(env.core.target, before)

@@ -7,6 +7,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from dynamics.columns import ALPHA, OMEGA, U
 from dynamics.jit import cached_njit
 from trailer_env.core import ShapedCore
 from trailer_env.env import ConvoyEnv
@@ -35,7 +36,7 @@ def coast_potential(z: np.ndarray, hitch_trig: np.ndarray, i: int, n: int) -> fl
     ``hitch_trig`` holds cos(alpha_k) in columns n .. 2n-1
     (:attr:`trailer_env.core.ConvoyCore.hitch_trig`).
     """
-    omega_term = OMEGA_WEIGHT * min(abs(z[i, 1]), 1.0)
+    omega_term = OMEGA_WEIGHT * min(abs(z[i, OMEGA]), 1.0)
     if n == 0:
         return -omega_term
     total = 0.0
@@ -54,10 +55,10 @@ def coast_potentials(z: np.ndarray, hitch_trig: np.ndarray, n: int, out: np.ndar
 @cached_njit()
 def coast_is_straight(z: np.ndarray, i: int, n: int) -> bool:
     """Every |alpha_k| below SUCCESS_ANGLE and |omega| below SUCCESS_OMEGA."""
-    if not abs(z[i, 1]) < SUCCESS_OMEGA:
+    if not abs(z[i, OMEGA]) < SUCCESS_OMEGA:
         return False
     for k in range(n):  # noqa: SIM110 - a loop numba compiles, not a generator
-        if not abs(z[i, 2 + k]) < SUCCESS_ANGLE:
+        if not abs(z[i, ALPHA + k]) < SUCCESS_ANGLE:
             return False
     return True
 
@@ -128,6 +129,9 @@ def coast_step(
     scene: tuple,
 ) -> tuple:
     """The control step of Coast-v0 in one call: physics, then :func:`coast_outcome`."""
+    # Written per scene on purpose (also trailer_env.scenes.reverse.reverse_step): a
+    # factory closing over the outcome, or the outcome passed as an argument, is
+    # recompiled in every process (numba's disk cache misses on both).
     result = step_serial(action, rows, prepare, config, state, outputs)
     # Not when refused (a bad action row, or kernels.OVER_BUDGET) nor when a row diverged:
     # the core redoes those rows, then runs the outcome once (ConvoyCore.step).
@@ -156,10 +160,10 @@ def coast_starts(
             forward = rng.random() < 0.5
             angle_range = FORWARD_ANGLE_RANGE if forward else REVERSE_ANGLE_RANGE
             omega_range = FORWARD_OMEGA_RANGE if forward else REVERSE_OMEGA_RANGE
-            z[i, 0] = (1.0 if forward else -1.0) * rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
-            z[i, 1] = rng.uniform(-omega_range, omega_range)
+            z[i, U] = (1.0 if forward else -1.0) * rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
+            z[i, OMEGA] = rng.uniform(-omega_range, omega_range)
             for k in range(n):
-                z[i, 2 + k] = rng.uniform(-angle_range, angle_range)
+                z[i, ALPHA + k] = rng.uniform(-angle_range, angle_range)
             if not coast_is_straight(z, i, n):
                 break
 

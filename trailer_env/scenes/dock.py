@@ -8,9 +8,10 @@ from typing import Any
 import numpy as np
 
 from dynamics import body_poses
+from dynamics.columns import ALPHA, OMEGA, U, theta_column, x_column, y_column
 from dynamics.jit import cached_njit
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
-from trailer_env.env import ConvoyEnv
+from trailer_env.env import ConvoyEnv, real_array
 from trailer_env.json_types import JSONObject
 from trailer_env.rendering import Marker
 from trailer_env.scenes.heading import wrap_angle
@@ -50,14 +51,14 @@ def dock_starts(
     for j in range(rows.size):
         rng = generators[picks[j]]
         i = rows[j]
-        z[i, 0] = -rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
-        z[i, 1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
+        z[i, U] = -rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
+        z[i, OMEGA] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
         for k in range(n):
-            z[i, 2 + k] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE)
+            z[i, ALPHA + k] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE)
         total_angle = 0.0
         rods = 0.0
         for k in range(n):
-            total_angle += z[i, 2 + k]
+            total_angle += z[i, ALPHA + k]
             rods += np.cos(0.0 - total_angle)
         last_x = 0.0 - l * rods
         target[i, 0] = last_x - rng.uniform(DISTANCE_RANGE[0], DISTANCE_RANGE[1])
@@ -101,7 +102,11 @@ class DockCore(ShapedCore):
         n = self.n
         z = self.z[rows]
         xs, ys, thetas = body_poses(
-            self.params.l, z[:, n + 2], z[:, n + 3], z[:, n + 4], z[:, 2 : 2 + n]
+            self.params.l,
+            z[:, x_column(n)],
+            z[:, y_column(n)],
+            z[:, theta_column(n)],
+            z[:, ALPHA : ALPHA + n],
         )
         return xs[:, -1], ys[:, -1], thetas[:, -1]
 
@@ -117,22 +122,7 @@ class DockCore(ShapedCore):
         if "target" not in task:
             return {}
         given = task["target"]
-        shown = f"{type(given).__name__} {given!r}"
-        if given is None or isinstance(given, (str, bytes, bool, np.bool_)):
-            raise TypeError(f"target must be 3 real numbers (x, y, heading), got {shown}")
-        if isinstance(given, np.ma.MaskedArray) and np.ma.getmaskarray(given).any():
-            raise ValueError(f"target must not have masked entries, got {given!r}")
-        try:
-            array = np.asarray(given)
-        except (ValueError, TypeError) as error:
-            raise ValueError(
-                f"target must be 3 real numbers (x, y, heading), got {shown}"
-            ) from error
-        if array.dtype.kind not in "iuf":
-            raise TypeError(
-                f"target must be 3 real numbers (x, y, heading), got dtype {array.dtype}: {shown}"
-            )
-        target = array.astype(np.float64)
+        target = real_array("target", given, "3 real numbers (x, y, heading)").astype(np.float64)
         if target.shape != (3,) or not np.all(np.isfinite(target)):
             raise ValueError(f"target must be 3 finite numbers (x, y, heading), got {given!r}")
         if np.max(np.abs(target)) > MAX_TASK_MAGNITUDE:

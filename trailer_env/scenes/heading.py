@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from dynamics.columns import ALPHA, OMEGA, U, x_column, y_column
 from dynamics.jit import cached_njit
 from dynamics.params import bounded_real
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
@@ -45,10 +46,10 @@ def heading_starts(
     for j in range(rows.size):
         rng = generators[picks[j]]
         i = rows[j]
-        z[i, 0] = rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
-        z[i, 1] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
+        z[i, U] = rng.uniform(SPEED_RANGE[0], SPEED_RANGE[1])
+        z[i, OMEGA] = rng.uniform(-OMEGA_NOISE, OMEGA_NOISE)
         for k in range(n):
-            z[i, 2 + k] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE)
+            z[i, ALPHA + k] = rng.uniform(-ANGLE_NOISE, ANGLE_NOISE)
         sign = 1.0 if rng.random() < 0.5 else -1.0
         target_heading[i] = sign * rng.uniform(TARGET_RANGE[0], TARGET_RANGE[1])
 
@@ -102,7 +103,11 @@ class HeadingCore(ShapedCore):
 
     def render_markers(self, i: int) -> tuple[Marker, ...]:
         n = self.n  # the arrow starts at the cart's axle midpoint
-        x, y, heading = float(self.z[i, n + 2]), float(self.z[i, n + 3]), self.target_heading[i]
+        x, y, heading = (
+            float(self.z[i, x_column(n)]),
+            float(self.z[i, y_column(n)]),
+            self.target_heading[i],
+        )
         return (Marker("arrow", x, y, float(heading)),)
 
     def _task_feature_bounds(self) -> tuple[np.ndarray, np.ndarray]:

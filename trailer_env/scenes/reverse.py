@@ -7,6 +7,7 @@ from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
+from dynamics.columns import OMEGA, U
 from dynamics.jit import cached_njit
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
@@ -22,7 +23,7 @@ TURN_WEIGHT = 0.1
 @cached_njit()
 def reverse_failed(z: np.ndarray, jackknifed: np.ndarray, i: int, min_reverse_speed: float) -> bool:
     """Row ``i`` failed: jackknifed, or stopped reversing (``u >= -min_reverse_speed``)."""
-    return jackknifed[i] or z[i, 0] >= -min_reverse_speed
+    return jackknifed[i] or z[i, U] >= -min_reverse_speed
 
 
 @cached_njit()
@@ -66,7 +67,7 @@ def reverse_rows(
             for k in range(n):
                 total += hitch_trig[i, n + k]
             straightness = total / n
-        omega = z[i, 1]
+        omega = z[i, OMEGA]
         value = straightness - TURN_WEIGHT * min(omega * omega, 1.0) - band_penalty * cost[i]
         if failed:
             value -= fold_penalty
@@ -125,6 +126,9 @@ def reverse_step(
     scene: tuple,
 ) -> tuple:
     """The control step of Reverse-v0 in one call: physics, then :func:`reverse_outcome`."""
+    # Written per scene on purpose (also trailer_env.scenes.coast.coast_step): a
+    # factory closing over the outcome, or the outcome passed as an argument, is
+    # recompiled in every process (numba's disk cache misses on both).
     result = step_serial(action, rows, prepare, config, state, outputs)
     # Not when refused (a bad action row, or kernels.OVER_BUDGET) nor when a row diverged:
     # the core redoes those rows, then runs the outcome once (ConvoyCore.step).
@@ -158,7 +162,7 @@ def reverse_starts(
             z[i, k] = rng.random()
         for k in range(low.size):
             z[i, k] = z[i, k] * span[k] + low[k]
-        z[i, 0] = -z[i, 0]  # reversing
+        z[i, U] = -z[i, U]  # reversing
 
 
 class ReverseCore(ConvoyCore):

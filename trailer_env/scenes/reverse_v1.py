@@ -7,6 +7,7 @@ from typing import ClassVar, NamedTuple
 
 import numpy as np
 
+from dynamics.columns import OMEGA, U
 from dynamics.jit import cached_njit
 from trailer_env.scenes.reverse import ReverseCore, ReverseEnv
 
@@ -49,11 +50,11 @@ def reverse_v1_starts(
     for j in range(rows.size):
         rng = generators[picks[j]]
         i = rows[j]
-        z[i, 0] = -rng.uniform(speed_low, speed_high)
+        z[i, U] = -rng.uniform(speed_low, speed_high)
         direction = rng.standard_normal(n + 1)
         norm = np.sqrt(np.dot(direction, direction))
         for k in range(direction.size):
-            z[i, 1 + k] = radius * direction[k] / norm
+            z[i, OMEGA + k] = radius * direction[k] / norm
 
 
 class ReverseV1Core(ReverseCore):

@@ -1,0 +1,132 @@
+"""The core's per-row physics: the episode's drawn factors (``randomize``) and what they set.
+
+:class:`PhysicsMixin` is part of :class:`trailer_env.core.ConvoyCore`; the draws and the
+arithmetic are :mod:`trailer_env.randomize`'s compiled functions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from dynamics.params import ConvoyParams
+from trailer_env.generators import typed_generators
+from trailer_env.kernels import StepConfig
+from trailer_env.randomize import PARAMETERS, SPEED, apply_factors, apply_params, draw_factors
+
+
+class PhysicsMixin:
+    """Each row's physical parameters: drawn, set and reported (for ConvoyCore)."""
+
+    if TYPE_CHECKING:  # what the methods read of the core (set by ConvoyCore.__init__)
+        params: ConvoyParams
+        batch_size: int
+        planar: bool
+        z: np.ndarray
+        obs: np.ndarray
+        step_config: StepConfig
+        factors: np.ndarray
+        param_values: np.ndarray
+        param_offset: int
+        n_param_features: int
+        _draws: tuple[np.ndarray, np.ndarray, np.ndarray] | None
+        _unscaled: np.ndarray
+        _packed: np.ndarray
+        _nominal_auto: np.ndarray
+        _row_auto: np.ndarray
+        _b: float
+        _s_max: float
+
+    def _draw_physics(
+        self, rows: np.ndarray, rngs: Sequence[np.random.Generator], picks: np.ndarray | None
+    ) -> None:
+        """The episode's factors of ``rows`` from their generators, after the start's draws
+        (:mod:`trailer_env.randomize`), and what they set: parameters, auto settings, speed
+        and the parameter features."""
+        assert self._draws is not None
+        if picks is None:  # the Python hook drew from rngs, aligned with rows
+            rngs, picks = typed_generators(rngs), np.arange(len(rows), dtype=np.int64)
+        indices = np.asarray(rows, dtype=np.int64)
+        columns, low, high = self._draws
+        draw_factors(rngs, picks, indices, columns, low, high, self.factors)
+        if self._unscaled.size:
+            self.factors[np.ix_(indices, self._unscaled)] = 1.0
+        apply_factors(
+            indices,
+            self.factors,
+            self._packed,
+            self.param_values,
+            self._nominal_auto,
+            self._row_auto,
+            float(self._b),
+            float(self._s_max),
+            self.planar,
+            self.z,
+        )
+        if self.n_param_features:
+            offset = self.param_offset
+            self.obs[indices, offset:] = np.log(self.factors[indices, : len(PARAMETERS)])
+
+    def set_row_params(self, rows: np.ndarray, values: np.ndarray) -> None:
+        """Give ``rows`` (int array) the parameters ``values`` (len(rows), 7), columns
+        :data:`trailer_env.randomize.PARAMETERS`, and the auto rule's settings they imply
+        (as a reset's draws would); their factors become ``values / nominal`` (1 where the
+        nominal value is 0). For a core
+        whose settings randomise a physical parameter (the kernels take per-row
+        parameters only then); the speed and the state are left as they are.
+
+        Raises:
+            ValueError: If the core's parameters are shared, or on bad shapes or values.
+        """
+        if self.step_config.pv is not self.param_values:
+            raise ValueError(
+                "set_row_params needs per-row parameters: build the core with settings "
+                "that randomise a physical parameter (randomize=...)"
+            )
+        indices = np.asarray(rows, dtype=np.int64)
+        values = np.asarray(values, dtype=np.float64)
+        if values.shape != (indices.size, len(PARAMETERS)):
+            raise ValueError(
+                f"values must be ({indices.size}, {len(PARAMETERS)}), got {values.shape}"
+            )
+        if not (np.all(np.isfinite(values)) and np.all(values > 0.0)):
+            raise ValueError("parameter values must be finite and > 0")
+        if indices.size and (indices.min() < 0 or indices.max() >= self.batch_size):
+            raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
+        apply_params(
+            indices,
+            values,
+            self.param_values,
+            self._nominal_auto,
+            self._row_auto,
+            float(self._b),
+            float(self._s_max),
+            self.planar,
+        )
+        nominal = np.broadcast_to(self._packed, values.shape)
+        self.factors[indices, : len(PARAMETERS)] = np.divide(
+            values, nominal, out=np.ones_like(values), where=nominal != 0.0
+        )
+
+    def params_info(self, i: int) -> dict[str, float]:
+        """Row ``i``'s episode parameters (``info["params"]``): the seven randomisable
+        :class:`dynamics.ConvoyParams` fields' values and ``speed_factor``, the factor on
+        the start's speed (1 where not randomised)."""
+        values = self.param_values[i].tolist()
+        return {
+            **dict(zip(PARAMETERS, values, strict=True)),
+            "speed_factor": float(self.factors[i, SPEED]),
+        }
+
+    def params_batch(self) -> dict[str, np.ndarray]:
+        """:meth:`params_info` of every row as arrays (B,) (copies)."""
+        infos = {name: self.param_values[:, k].copy() for k, name in enumerate(PARAMETERS)}
+        infos["speed_factor"] = self.factors[:, SPEED].copy()
+        return infos
+
+    def params_of(self, i: int) -> Any:
+        """Row ``i``'s episode parameters as a :class:`dynamics.ConvoyParams`."""
+        values = dict(zip(PARAMETERS, self.param_values[i].tolist(), strict=True))
+        return self.params.replace(**values)
