@@ -104,10 +104,11 @@ class LQRController:
         reverse = [regulator(settings, -speed) for speed in DESIGN_SPEEDS]
         self.forward_gains = np.stack([gain for gain, _ in forward])
         self.reverse_gains = np.stack([gain for gain, _ in reverse])
-        #: Riccati solutions per design speed (S, n+3, n+3), for :meth:`cost_to_go`.
-        self.forward_costs = np.stack([cost for _, cost in forward])
-        self.reverse_costs = np.stack([cost for _, cost in reverse])
-        self._cost_tables = np.stack([self.reverse_costs, self.forward_costs])
+        #: Riccati solutions per direction (reversing, forward) and design speed
+        #: (2, S, n+3, n+3), for :meth:`cost_to_go`.
+        self.cost_tables = np.stack(
+            [np.stack([cost for _, cost in reverse]), np.stack([cost for _, cost in forward])]
+        )
 
     @classmethod
     def from_env(cls, env: Any) -> LQRController:
@@ -116,22 +117,13 @@ class LQRController:
 
     def gains(self, speed: np.ndarray) -> np.ndarray:
         """Interpolated gains (B, n+3) for forward speeds ``speed`` (B,)."""
-        return self._interpolate(speed, self.forward_gains, self.reverse_gains)
-
-    def _interpolate(
-        self, speed: np.ndarray, forward: np.ndarray, reverse: np.ndarray
-    ) -> np.ndarray:
-        """Per-speed tables (S, ...) interpolated entry by entry in ``|speed|`` (B, ...)."""
         magnitude = np.clip(np.abs(speed), DESIGN_SPEEDS[0], DESIGN_SPEEDS[-1])
-        shape = forward.shape[1:]
-        flat_forward = forward.reshape(len(DESIGN_SPEEDS), -1)
-        flat_reverse = reverse.reshape(len(DESIGN_SPEEDS), -1)
-        out = np.empty((speed.shape[0], flat_forward.shape[1]))
-        for column in range(flat_forward.shape[1]):
-            ahead = np.interp(magnitude, DESIGN_SPEEDS, flat_forward[:, column])
-            behind = np.interp(magnitude, DESIGN_SPEEDS, flat_reverse[:, column])
-            out[:, column] = np.where(speed >= 0.0, ahead, behind)
-        return out.reshape((speed.shape[0], *shape))
+        out = np.empty((speed.shape[0], self.n + 3))
+        for column in range(self.n + 3):
+            forward = np.interp(magnitude, DESIGN_SPEEDS, self.forward_gains[:, column])
+            reverse = np.interp(magnitude, DESIGN_SPEEDS, self.reverse_gains[:, column])
+            out[:, column] = np.where(speed >= 0.0, forward, reverse)
+        return out
 
     def regulator_state(self, obs: np.ndarray) -> np.ndarray:
         """The design's state ``x = (omega, alpha_1..alpha_n, s, s_dot)`` (B, n+3) of a batch
@@ -161,7 +153,7 @@ class LQRController:
         left = np.minimum(np.searchsorted(DESIGN_SPEEDS, magnitude, side="right") - 1, last)
         weight = (magnitude - DESIGN_SPEEDS[left]) / (DESIGN_SPEEDS[left + 1] - DESIGN_SPEEDS[left])
         side = (speed >= 0.0).astype(np.intp)
-        tables = self._cost_tables
+        tables = self.cost_tables
         costs = (1.0 - weight)[:, None, None] * tables[side, left]
         costs += weight[:, None, None] * tables[side, left + 1]
         return np.einsum("bi,bij,bj->b", state, costs, state)
