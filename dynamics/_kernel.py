@@ -1001,6 +1001,75 @@ def block_end(order: np.ndarray, first: int, stop: int, substeps: np.ndarray) ->
 
 
 @cached_njit(nogil=True)
+def advance_rows(
+    pv: np.ndarray,
+    scratch: np.ndarray,
+    z: np.ndarray,
+    act: np.ndarray,
+    rows: np.ndarray,
+    nb: int,
+    n: int,
+    with_pose: bool,
+    dt: float,
+    substeps: int,
+    preserve_energy: bool,
+    target_energy: np.ndarray,
+    fold_angle: float,
+    folded: np.ndarray,
+    workspace: tuple,
+) -> np.ndarray:
+    """RK4 on the ``nb`` rows ``rows[:nb]`` (one block of :func:`block_end`), in place.
+
+    The one step of every batched RK4 driver: blocks of at most
+    :data:`ROW_PATH_MAX_ROWS` rows take the row path (:func:`advance_row`), larger
+    ones the block path (:func:`gather_block`, :func:`advance_block`,
+    :func:`scatter_block`); both leave the block's new state in ``workspace[0]``, so a
+    caller can read it as structure of arrays. The mass state in ``act`` advances by
+    ``dt`` exactly; ``workspace[4]`` still holds its value at the start of the call.
+    Returns the block's parameters (:func:`gather_params` into ``scratch``).
+    """
+    lane_pv = gather_params(pv, rows, nb, scratch)
+    if nb <= ROW_PATH_MAX_ROWS:
+        for i in rows[:nb]:
+            advance_row(
+                row_params(pv, i),
+                z,
+                act,
+                i,
+                n,
+                with_pose,
+                dt,
+                substeps,
+                preserve_energy,
+                target_energy,
+                fold_angle,
+                folded,
+                workspace[8],
+            )
+        gather_block(z, act, rows, nb, workspace)
+        for i in rows[:nb]:
+            advance_mass_row(act, i, dt)
+    else:
+        rk4_block(
+            lane_pv,
+            z,
+            act,
+            rows,
+            nb,
+            n,
+            with_pose,
+            dt,
+            substeps,
+            preserve_energy,
+            target_energy,
+            fold_angle,
+            folded,
+            workspace,
+        )
+    return lane_pv
+
+
+@cached_njit(nogil=True)
 def rk4_ordered_rows(
     pv: np.ndarray,
     z: np.ndarray,
@@ -1019,45 +1088,27 @@ def rk4_ordered_rows(
     workspace: tuple,
 ) -> None:
     """RK4 on rows ``order[start:stop]``, in blocks of up to LANES rows of equal substeps."""
+    scratch = params_scratch(pv)
     i = start
     while i < stop:
-        count = substeps[order[i]]
         j = block_end(order, i, stop, substeps)
-        if j - i <= ROW_PATH_MAX_ROWS:
-            for row in order[i:j]:
-                advance_row(
-                    pv,
-                    z,
-                    act,
-                    row,
-                    n,
-                    with_pose,
-                    dt,
-                    count,
-                    preserve_energy,
-                    target_energy,
-                    fold_angle,
-                    folded,
-                    workspace[8],
-                )
-                advance_mass_row(act, row, dt)
-        else:
-            rk4_block(
-                pv,
-                z,
-                act,
-                order[i:j],
-                j - i,
-                n,
-                with_pose,
-                dt,
-                count,
-                preserve_energy,
-                target_energy,
-                fold_angle,
-                folded,
-                workspace,
-            )
+        advance_rows(
+            pv,
+            scratch,
+            z,
+            act,
+            order[i:j],
+            j - i,
+            n,
+            with_pose,
+            dt,
+            substeps[order[i]],
+            preserve_energy,
+            target_energy,
+            fold_angle,
+            folded,
+            workspace,
+        )
         i = j
 
 

@@ -2,9 +2,11 @@
 
 Call these from ``@njit`` functions: they are the package's one implementation of
 the field, the energy and the singular tests, row by row (``*_row``) and on blocks of
-up to :data:`LANES` rows held as structure of arrays (``*_block``: gather a block with
-:func:`gather_block` into a :func:`new_workspace`, advance it with :func:`advance_block`,
-read what you need from the block, write it back with :func:`scatter_block`). Row and parameter
+up to :data:`LANES` rows held as structure of arrays (``*_block``). A batched driver
+groups rows with :func:`block_order` and :func:`block_end` and advances each group
+with :func:`advance_rows`, which picks the row path or the block path and leaves the
+group's new state in its :func:`new_workspace` as structure of arrays (the one RK4
+driver of ``dynamics.Stepper`` and ``trailer_env.kernels``). Row and parameter
 conventions are those of :mod:`dynamics._kernel` (``pv`` from :func:`pack_params`, one
 vector for every row, or per-row vectors (B, P): take a row's with :func:`row_params`,
 a block's (P, LANES) with :func:`gather_params` into :func:`params_scratch`;
@@ -29,6 +31,7 @@ from dynamics._kernel import (
     advance_block,
     advance_mass_row,
     advance_row,
+    advance_rows,
     block_end,
     block_order,
     energy_block,
@@ -58,6 +61,7 @@ __all__ = [
     "advance_block",
     "advance_mass_row",
     "advance_row",
+    "advance_rows",
     "block_end",
     "block_order",
     "cached_njit",

@@ -24,10 +24,11 @@ than a named one (by how much: the same section of benchmarks/README.md), and
 rebuilding the named tuple inside compiled code (``StepConfig(*config)``) costs
 nothing. Large batches (``PARALLEL_MIN_ROWS`` rows or more, the threshold of
 :mod:`dynamics.jit` that ``dynamics.Stepper`` uses too) use the parallel variant, which
-splits the rows into chunks of ``ROWS_PER_CHUNK``, grouped into blocks by
-``dynamics.jit.block_end`` as RK4's own driver does; every row's arithmetic is the same
-either way (the blocks share loops, not operations), so results do not depend on the batch
-size or the number of threads.
+splits the rows into chunks of ``ROWS_PER_CHUNK``. Either way rows are grouped into
+blocks by ``dynamics.jit.block_end`` and advanced by ``dynamics.jit.advance_rows``,
+the one RK4 driver that ``dynamics.Stepper`` uses too; every row's arithmetic is the
+same whatever its block (the blocks share loops, not operations), so results do not
+depend on the batch size or the number of threads.
 """
 
 from __future__ import annotations
@@ -40,11 +41,8 @@ from numba import prange
 from dynamics.columns import ALPHA, OMEGA, U
 from dynamics.jit import (
     LANES,
-    ROW_PATH_MAX_ROWS,
     ROWS_PER_CHUNK,
-    advance_block,
-    advance_mass_row,
-    advance_row,
+    advance_rows,
     block_end,
     block_order,
     cached_njit,
@@ -55,7 +53,6 @@ from dynamics.jit import (
     new_workspace,
     params_scratch,
     row_params,
-    scatter_block,
     sincos_block,
 )
 from dynamics.jit import PARALLEL_MIN_ROWS as PARALLEL_MIN_ROWS  # read here by the core
@@ -354,52 +351,31 @@ def _step_chunk(
         last = block_end(order, first, order.shape[0], substeps)
         block = order[first:last]
         nb = last - first
-        lane_pv = gather_params(pv, block, nb, scratch)
-        if nb <= ROW_PATH_MAX_ROWS:
-            for i in block:
-                advance_row(
-                    row_params(pv, i),
-                    z,
-                    act,
-                    i,
-                    n,
-                    with_pose,
-                    dt,
-                    count,
-                    preserve_energy,
-                    target_energy,
-                    fold_angle,
-                    jackknifed,
-                    workspace[8],
-                )
-                advance_mass_row(act, i, dt)
-                clamp_row_to_rail(act, i, b, s_max)
-            gather_block(z, act, block, nb, workspace)
-        else:
-            gather_block(z, act, block, nb, workspace)
-            advance_block(
-                lane_pv,
-                block,
-                nb,
-                n,
-                with_pose,
-                dt,
-                count,
-                preserve_energy,
-                target_energy,
-                fold_angle,
-                jackknifed,
-                workspace,
-            )
-            scatter_block(z, act, block, nb, dt, workspace)
-            # The block holds the new state; only the mass's new position and velocity
-            # (after the rail guard) are to be read back for the observations.
-            mass0 = workspace[4]
-            for lane in range(nb):
-                i = block[lane]
-                clamp_row_to_rail(act, i, b, s_max)
-                for j in range(4):
-                    mass0[j, lane] = act[i, j]
+        lane_pv = advance_rows(
+            pv,
+            scratch,
+            z,
+            act,
+            block,
+            nb,
+            n,
+            with_pose,
+            dt,
+            count,
+            preserve_energy,
+            target_energy,
+            fold_angle,
+            jackknifed,
+            workspace,
+        )
+        # The block holds the new state; only the mass's new position and velocity
+        # (after the rail guard) are to be read back for the observations.
+        mass0 = workspace[4]
+        for lane in range(nb):
+            i = block[lane]
+            clamp_row_to_rail(act, i, b, s_max)
+            for j in range(4):
+                mass0[j, lane] = act[i, j]
         if config.auto:
             # A step the substep cap left inaccurate whose speed grew absurdly has diverged:
             # poisoned, it is reported as non-finite below (redone or refused by the core).
