@@ -7,7 +7,7 @@ build its labeller for a batch core. A scene's default expert is the first of th
 that fits it (:func:`default_expert`): ``mpc`` on the Reverse scenes, ``ilqr`` on Dock
 and Coast, where the sampling planner has no cost for the goal.
 
-* ``mpc``: the sampling planner (:class:`agents.oracles.planner.PrivilegedExpert`):
+* ``mpc``: the sampling planner (:class:`PrivilegedExpert`):
   one planner per count of trailers, each row planned with its true parameters under
   randomised physics. Its decisions depend on its random stream (seeded with the run's
   seed) and its warm start: two planners label the same states differently.
@@ -31,7 +31,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from agents.oracles.ilqr import ILQRConfig, ILQRPlanner
-from agents.oracles.planner import PlannerConfig, PrivilegedExpert
+from agents.oracles.planner import PlannerConfig, SamplingPlanner
 from agents.oracles.scenes import scene_oracle
 from trailer_env.core import ConvoyCore
 from trailer_env.randomize import PARAMETERS, Randomization
@@ -63,6 +63,85 @@ class Labeller(Protocol):
     def label(self, core: ConvoyCore) -> np.ndarray:
         """Actions (E, 1) for every row of ``core`` from its exact states."""
         ...
+
+
+class PrivilegedExpert:
+    """The planner as a labeller of a batch core's rows: the DAgger expert.
+
+    For a scene's own core, one :class:`SamplingPlanner` (seeded ``config.seed``); for a
+    :class:`trailer_env.mixed.MixedCore` (``n_trailers=(low, high)``), one planner per
+    count n, seeded ``config.seed + n``, that plans the rows whose episode has n trailers
+    from their state in the count's core. Under randomised physics each row is planned
+    with its TRUE parameters (``core.param_values``, see :class:`SamplingPlanner`): a
+    privileged expert, the student sees only the observations.
+
+    Args:
+        core_class: The scene's core.
+        settings: The settings of each count (``{n: settings}``; one entry for one n).
+        batch_size: Rows of the core labelled (E).
+        config: The planners' search settings.
+    """
+
+    def __init__(
+        self,
+        core_class: type[ConvoyCore],
+        settings: dict[int, EnvSettings],
+        batch_size: int,
+        config: PlannerConfig | None = None,
+    ) -> None:
+        if not settings:
+            raise ValueError("settings must hold at least one count")
+        self.config = config or PlannerConfig()
+        self.mixed = len(settings) > 1
+        self.planners = {
+            n: SamplingPlanner(
+                core_class,
+                value,
+                batch_size,
+                dataclasses.replace(self.config, seed=self.config.seed + n)
+                if self.mixed
+                else self.config,
+            )
+            for n, value in sorted(settings.items())
+        }
+        self.batch_size = batch_size
+
+    @property
+    def simulated_steps(self) -> int:
+        return sum(planner.simulated_steps for planner in self.planners.values())
+
+    @property
+    def steps_per_label(self) -> int:
+        """Simulated steps one label costs (per row and control step)."""
+        return self.config.steps_per_decision
+
+    def reset(self, rows: np.ndarray | None = None) -> None:
+        """Forget the warm starts of ``rows`` (default all) in every planner."""
+        for planner in self.planners.values():
+            planner.reset(rows)
+
+    def label(self, core: Any) -> np.ndarray:
+        """The planner's actions (E, 1) for every row of ``core`` (a scene core of one n
+        or a MixedCore of the same counts), from the exact states."""
+        if core.batch_size != self.batch_size:
+            raise ValueError(
+                f"core has {core.batch_size} rows, the expert labels {self.batch_size}"
+            )
+        if not self.mixed:
+            (planner,) = self.planners.values()
+            return planner.label(core)
+        cores = getattr(core, "cores", None)
+        if cores is None or sorted(cores) != sorted(self.planners):
+            raise ValueError("the expert's counts differ from the core's")
+        labels = np.zeros((self.batch_size, 1))
+        for n, planner in self.planners.items():
+            rows = np.flatnonzero(core.trailers == n)
+            if rows.size == 0:
+                continue
+            sub = cores[n]
+            params = sub.param_values[rows] if planner.per_row else None
+            labels[rows] = planner.plan(sub.z[rows], sub.act[rows], params, rows)
+        return labels
 
 
 class ILQRExpert:
@@ -279,4 +358,12 @@ def default_expert(env_id: str) -> str:
     raise ValueError(f"{env_id} has no planner to imitate (no expert of {sorted(EXPERTS)} fits it)")
 
 
-__all__ = ["EXPERTS", "Expert", "ExpertConfig", "ILQRExpert", "Labeller", "default_expert"]
+__all__ = [
+    "EXPERTS",
+    "Expert",
+    "ExpertConfig",
+    "ILQRExpert",
+    "Labeller",
+    "PrivilegedExpert",
+    "default_expert",
+]

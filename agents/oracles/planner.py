@@ -31,6 +31,11 @@ cost per control step is ``iterations * (horizon + tail) * samples`` simulated s
 per environment: with the defaults (2 iterations, 10 + 50 steps, 16 samples) 1920, so
 768 000 per 400-step episode. The wall time of 100 episodes planned in one batch is
 written by ``python -m agents.certify`` and quoted in docs/physics.md section 14.
+
+This module holds the search (:class:`SamplingPlanner`) and its episode runner
+(:func:`plan_episodes`); :class:`agents.oracles.mpc_policy.MPCPolicy` puts it behind the
+policy interface and :class:`agents.oracles.experts.PrivilegedExpert` makes it a DAgger
+labeller.
 """
 
 from __future__ import annotations
@@ -43,7 +48,7 @@ import numpy as np
 import scipy.linalg
 
 from agents.progress import Progress
-from dynamics.columns import ETA, ETA_DOT, XI
+from dynamics.columns import XI
 from trailer_env.controllers import (
     ACCEL_WEIGHT,
     ANGLE_WEIGHT,
@@ -458,134 +463,6 @@ def _row_gains(speed: np.ndarray, forward: np.ndarray, reverse: np.ndarray) -> n
     return np.where(forwards[:, None], ahead, back)
 
 
-def state_from_observation(obs: np.ndarray, settings: EnvSettings) -> tuple[np.ndarray, np.ndarray]:
-    """The state (z, act) an observation of a rail-mode scene holds (float32 rounding).
-
-    Raises:
-        ValueError: In planar mode (the observation's layout differs).
-    """
-    if settings.actuator.planar:
-        raise ValueError(
-            f"the planner drives the rail actuator, not action_mode={settings.action_mode!r}"
-        )
-    n = settings.n_trailers
-    batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
-    z = np.column_stack(
-        [batch[:, :2], np.arctan2(batch[:, 2 : 2 + n], batch[:, 2 + n : 2 + 2 * n])]
-    )
-    act = np.zeros((batch.shape[0], 6))
-    act[:, XI] = settings.params.b
-    act[:, ETA] = batch[:, 2 + 2 * n] * settings.params.s_max
-    act[:, ETA_DOT] = batch[:, 3 + 2 * n] * settings.rail_speed_max
-    return z, act
-
-
-class MPCPolicy:
-    """The planner behind the batched policy interface (observations -> actions).
-
-    The batch size is fixed by the first call. Between calls the planner keeps each
-    row's warm start; rows whose observation says a new episode began are not detected
-    (the LQR's sequence is a candidate at every step, so a stale warm start costs
-    little). It reads the state from the observation (float32: about 1e-7 relative).
-    """
-
-    def __init__(
-        self,
-        core_class: type[ConvoyCore],
-        settings: EnvSettings,
-        config: PlannerConfig | None = None,
-    ) -> None:
-        self.core_class = core_class
-        self.settings = settings
-        self.config = config
-        self.planner: SamplingPlanner | None = None
-
-    def __call__(self, obs: np.ndarray) -> np.ndarray:
-        z, act = state_from_observation(obs, self.settings)
-        if self.planner is None or self.planner.batch_size != z.shape[0]:
-            self.planner = SamplingPlanner(self.core_class, self.settings, z.shape[0], self.config)
-        return self.planner.plan(z, act).astype(np.float32)
-
-
-class PrivilegedExpert:
-    """The planner as a labeller of a batch core's rows: the DAgger expert.
-
-    For a scene's own core, one :class:`SamplingPlanner` (seeded ``config.seed``); for a
-    :class:`trailer_env.mixed.MixedCore` (``n_trailers=(low, high)``), one planner per
-    count n, seeded ``config.seed + n``, that plans the rows whose episode has n trailers
-    from their state in the count's core. Under randomised physics each row is planned
-    with its TRUE parameters (``core.param_values``, see :class:`SamplingPlanner`): a
-    privileged expert, the student sees only the observations.
-
-    Args:
-        core_class: The scene's core.
-        settings: The settings of each count (``{n: settings}``; one entry for one n).
-        batch_size: Rows of the core labelled (E).
-        config: The planners' search settings.
-    """
-
-    def __init__(
-        self,
-        core_class: type[ConvoyCore],
-        settings: dict[int, EnvSettings],
-        batch_size: int,
-        config: PlannerConfig | None = None,
-    ) -> None:
-        if not settings:
-            raise ValueError("settings must hold at least one count")
-        self.config = config or PlannerConfig()
-        self.mixed = len(settings) > 1
-        self.planners = {
-            n: SamplingPlanner(
-                core_class,
-                value,
-                batch_size,
-                dataclasses.replace(self.config, seed=self.config.seed + n)
-                if self.mixed
-                else self.config,
-            )
-            for n, value in sorted(settings.items())
-        }
-        self.batch_size = batch_size
-
-    @property
-    def simulated_steps(self) -> int:
-        return sum(planner.simulated_steps for planner in self.planners.values())
-
-    @property
-    def steps_per_label(self) -> int:
-        """Simulated steps one label costs (per row and control step)."""
-        return self.config.steps_per_decision
-
-    def reset(self, rows: np.ndarray | None = None) -> None:
-        """Forget the warm starts of ``rows`` (default all) in every planner."""
-        for planner in self.planners.values():
-            planner.reset(rows)
-
-    def label(self, core: Any) -> np.ndarray:
-        """The planner's actions (E, 1) for every row of ``core`` (a scene core of one n
-        or a MixedCore of the same counts), from the exact states."""
-        if core.batch_size != self.batch_size:
-            raise ValueError(
-                f"core has {core.batch_size} rows, the expert labels {self.batch_size}"
-            )
-        if not self.mixed:
-            (planner,) = self.planners.values()
-            return planner.label(core)
-        cores = getattr(core, "cores", None)
-        if cores is None or sorted(cores) != sorted(self.planners):
-            raise ValueError("the expert's counts differ from the core's")
-        labels = np.zeros((self.batch_size, 1))
-        for n, planner in self.planners.items():
-            rows = np.flatnonzero(core.trailers == n)
-            if rows.size == 0:
-                continue
-            sub = cores[n]
-            params = sub.param_values[rows] if planner.per_row else None
-            labels[rows] = planner.plan(sub.z[rows], sub.act[rows], params, rows)
-        return labels
-
-
 @dataclass(frozen=True)
 class PlannedEpisodes:
     """What :func:`plan_episodes` did: the applied actions and how each episode went.
@@ -654,12 +531,9 @@ def plan_episodes(
 
 
 __all__ = [
-    "MPCPolicy",
     "PlannedEpisodes",
     "PlannerConfig",
-    "PrivilegedExpert",
     "SamplingPlanner",
     "plan_episodes",
     "riccati_matrices",
-    "state_from_observation",
 ]

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from agents.oracles.planner import state_from_observation
+from agents.oracles.mpc_policy import state_from_observation
 from dynamics import body_poses
 from trailer_env.core import ConvoyCore
 from trailer_env.registry import core_class_of
@@ -40,7 +40,7 @@ ObservationState = Callable[
 def rail_state(
     obs: np.ndarray, settings: EnvSettings
 ) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
-    """``(z, act, {})``: :func:`agents.oracles.planner.state_from_observation` of a scene
+    """``(z, act, {})``: :func:`agents.oracles.mpc_policy.state_from_observation` of a scene
     whose observation holds no task the planner reads."""
     z, act = state_from_observation(obs, settings)
     return z, act, {}

@@ -16,7 +16,7 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
   ``lqr``.
 * ``heading-p``: :func:`trailer_env.controllers.heading_policy`, the proportional
   baseline of Heading-v0 (servo mode only).
-* ``mpc``: :class:`agents.oracles.planner.MPCPolicy`, a sampling MPC on the nonlinear model
+* ``mpc``: :class:`agents.oracles.mpc_policy.MPCPolicy`, a sampling MPC on the nonlinear model
   that simulates its candidates with the scene's batched core (an oracle: it knows
   the model and reads the state; rail modes only).
 * ``ilqr``: :class:`agents.oracles.ilqr_policy.ILQRPolicy`, a deterministic
@@ -233,7 +233,7 @@ def recorded_policy(settings: EnvSettings, env_id: str, seed: int | None) -> Pol
 
 
 def _mpc(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
-    from agents.oracles.planner import MPCPolicy
+    from agents.oracles.mpc_policy import MPCPolicy
 
     return MPCPolicy(core_class_of(env_id), settings)
 

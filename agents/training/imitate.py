@@ -12,7 +12,7 @@ planner (the Reverse scenes' default), or ``ilqr``, the deterministic iLQR plann
 state with the same action whatever was labelled before.
 
 A generalist: ``--n-trailers 1-3 --randomize mismatch20`` (the env draws each
-episode's n and physics; the expert, :class:`agents.oracles.planner.PrivilegedExpert`,
+episode's n and physics; the expert, :class:`agents.oracles.experts.PrivilegedExpert`,
 plans each row with its true parameters; the student sees the padded observation and
 the trailer mask, no parameters).
 

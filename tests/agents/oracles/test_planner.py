@@ -7,12 +7,8 @@ import numpy as np
 import pytest
 
 import trailer_env  # noqa: F401  (registers the ids)
-from agents.oracles.planner import (
-    PlannerConfig,
-    SamplingPlanner,
-    plan_episodes,
-    state_from_observation,
-)
+from agents.oracles.mpc_policy import state_from_observation
+from agents.oracles.planner import PlannerConfig, SamplingPlanner, plan_episodes
 from agents.policies.baselines import make_baseline
 from trailer_env.controllers import LQRController
 from trailer_env.scenes.reverse import ReverseCore

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from agents.envs import env_settings
-from agents.oracles.planner import PlannerConfig, PrivilegedExpert, SamplingPlanner
+from agents.oracles.experts import PrivilegedExpert
+from agents.oracles.planner import PlannerConfig, SamplingPlanner
 from trailer_env.mixed import MixedCore, mixed_settings, pad_observations
 from trailer_env.randomize import PARAMETERS
 from trailer_env.scenes.reverse_v1 import ReverseV1Core
