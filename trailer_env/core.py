@@ -449,20 +449,31 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
     def check_task(self, task: Mapping[str, object]) -> JSONObject:
         """The task values :meth:`set_task` would set, validated, changing nothing.
 
-        Scenes with task values override it (and :meth:`set_task`); scenes without any
-        refuse all.
+        Keys outside :attr:`task_keys` are refused; each given value is checked by
+        :meth:`check_task_value`, which a scene with task values overrides.
 
         Raises:
             TypeError: If a value is not of the right type (a string or bool for a number).
             ValueError: If a value is unknown, not finite or out of its documented range.
         """
-        if task:
-            raise ValueError(f"unknown task value(s) {sorted(task)} for {type(self).__name__}")
-        return {}
+        unknown = sorted(set(task) - set(self.task_keys), key=str)
+        if unknown:
+            raise ValueError(
+                f"unknown task value(s) {unknown} for {type(self).__name__}; "
+                f"valid: {list(self.task_keys)}"
+            )
+        return {key: self.check_task_value(key, task[key]) for key in self.task_keys if key in task}
+
+    def check_task_value(self, key: str, value: object) -> object:
+        """Task value ``key`` as :meth:`set_task` stores it, checked (a scene with
+        :attr:`task_keys` overrides it)."""
+        raise NotImplementedError(f"{type(self).__name__} does not check task value {key!r}")
 
     def set_task(self, i: int, **task: Any) -> None:
-        """Set row ``i``'s task values by hand (e.g. a target); scenes without any refuse all."""
-        self.check_task(task)
+        """Set row ``i``'s task values by hand (e.g. a target; :meth:`check_task`): each
+        key of :attr:`task_keys` is an array attribute with one entry per row."""
+        for key, value in self.check_task(task).items():
+            getattr(self, key)[i] = value
 
     def task_values(self, i: int) -> JSONObject:
         """Row ``i``'s task values as :meth:`set_task` takes them (copies): each key of

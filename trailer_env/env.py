@@ -8,6 +8,7 @@ to name its core class and carry its documentation.
 from __future__ import annotations
 
 import numbers
+from collections.abc import Sequence
 from typing import Any, ClassVar
 
 import gymnasium as gym
@@ -28,6 +29,23 @@ PATH_LENGTH = 2000
 STATE_OPTIONS = ("state", "s", "s_dot")
 
 
+def options_dict(options: object, valid: Sequence[str]) -> dict[str, object]:
+    """``reset(options=...)`` as a dict (None -> {}), its keys among ``valid``.
+
+    Raises:
+        TypeError: If ``options`` is not a dict or None.
+        ValueError: Naming the unknown keys and the valid ones.
+    """
+    if options is None:
+        return {}
+    if not isinstance(options, dict):
+        raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+    unknown = sorted(set(options) - set(valid), key=str)
+    if unknown:
+        raise ValueError(f"unknown reset option(s) {unknown}; valid: {list(valid)}")
+    return options
+
+
 def check_reset_options(options: object, task_keys: tuple[str, ...]) -> dict[str, object]:
     """``options`` as a dict (None -> {}), its keys checked against the scene's.
 
@@ -35,14 +53,7 @@ def check_reset_options(options: object, task_keys: tuple[str, ...]) -> dict[str
         TypeError: If ``options`` is not a dict or None.
         ValueError: Naming unknown keys, or ``s``/``s_dot`` given without ``state``.
     """
-    if options is None:
-        return {}
-    if not isinstance(options, dict):
-        raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
-    valid = (*STATE_OPTIONS, *task_keys)
-    unknown = sorted(set(options) - set(valid), key=str)
-    if unknown:
-        raise ValueError(f"unknown reset option(s) {unknown}; valid: {list(valid)}")
+    options = options_dict(options, (*STATE_OPTIONS, *task_keys))
     if "state" not in options and ("s" in options or "s_dot" in options):
         raise ValueError("reset options 's' and 's_dot' need 'state' (the convoy's state)")
     return options

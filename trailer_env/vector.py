@@ -53,13 +53,14 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from dynamics.columns import theta_column, x_column
-from dynamics.params import bounded_integer
+from dynamics.params import bounded_integer, one_of
 from trailer_env.core import ConvoyCore
 from trailer_env.env import (
     PATH_LENGTH,
     as_action_array,
     checked_seed,
     checked_state,
+    options_dict,
     real_array,
 )
 from trailer_env.episodes import count_step
@@ -233,16 +234,8 @@ class ConvoyVectorEnv(VectorEnv):
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         **kwargs: Any,
     ) -> None:
-        if render_mode is not None and not isinstance(render_mode, str):
-            raise TypeError(
-                f"render_mode must be None or one of {VECTOR_RENDER_MODES}, "
-                f"got {type(render_mode).__name__} {render_mode!r}"
-            )
-        if render_mode is not None and render_mode not in VECTOR_RENDER_MODES:
-            raise ValueError(
-                f"render_mode must be None or one of {VECTOR_RENDER_MODES} for the vector env "
-                f"(a window per environment is not offered), got {render_mode!r}"
-            )
+        # "human" is refused: a window per environment is not offered.
+        one_of("render_mode", render_mode, VECTOR_RENDER_MODES, none=True)
         num_envs = bounded_integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
         self.autoreset_mode = parse_autoreset_mode(autoreset_mode)
         if not (isinstance(core_class, type) and issubclass(core_class, ConvoyCore)):
@@ -320,13 +313,7 @@ class ConvoyVectorEnv(VectorEnv):
 
     def _reset_options(self, options: object) -> tuple[np.ndarray, np.ndarray | None]:
         """The rows to reset and their given states (None: draw them) from ``options``."""
-        if options is None:
-            return self._all_rows, None
-        if not isinstance(options, dict):
-            raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
-        unknown = sorted(set(options) - {"reset_mask", "state"}, key=str)
-        if unknown:
-            raise ValueError(f"unknown reset option(s) {unknown}; valid: ['reset_mask', 'state']")
+        options = options_dict(options, ("reset_mask", "state"))
         rows = self._all_rows
         if "reset_mask" in options:
             mask = np.asarray(options["reset_mask"])

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -12,7 +12,6 @@ from dynamics.columns import ALPHA, OMEGA, U, theta_column, x_column, y_column
 from dynamics.jit import cached_njit
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv, real_array
-from trailer_env.json_types import JSONObject
 from trailer_env.rendering import Marker
 from trailer_env.scenes.heading import wrap_angle
 
@@ -113,30 +112,18 @@ class DockCore(ShapedCore):
     def _start_arguments(self) -> tuple[int, float, np.ndarray]:
         return (self.n, float(self.params.l), self.target)
 
-    def check_task(self, task: Mapping[str, object]) -> JSONObject:
-        """Accepts ``target`` = (x, y, heading) of the dock: 3 real numbers (not bools or
-        strings), each within +-1e6 (m, m, rad; :data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
-        unknown = sorted(set(task) - {"target"}, key=str)
-        if unknown:
-            raise ValueError(f"unknown task value(s) {unknown} for Dock; valid: ['target']")
-        if "target" not in task:
-            return {}
-        given = task["target"]
-        target = real_array("target", given, "3 real numbers (x, y, heading)").astype(np.float64)
+    def check_task_value(self, key: str, value: object) -> np.ndarray:
+        """``target`` = (x, y, heading) of the dock: 3 real numbers (not bools or strings),
+        each within +-1e6 (m, m, rad; :data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
+        target = real_array("target", value, "3 real numbers (x, y, heading)").astype(np.float64)
         if target.shape != (3,) or not np.all(np.isfinite(target)):
-            raise ValueError(f"target must be 3 finite numbers (x, y, heading), got {given!r}")
+            raise ValueError(f"target must be 3 finite numbers (x, y, heading), got {value!r}")
         if np.max(np.abs(target)) > MAX_TASK_MAGNITUDE:
             raise ValueError(
                 f"target must be within +-{MAX_TASK_MAGNITUDE:g} (x, y in m, heading in rad), "
-                f"got {given!r}"
+                f"got {value!r}"
             )
-        return {"target": target}
-
-    def set_task(self, i: int, **task: Any) -> None:
-        """Accepts ``target`` = (x, y, heading) of the dock, see :meth:`check_task`."""
-        values = self.check_task(task)
-        if "target" in values:
-            self.target[i] = values["target"]
+        return target
 
     def render_markers(self, i: int) -> tuple[Marker, ...]:
         x, y, heading = (float(value) for value in self.target[i])

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -12,7 +12,6 @@ from dynamics.jit import cached_njit
 from dynamics.params import bounded_real
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
-from trailer_env.json_types import JSONObject
 from trailer_env.rendering import Marker
 
 SPEED_RANGE = (0.8, 1.2)
@@ -79,27 +78,13 @@ class HeadingCore(ShapedCore):
     def _start_arguments(self) -> tuple[int, np.ndarray]:
         return (self.n, self.target_heading)
 
-    def check_task(self, task: Mapping[str, object]) -> JSONObject:
-        """Accepts ``target_heading`` (rad), a real number (not a bool or a string) in
-        [-1e6, 1e6] (:data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
-        unknown = sorted(set(task) - {"target_heading"}, key=str)
-        if unknown:
-            raise ValueError(
-                f"unknown task value(s) {unknown} for Heading; valid: ['target_heading']"
-            )
-        if "target_heading" not in task:
-            return {}
-        value = task["target_heading"]
+    def check_task_value(self, key: str, value: object) -> float:
+        """``target_heading`` (rad), a real number (not a bool or a string) in [-1e6, 1e6]
+        (:data:`~trailer_env.core.MAX_TASK_MAGNITUDE`)."""
         if isinstance(value, np.ndarray) and value.shape == ():
             value = value[()]
         bound = MAX_TASK_MAGNITUDE
-        return {"target_heading": bounded_real("target_heading", value, -bound, bound)}
-
-    def set_task(self, i: int, **task: Any) -> None:
-        """Accepts ``target_heading`` (rad), see :meth:`check_task`."""
-        values = self.check_task(task)
-        if "target_heading" in values:
-            self.target_heading[i] = values["target_heading"]
+        return bounded_real("target_heading", value, -bound, bound)
 
     def render_markers(self, i: int) -> tuple[Marker, ...]:
         n = self.n  # the arrow starts at the cart's axle midpoint
