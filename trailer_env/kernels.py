@@ -443,6 +443,21 @@ def step_serial(
     return -1, bad, over
 
 
+@cached_njit()
+def outcome_due(result: tuple) -> bool:
+    """Whether a scene's outcome runs after a fused step that returned ``result``.
+
+    Not when the step was refused (a bad action row, or :data:`OVER_BUDGET`) nor when a
+    row diverged: the core redoes those rows, then runs the outcome once
+    (:meth:`trailer_env.core.ConvoyCore.step`). A scene's fused step kernel is
+    ``result = step_serial(...)``, then its outcome if this holds; it is written per
+    scene (``reverse_step``, ``coast_step``) because a factory closing over the outcome,
+    or the outcome passed as an argument, is recompiled in every process (numba's disk
+    cache misses on both).
+    """
+    return result[0] == -1 and result[1] == 0
+
+
 @cached_njit(parallel=True)
 def step_parallel(
     action: np.ndarray,

@@ -11,7 +11,7 @@ from dynamics.columns import OMEGA, U
 from dynamics.jit import cached_njit
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
-from trailer_env.kernels import StepOutputs, step_serial
+from trailer_env.kernels import StepOutputs, outcome_due, step_serial
 
 #: Starting speed range (reversing), m/s, and the half-widths of the starting perturbations.
 SPEED_RANGE = (0.8, 1.2)
@@ -126,13 +126,9 @@ def reverse_step(
     scene: tuple,
 ) -> tuple:
     """The control step of Reverse-v0 in one call: physics, then :func:`reverse_outcome`."""
-    # Written per scene on purpose (also trailer_env.scenes.coast.coast_step): a
-    # factory closing over the outcome, or the outcome passed as an argument, is
-    # recompiled in every process (numba's disk cache misses on both).
+    # One per scene: see trailer_env.kernels.outcome_due.
     result = step_serial(action, rows, prepare, config, state, outputs)
-    # Not when refused (a bad action row, or kernels.OVER_BUDGET) nor when a row diverged:
-    # the core redoes those rows, then runs the outcome once (ConvoyCore.step).
-    if result[0] == -1 and result[1] == 0:
+    if outcome_due(result):
         reverse_outcome(rows, outputs, scene)
     return result
 
