@@ -58,7 +58,7 @@ from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID
 from agents.oracles.experts import EXPERTS, default_expert
 from agents.policies.sb3 import limit_torch_threads
-from agents.training.imitate import ImitationConfig, imitate
+from agents.training.imitate import CHECKPOINT_FILE, CheckpointError, ImitationConfig, imitate
 from dynamics.params import MAX_TRAILERS
 from trailer_env.observation import OBSERVATIONS
 from trailer_env.randomize import PRESETS
@@ -162,6 +162,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--run-dir", type=Path, default=None, help="run folder")
     parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run in the run folder (--run-dir or the default) from its "
+        "checkpoint, written after every iteration, to --iterations (the other settings "
+        "must be the run's; --overwrite then only replaces --export's files)",
+    )
+    parser.add_argument(
         "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
     )
     cli.add_overwrite(parser, "replace a run in the run folder and --export's files")
@@ -215,14 +222,23 @@ def main(argv: list[str] | None = None) -> int:
         default = default.with_name(f"{default.name}_{config.expert}")
     if config.observation != "flat":
         default = default.with_name(f"{default.name}_{config.observation}")
+    checkpoint = None
+    if args.resume:
+        checkpoint = (args.run_dir or default) / CHECKPOINT_FILE
+        if not checkpoint.is_file():
+            parser.error(f"argument --resume: no checkpoint {checkpoint}")
     try:
-        with claimed_run_dir(default, args.run_dir, overwrite=args.overwrite) as run_dir:
+        with claimed_run_dir(
+            default, args.run_dir, resume=checkpoint, overwrite=args.overwrite
+        ) as run_dir:
             limit_torch_threads()
-            imitate(config, run_dir)
+            imitate(config, run_dir, resume=args.resume)
             if args.export is not None:
                 print(f"exported {export_model(run_dir, args.export, overwrite=args.overwrite)}")
     except RunFolderError as error:
         parser.error(f"argument --run-dir: {error}")
+    except CheckpointError as error:
+        parser.error(f"argument --resume: {error}")
     return 0
 
 

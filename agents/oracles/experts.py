@@ -60,6 +60,11 @@ class Labeller(Protocol):
         """Forget the warm starts of ``rows`` (default all)."""
         ...
 
+    def random_streams(self) -> list[np.random.Generator]:
+        """The generators its labels draw from, in a fixed order (a run's checkpoint
+        saves and restores their states); none for a deterministic expert."""
+        ...
+
     def label(self, core: ConvoyCore) -> np.ndarray:
         """Actions (E, 1) for every row of ``core`` from its exact states."""
         ...
@@ -119,6 +124,10 @@ class PrivilegedExpert:
         """Forget the warm starts of ``rows`` (default all) in every planner."""
         for planner in self.planners.values():
             planner.reset(rows)
+
+    def random_streams(self) -> list[np.random.Generator]:
+        """Each planner's sampling generator, by count n."""
+        return [planner.rng for _, planner in sorted(self.planners.items())]
 
     def label(self, core: Any) -> np.ndarray:
         """The planner's actions (E, 1) for every row of ``core`` (a scene core of one n
@@ -190,6 +199,9 @@ class ILQRExpert:
 
     def reset(self, rows: np.ndarray | None = None) -> None:
         self.planner.reset(rows)
+
+    def random_streams(self) -> list[np.random.Generator]:
+        return []  # deterministic: a label is a function of the state
 
     def label(self, core: ConvoyCore) -> np.ndarray:
         """The planner's actions (E, 1) for every row of ``core`` (a core of this scene

@@ -41,7 +41,10 @@ normalised with statistics frozen from iteration 0's data (variances floored at
 model loads, evaluates and fine-tunes (``agents.train --resume``) like any PPO model.
 The run folder gets ``config.json``, ``evaluations.csv`` (one row per iteration;
 ``timesteps`` counts labelled steps), ``best_model.zip`` and ``final_model.zip`` with
-their cards and statistics.
+their cards and statistics. After every iteration it also gets a checkpoint
+(``checkpoint.json``, the aggregated ``dataset.npz`` and the final model so far):
+``--resume`` continues a run cut short, or one asked for more ``--iterations``, with the
+same data, weights and random streams, so that it ends as an uninterrupted run would.
 
 With ``observation="trailers"`` (``--observation trailers``) the student is PPO's
 ``MultiInputPolicy`` with :class:`~agents.policies.convoy_encoder.ConvoyEncoder` (a GRU
@@ -55,6 +58,7 @@ envs of any n up to ``max_trailers``.
 from __future__ import annotations
 
 import io
+import json
 import sys
 import time
 from dataclasses import asdict, dataclass
@@ -65,17 +69,18 @@ import numpy as np
 
 from agents.artifacts import limits
 from agents.artifacts.cards import read_card, write_card
-from agents.artifacts.curves import write_curve
+from agents.artifacts.curves import read_curve, write_curve
 from agents.artifacts.files import atomic_write_bytes
 from agents.artifacts.paths import stats_path
 from agents.artifacts.run_folder import (
     BEST_MODEL,
+    CONFIG_FILE,
     CURVE_FILE,
     FINAL_MODEL,
     write_config,
 )
 from agents.artifacts.sb3_zip import save_model
-from agents.artifacts.stats import save_stats
+from agents.artifacts.stats import read_stats, restore_stats, save_stats
 from agents.envs import check_env_id, env_settings, make_sb3_env
 from agents.evaluation.metrics import rollout, summarize
 from agents.oracles.experts import EXPERTS, ExpertConfig, Labeller, default_expert
@@ -104,6 +109,20 @@ RUN_TOTALS = ("timesteps", "wall_time_s", "simulated_steps")
 #: The aggregated data set (observations: normalised, or raw with "trailers"; labels) in the
 #: run folder.
 DATASET_FILE = "dataset.npz"
+
+#: The run's checkpoint, rewritten after every iteration (with the data set and the final
+#: model): what ``--resume`` continues from.
+CHECKPOINT_FILE = "checkpoint.json"
+
+#: Keys of the run's record that may differ when a run is resumed (the rest must match):
+#: the command, the budget and the iterations asked for, and the totals of the run so far.
+RESUMABLE_KEYS = (
+    "command",
+    "budget",
+    "imitation.iterations",
+    "resumed_at",
+    *RUN_TOTALS,
+)
 
 
 #: Floor of the observations' variance in the frozen statistics. The cosines of nearly
@@ -393,8 +412,148 @@ def _build_model(config: ImitationConfig) -> tuple[Any, Any, JSONObject]:
     return model, stats, {"n_envs": hp.n_envs, **algo_kwargs}
 
 
-def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> JSONObject:
-    """Run DAgger (see the module); returns the run's record (also its ``config.json``)."""
+class CheckpointError(ValueError):
+    """A run cannot be resumed: no checkpoint, a damaged one, or another configuration."""
+
+
+@dataclass
+class _Progress:
+    """What a DAgger run has done so far (restored from its checkpoint on resume)."""
+
+    iterations: int = 0
+    data_obs: list[np.ndarray] | None = None
+    data_labels: list[np.ndarray] | None = None
+    curve: list[dict[str, float]] | None = None
+    best: tuple[float, ...] | None = None
+    wall_s: float = 0.0
+    simulated_steps: int = 0
+
+
+def _differences(saved: JSONObject, record: JSONObject) -> list[str]:
+    """The keys (``a.b`` for nested ones) whose values differ, but :data:`RESUMABLE_KEYS`."""
+    wanted = json.loads(json.dumps(record, default=str))
+    keys = sorted(set(saved) | set(wanted))
+    differing = []
+    for key in keys:
+        old, new = saved.get(key), wanted.get(key)
+        if isinstance(old, dict) and isinstance(new, dict):
+            differing += [
+                f"{key}.{sub}"
+                for sub in sorted(set(old) | set(new))
+                if old.get(sub) != new.get(sub) and f"{key}.{sub}" not in RESUMABLE_KEYS
+            ]
+        elif old != new and key not in RESUMABLE_KEYS:
+            differing.append(key)
+    return differing
+
+
+def _restore(
+    run_dir: Path,
+    config: ImitationConfig,
+    record: JSONObject,
+    model: Any,
+    stats: Any,
+    planner: Labeller,
+    rng: np.random.Generator,
+) -> _Progress:
+    """Load the run's checkpoint into the model, statistics and random streams.
+
+    Raises:
+        CheckpointError: If the folder holds no complete checkpoint, or one of a run whose
+            configuration differs from ``record`` (other than :data:`RESUMABLE_KEYS`), or
+            one that has already done ``config.iterations``.
+    """
+    path = run_dir / CHECKPOINT_FILE
+    try:
+        checkpoint = json.loads(path.read_text())
+        saved = json.loads((run_dir / CONFIG_FILE).read_text())
+        with np.load(run_dir / DATASET_FILE, allow_pickle=False) as dataset:
+            observations, labels = dataset["observations"], dataset["labels"]
+        curve = read_curve(run_dir / CURVE_FILE, ("timesteps", "iteration"))
+    except (OSError, ValueError, KeyError) as error:
+        raise CheckpointError(f"cannot resume {run_dir}: {type(error).__name__}: {error}") from None
+    differing = _differences(saved, record)
+    if differing:
+        raise CheckpointError(
+            f"cannot resume {run_dir}: its run was configured differently ({', '.join(differing)})"
+        )
+    done = int(checkpoint["iterations"])
+    if len(curve) != done or len(labels) != int(checkpoint["rows"]):
+        raise CheckpointError(
+            f"cannot resume {run_dir}: the checkpoint ({done} iterations, "
+            f"{checkpoint['rows']} labels) does not match its files ({len(curve)} iterations, "
+            f"{len(labels)} labels); a run was cut while writing it"
+        )
+    if done >= config.iterations:
+        raise CheckpointError(
+            f"cannot resume {run_dir}: it has done {done} iterations; ask for more "
+            f"(--iterations > {done})"
+        )
+    model.set_parameters(str(run_dir / FINAL_MODEL), exact_match=True, device="cpu")
+    if stats is not None:
+        restore_stats(stats, read_stats(stats_path(run_dir / FINAL_MODEL)))
+    rng.bit_generator.state = checkpoint["fit_rng"]
+    streams = planner.random_streams()
+    if len(streams) != len(checkpoint["expert_rngs"]):
+        raise CheckpointError(f"cannot resume {run_dir}: the expert's random streams differ")
+    for stream, state in zip(streams, checkpoint["expert_rngs"], strict=True):
+        stream.bit_generator.state = state
+    return _Progress(
+        iterations=done,
+        data_obs=[observations],
+        data_labels=[labels],
+        curve=curve,
+        best=tuple(checkpoint["best"]),
+        wall_s=float(checkpoint["wall_s"]),
+        simulated_steps=int(checkpoint["simulated_steps"]),
+    )
+
+
+def _write_checkpoint(
+    run_dir: Path,
+    progress: _Progress,
+    model: Any,
+    stats: Any,
+    planner: Labeller,
+    rng: np.random.Generator,
+) -> None:
+    """The data set, the model and statistics as they are, then the checkpoint naming them
+    (written last: a run cut while writing leaves a checkpoint that :func:`_restore` refuses)."""
+    observations = np.concatenate(progress.data_obs or [])
+    labels = np.concatenate(progress.data_labels or [])
+    dataset = io.BytesIO()
+    np.savez_compressed(dataset, observations=observations, labels=labels)
+    atomic_write_bytes(run_dir / DATASET_FILE, dataset.getvalue())
+    if stats is not None:
+        save_stats(stats, stats_path(run_dir / FINAL_MODEL))
+    save_model(model, run_dir / FINAL_MODEL)
+    checkpoint = {
+        "iterations": progress.iterations,
+        "rows": len(labels),
+        "best": list(progress.best or ()),
+        "wall_s": progress.wall_s,
+        "simulated_steps": progress.simulated_steps,
+        "fit_rng": rng.bit_generator.state,
+        "expert_rngs": [stream.bit_generator.state for stream in planner.random_streams()],
+    }
+    atomic_write_bytes(run_dir / CHECKPOINT_FILE, json.dumps(checkpoint, indent=1).encode())
+
+
+def imitate(
+    config: ImitationConfig, run_dir: Path, verbose: int = 1, resume: bool = False
+) -> JSONObject:
+    """Run DAgger (see the module); returns the run's record (also its ``config.json``).
+
+    After every iteration the run folder gets a checkpoint (:data:`CHECKPOINT_FILE`, the
+    data set, the final model and its statistics). With ``resume`` the run in ``run_dir``
+    goes on from its checkpoint to ``config.iterations``: the same data, weights and
+    random streams (the planner's and the fit's), so the result is the one an
+    uninterrupted run would give, bit for bit on one machine.
+
+    Raises:
+        CheckpointError: With ``resume``, before anything is written, if the run cannot be
+            resumed (see :func:`_restore`).
+    """
     started = time.perf_counter()
     settings = config.settings_by_count()
     core_class = core_class_of(config.env_id)
@@ -443,13 +602,20 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> JSONObj
         "training_seed": TRAINING_SEED,
         "budget": config.iterations * config.episodes * envs.max_episode_steps,
     }
+    done = _Progress(data_obs=[], data_labels=[], curve=[])
+    if resume:
+        done = _restore(run_dir, config, record, model, stats, planner, rng)
+        saved = json.loads((run_dir / CONFIG_FILE).read_text())
+        record["resumed_at"] = [*saved.get("resumed_at", []), done.iterations]
+        started -= done.wall_s
     write_config(run_dir, record)
-    data_obs: list[np.ndarray] = []
-    data_labels: list[np.ndarray] = []
-    curve: list[dict[str, float]] = []
-    best: tuple[float, float, float] | None = None
+    data_obs: list[np.ndarray] = done.data_obs or []
+    data_labels: list[np.ndarray] = done.data_labels or []
+    curve: list[dict[str, float]] = done.curve or []
+    best = done.best
+    previous_steps = done.simulated_steps
     summary: JSONObject = {}
-    for iteration in range(config.iterations):
+    for iteration in range(done.iterations, config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
         driver = None if iteration == 0 else config.student(model, stats)
         label = (
@@ -509,22 +675,19 @@ def imitate(config: ImitationConfig, run_dir: Path, verbose: int = 1) -> JSONObj
                 save_stats(stats, stats_path(run_dir / BEST_MODEL))
             write_card(run_dir / BEST_MODEL, card)
             save_model(model, run_dir / BEST_MODEL)
+        done.iterations = iteration + 1
+        done.data_obs, done.data_labels, done.best = data_obs, data_labels, best
+        done.wall_s = round(time.perf_counter() - started, 1)
+        done.simulated_steps = previous_steps + planner.simulated_steps
+        _write_checkpoint(run_dir, done, model, stats, planner, rng)
     record.update(
         {
             "timesteps": sum(len(chunk) for chunk in data_obs),
             "wall_time_s": round(time.perf_counter() - started, 1),
-            "simulated_steps": planner.simulated_steps,
+            "simulated_steps": previous_steps + planner.simulated_steps,
         }
     )
-    dataset = io.BytesIO()
-    np.savez_compressed(
-        dataset, observations=np.concatenate(data_obs), labels=np.concatenate(data_labels)
-    )
-    atomic_write_bytes(run_dir / DATASET_FILE, dataset.getvalue())
-    if stats is not None:
-        save_stats(stats, stats_path(run_dir / FINAL_MODEL))
     write_card(run_dir / FINAL_MODEL, {**record, "validation": summary})
-    save_model(model, run_dir / FINAL_MODEL)
     # The best model's card keeps when it was selected, and gets the run's totals.
     best_card = read_card(run_dir / BEST_MODEL)
     write_card(run_dir / BEST_MODEL, {**best_card, **{key: record[key] for key in RUN_TOTALS}})

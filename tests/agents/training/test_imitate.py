@@ -122,3 +122,52 @@ def test_the_observation_options_are_checked(capsys: pytest.CaptureFixture[str])
         main(["--n-trailers", "1", "--observation", "grid"])
     assert error.value.code == 2
     assert "argument --observation: invalid choice: 'grid'" in capsys.readouterr().err
+
+
+def _curve_without_time(run: Path) -> list[dict[str, float]]:
+    rows = read_curve(run / "evaluations.csv")
+    return [{key: value for key, value in row.items() if key != "wall_s"} for row in rows]
+
+
+def test_a_resumed_run_ends_as_an_uninterrupted_one(tmp_path: Path) -> None:
+    settings = {"episodes": 3, "epochs": 2, "validation_episodes": 3, "net_arch": (8,)}
+    straight = imitate(ImitationConfig(V1, 1, iterations=2, **settings), tmp_path / "a", verbose=0)
+    cut = tmp_path / "b"
+    imitate(ImitationConfig(V1, 1, iterations=1, **settings), cut, verbose=0)
+    checkpoint = json.loads((cut / "checkpoint.json").read_text())
+    assert checkpoint["iterations"] == 1 and checkpoint["rows"] == 3 * 400
+    resumed = imitate(ImitationConfig(V1, 1, iterations=2, **settings), cut, 0, resume=True)
+    assert resumed["timesteps"] == straight["timesteps"] == 2 * 3 * 400
+    assert resumed["simulated_steps"] == straight["simulated_steps"]
+    assert resumed["resumed_at"] == [1]
+    assert _curve_without_time(cut) == _curve_without_time(tmp_path / "a")
+    with np.load(cut / "dataset.npz") as mine, np.load(tmp_path / "a" / "dataset.npz") as theirs:
+        np.testing.assert_array_equal(mine["labels"], theirs["labels"])
+        np.testing.assert_array_equal(mine["observations"], theirs["observations"])
+    policies = [
+        load_policy(str(run / "final_model.zip"), V1, {"n_trailers": 1})
+        for run in (cut, tmp_path / "a")
+    ]
+    obs = np.random.default_rng(0).normal(size=(7, 6)).astype(np.float32)
+    np.testing.assert_array_equal(policies[0](obs), policies[1](obs))
+
+
+def test_resume_refuses_what_it_cannot_continue(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from agents.training.imitate import CheckpointError
+
+    settings = {"episodes": 2, "epochs": 1, "validation_episodes": 2, "net_arch": (8,)}
+    run = tmp_path / "run"
+    imitate(ImitationConfig(V1, 1, iterations=1, **settings), run, verbose=0)
+    before = {path.name: path.read_bytes() for path in run.iterdir() if path.is_file()}
+    with pytest.raises(CheckpointError, match="has done 1 iterations"):
+        imitate(ImitationConfig(V1, 1, iterations=1, **settings), run, 0, resume=True)
+    other = ImitationConfig(V1, 1, iterations=3, **{**settings, "epochs": 2})
+    with pytest.raises(CheckpointError, match=r"configured differently \(.*imitation.epochs"):
+        imitate(other, run, 0, resume=True)
+    after = {path.name: path.read_bytes() for path in run.iterdir() if path.is_file()}
+    assert after == before  # a refusal changes nothing
+    with pytest.raises(SystemExit):
+        main(["--n-trailers", "1", "--run-dir", str(tmp_path / "none"), "--resume"])
+    assert "no checkpoint" in capsys.readouterr().err
