@@ -170,6 +170,9 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
     uses_pose: ClassVar[bool] = False
     #: Number of task features appended to the observation.
     n_task_features: ClassVar[int] = 0
+    #: Signs of the task features in the convoy's mirror image (:meth:`mirror_signs`);
+    #: None: the scene declares no mirror symmetry.
+    mirror_task_signs: ClassVar[tuple[float, ...] | None] = ()
     #: Reward on the step that ends in a jackknife (added to the scene's reward).
     fold_penalty: ClassVar[float] = 10.0
     #: Reward per step spent in the singular band (subtracted).
@@ -441,6 +444,32 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
     def _after_restore(self, rows: np.ndarray) -> None:
         """Undo a refused step's per-step bookkeeping in ``rows``, back at their states before
         it (a scene kernel's outcome has already run on the rows that did not diverge)."""
+
+    def mirror_signs(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The convoy's mirror image as signs: ``(observation signs (obs_dim,), action
+        signs (action_dim,))``, or None where the scene declares no mirror symmetry.
+
+        Reflecting the plane about the cart's axis at the start (y -> -y) changes the
+        sign of the turning rate, the hitch angles, the mass's lateral position and
+        velocity and the lateral parts of the task (a dock's lateral offset, a heading
+        error), and keeps the rest (speed, cosines, the mass's position along the cart,
+        the parameters). The equations, the rail and every scene's starts, reward and
+        termination are symmetric under it, so ``obs * signs`` is the observation of the
+        mirrored state, ``action * action_signs`` the mirrored action, and a mirrored
+        episode earns the same rewards (tests/trailer_env/test_mirror.py). A policy
+        that is odd under it (``agents.policies.mirror``) acts on a straight convoy
+        with no bias.
+        """
+        if self.mirror_task_signs is None:
+            return None
+        n = self.n
+        if self.settings.actuator.planar:  # (xi - b, eta, xi_dot, eta_dot), (xi_ddot, eta_ddot)
+            mass, action = [1.0, -1.0, 1.0, -1.0], [1.0, -1.0]
+        else:  # (s, s_dot), s_ddot
+            mass, action = [-1.0, -1.0], [-1.0]
+        signs = [1.0, -1.0, *([-1.0] * n), *([1.0] * n), *mass, *self.mirror_task_signs]
+        signs += [1.0] * self.n_param_features
+        return np.array(signs), np.array(action)
 
     def _task_feature_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the task features (default unbounded)."""

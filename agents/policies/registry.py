@@ -29,6 +29,7 @@ from agents.envs import (
     make_vector_env,
 )
 from agents.policies.baselines import BASELINES, Policy, make_baseline
+from agents.policies.mirror import MIRROR_SUFFIX, MirroredPolicy, mirror_signs_of, split_mirror
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy, load_model, load_stats
 from dynamics.params import MAX_TRAILERS, bounded_integer
 from trailer_env.json_types import JSONObject
@@ -70,7 +71,9 @@ def load_callable(spec: str) -> Policy:
 
 
 def is_model_spec(spec: str) -> bool:
-    """Whether ``spec`` names a model (file, shipped stem or RLlib folder), not a baseline."""
+    """Whether ``spec`` names a model (file, shipped stem or RLlib folder), not a baseline
+    (``<spec>+mirror``: whether ``<spec>`` does)."""
+    spec, _ = split_mirror(spec)
     if spec in BASELINES or is_callable_spec(spec):
         return False
     return (
@@ -82,7 +85,11 @@ def is_model_spec(spec: str) -> bool:
 
 
 def policy_label(spec: str) -> str:
-    """Short name of a policy spec for tables: the baseline name or the model's file stem."""
+    """Short name of a policy spec for tables: the baseline name or the model's file stem
+    (then ``+mirror`` if it asks for the mirror)."""
+    base, mirrored = split_mirror(spec)
+    if mirrored:
+        return policy_label(base) + MIRROR_SUFFIX
     if not is_model_spec(spec):
         return spec
     path = Path(resolve_model(spec))
@@ -192,6 +199,7 @@ def _trailers_model(
 
 def model_card(spec: str) -> JSONObject:
     """The card of a model spec (SB3 zip or RLlib checkpoint); empty for a baseline."""
+    spec, _ = split_mirror(spec)
     if not is_model_spec(spec):
         return {}
     path = Path(resolve_model(spec))
@@ -218,7 +226,9 @@ def load_policy(
         spec: A baseline name (:data:`agents.policies.baselines.BASELINES`), a ``.zip`` model
             path, the stem of a shipped model (:func:`resolve_model`), an RLlib
             checkpoint folder (:mod:`agents.training.rllib`), or ``module:name``, a
-            batched callable of your own (:func:`load_callable`).
+            batched callable of your own (:func:`load_callable`); any of them followed
+            by ``+mirror``, made odd under the convoy's mirror image
+            (:mod:`agents.policies.mirror`).
         env_id: The environment it will act in.
         env_kwargs: The environment's keyword arguments (``n_trailers`` ...).
         seed: Seed of the random baseline.
@@ -233,6 +243,11 @@ def load_policy(
     """
     check_env_id(env_id)
     kwargs = env_kwargs or {}
+    base, mirrored = split_mirror(spec)
+    if mirrored:
+        signs = mirror_signs_of(env_id, kwargs)
+        inner = load_policy(base, env_id, kwargs, seed, trust_pickle=trust_pickle, force=force)
+        return MirroredPolicy(inner, *signs)
     if is_callable_spec(spec):
         return load_callable(spec)
     spec = resolve_model(spec)

@@ -84,6 +84,8 @@ class DockCore(ShapedCore):
     failure_words = "a miss (the last axle ran past the dock)"
     uses_pose = True
     n_task_features = 4
+    #: (x, y) in the dock's frame, sin and cos of the heading error.
+    mirror_task_signs = (1.0, -1.0, -1.0, 1.0)
     # 400 steps * (0.01 + 0.05) = 24 < 30: neither folding nor missing on purpose pays.
     fold_penalty = 30.0
     failure_penalty = 30.0

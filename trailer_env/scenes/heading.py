@@ -68,6 +68,8 @@ class HeadingCore(ShapedCore):
     start_kernel = staticmethod(heading_starts)
     uses_pose = True
     n_task_features = 3
+    #: sin and cos of the heading error, the hold fraction.
+    mirror_task_signs = (-1.0, 1.0, 1.0)
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
