@@ -160,6 +160,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="trailer slots of --observation trailers (default 8)",
     )
+    parser.add_argument(
+        "--mirror",
+        action="store_true",
+        help="train with the convoy's mirror image (one n): mirrored copies of every "
+        "label, a student made odd under it (its card says so)",
+    )
     parser.add_argument("--run-dir", type=Path, default=None, help="run folder")
     parser.add_argument(
         "--resume",
@@ -208,6 +214,7 @@ def main(argv: list[str] | None = None) -> int:
             expert=expert.name,
             observation=args.observation,
             max_trailers=args.max_trailers,
+            mirror=args.mirror,
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))
@@ -222,6 +229,8 @@ def main(argv: list[str] | None = None) -> int:
         default = default.with_name(f"{default.name}_{config.expert}")
     if config.observation != "flat":
         default = default.with_name(f"{default.name}_{config.observation}")
+    if config.mirror:
+        default = default.with_name(f"{default.name}_mirror")
     checkpoint = None
     if args.resume:
         checkpoint = (args.run_dir or default) / CHECKPOINT_FILE

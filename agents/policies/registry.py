@@ -273,6 +273,25 @@ def load_policy(
             path, probe.single_observation_space, probe.single_action_space, trust_pickle
         )
     card = read_card(path)
+    imitation = card.get("imitation")
+    if isinstance(imitation, dict) and imitation.get("mirror") is True:  # trained odd: acts so
+        return MirroredPolicy(
+            _card_policy(path, card, spec, env_id, kwargs, trust_pickle, force),
+            *mirror_signs_of(env_id, kwargs),
+        )
+    return _card_policy(path, card, spec, env_id, kwargs, trust_pickle, force)
+
+
+def _card_policy(
+    path: Path,
+    card: JSONObject,
+    spec: str,
+    env_id: str,
+    kwargs: JSONObject,
+    trust_pickle: bool,
+    force: bool,
+) -> Policy:
+    """The SB3 model at ``path`` (card read) as a policy of the env (:func:`load_policy`)."""
     if card.get("env_kwargs", {}).get("observation") == "trailers":
         read_curve(curve_path(path), CURVE_COLUMNS)
         return _trailers_model(path, card, env_id, kwargs, trust_pickle, force)

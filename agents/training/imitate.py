@@ -86,6 +86,7 @@ from agents.evaluation.metrics import rollout, summarize
 from agents.oracles.experts import EXPERTS, ExpertConfig, Labeller, default_expert
 from agents.oracles.planner import SamplingPlanner
 from agents.policies.extractors import feature_extractor
+from agents.policies.mirror import MirroredPolicy
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy
 from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
@@ -173,6 +174,11 @@ class ImitationConfig:
         observation: What the student reads: "flat" (default, normalised) or "trailers"
             (the Dict, through :class:`~agents.policies.convoy_encoder.ConvoyEncoder`).
         max_trailers: Trailer slots of "trailers" (default 8; at least the largest n).
+        mirror: Train with the convoy's mirror image (one n): every labelled state is
+            also added mirrored with its mirrored label, and the student drives and is
+            validated made odd under it (:class:`agents.policies.mirror.MirroredPolicy`);
+            its card says so, and :func:`agents.policies.registry.load_policy` wraps it
+            the same way.
     """
 
     env_id: str
@@ -190,6 +196,7 @@ class ImitationConfig:
     expert: str | None = None
     observation: str = "flat"
     max_trailers: int | None = None
+    mirror: bool = False
 
     def __post_init__(self) -> None:
         check_env_id(self.env_id)
@@ -224,6 +231,10 @@ class ImitationConfig:
                 raise ValueError(problem)
         if not (np.isfinite(self.learning_rate) and self.learning_rate > 0.0):
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
+        if not isinstance(self.mirror, bool):
+            raise TypeError(f"mirror must be a bool, got {type(self.mirror).__name__}")
+        if self.mirror and isinstance(self.n_trailers, tuple):
+            raise ValueError("mirror: one number of trailers (the signs of one n's observation)")
         self.settings_by_count()  # a bad number of trailers fails here, named
         slots = checked_observation(self.observation, self.max_trailers, self.top_trailers)
         object.__setattr__(self, "max_trailers", slots)
@@ -562,6 +573,14 @@ def imitate(
     envs = ConvoyVectorEnv(
         core_class, config.episodes, autoreset_mode="same_step", **config.env_kwargs
     )
+    signs = envs.core.mirror_signs() if config.mirror else None
+    if config.mirror and signs is None:
+        raise ValueError(f"mirror: {config.env_id} declares no mirror symmetry")
+
+    def student() -> Any:
+        policy = config.student(model, stats)
+        return policy if signs is None else MirroredPolicy(policy, *signs)
+
     expert = EXPERTS[str(config.expert)]
     planner = expert.build(core_class, settings, config.episodes, config.expert_config, config.seed)
     rng = np.random.default_rng(config.seed)
@@ -617,13 +636,16 @@ def imitate(
     summary: JSONObject = {}
     for iteration in range(done.iterations, config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
-        driver = None if iteration == 0 else config.student(model, stats)
+        driver = None if iteration == 0 else student()
         label = (
             f"imitate: iteration {iteration + 1}/{config.iterations}, {config.episodes} convoys, "
             f"{expert.name} labels ({planner.steps_per_label:,} simulated steps each)"
         )
         with Progress(envs.max_episode_steps, label, quiet=not verbose) as bar:
             obs, labels = collect(envs, planner, driver, seed, bar)
+        if signs is not None:  # each state also mirrored, with its mirrored label
+            obs = np.concatenate([obs, obs * signs[0].astype(np.float32)])
+            labels = np.concatenate([labels, labels * signs[1]])
         if iteration == 0 and stats is not None:
             stats.obs_rms.mean = obs.mean(axis=0).astype(np.float64)
             stats.obs_rms.var = np.maximum(obs.var(axis=0), OBS_VAR_FLOOR).astype(np.float64)
@@ -633,14 +655,15 @@ def imitate(
         inputs = config.inputs(np.concatenate(data_obs))
         loss = fit(model, inputs, np.concatenate(data_labels), config, rng)
         results = rollout(
-            config.student(model, stats),
+            student(),
             config.env_id,
             config.validation_episodes,
             VALIDATION_SEED,
             config.env_kwargs,
         )
         summary = summarize(results)
-        samples = sum(len(chunk) for chunk in data_obs)
+        # Labelled states (a mirrored copy is not one).
+        samples = sum(len(chunk) for chunk in data_obs) // (2 if config.mirror else 1)
         row = {
             "timesteps": samples,
             "wall_s": round(time.perf_counter() - started, 1),
@@ -682,7 +705,7 @@ def imitate(
         _write_checkpoint(run_dir, done, model, stats, planner, rng)
     record.update(
         {
-            "timesteps": sum(len(chunk) for chunk in data_obs),
+            "timesteps": sum(len(chunk) for chunk in data_obs) // (2 if config.mirror else 1),
             "wall_time_s": round(time.perf_counter() - started, 1),
             "simulated_steps": previous_steps + planner.simulated_steps,
         }

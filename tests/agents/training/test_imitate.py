@@ -171,3 +171,28 @@ def test_resume_refuses_what_it_cannot_continue(
     with pytest.raises(SystemExit):
         main(["--n-trailers", "1", "--run-dir", str(tmp_path / "none"), "--resume"])
     assert "no checkpoint" in capsys.readouterr().err
+
+
+def test_a_mirrored_run_learns_from_mirrored_labels_and_acts_odd(tmp_path: Path) -> None:
+    from agents.policies.mirror import MirroredPolicy
+
+    config = ImitationConfig(
+        V1, 1, iterations=1, episodes=2, epochs=1, validation_episodes=2, net_arch=(8,), mirror=True
+    )
+    record = imitate(config, tmp_path / "run", verbose=0)
+    assert record["timesteps"] == 2 * 400  # labelled states; the mirrored copies are not
+    assert record["imitation"]["mirror"] is True
+    signs = np.array([1.0, -1.0, -1.0, 1.0, -1.0, -1.0], dtype=np.float32)
+    with np.load(tmp_path / "run" / "dataset.npz") as data:
+        labels, obs = data["labels"], data["observations"]
+    assert len(labels) == 2 * 2 * 400
+    np.testing.assert_array_equal(labels[800:], -labels[:800])
+    assert not np.array_equal(obs[800:], obs[:800])  # normalised: mean-shifted, not negated
+    policy = load_policy(str(tmp_path / "run" / "best_model.zip"), V1, {"n_trailers": 1})
+    assert isinstance(policy, MirroredPolicy)
+    straight = np.array([[-1.0, 0.0, 0.0, 1.0, 0.0, 0.0]], dtype=np.float32)
+    assert policy(straight)[0, 0] == 0.0
+    some = np.random.default_rng(1).normal(size=(5, 6)).astype(np.float32)
+    np.testing.assert_allclose(policy(some * signs), -policy(some), atol=1e-6)
+    with pytest.raises(ValueError, match="one number of trailers"):
+        ImitationConfig(V1, (1, 3), mirror=True)
