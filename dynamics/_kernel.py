@@ -934,43 +934,6 @@ def advance_block(
 
 
 @cached_njit(nogil=True)
-def rk4_block(
-    pv: np.ndarray,
-    z: np.ndarray,
-    act: np.ndarray,
-    rows: np.ndarray,
-    nb: int,
-    n: int,
-    with_pose: bool,
-    dt: float,
-    substeps: int,
-    preserve_energy: bool,
-    target_energy: np.ndarray,
-    fold_angle: float,
-    folded: np.ndarray,
-    workspace: tuple,
-) -> None:
-    """Classical RK4 on the ``nb`` rows ``rows[:nb]`` of ``z`` and ``act``, in place
-    (:func:`gather_block`, :func:`advance_block`, :func:`scatter_block`)."""
-    gather_block(z, act, rows, nb, workspace)
-    advance_block(
-        pv,
-        rows,
-        nb,
-        n,
-        with_pose,
-        dt,
-        substeps,
-        preserve_energy,
-        target_energy,
-        fold_angle,
-        folded,
-        workspace,
-    )
-    scatter_block(z, act, rows, nb, dt, workspace)
-
-
-@cached_njit(nogil=True)
 def block_order(substeps: np.ndarray) -> np.ndarray:
     """Row order in which runs of equal substep counts are contiguous (identity if all equal)."""
     count = substeps.shape[0]
@@ -1050,10 +1013,9 @@ def advance_rows(
         for i in rows[:nb]:
             advance_mass_row(act, i, dt)
     else:
-        rk4_block(
+        gather_block(z, act, rows, nb, workspace)
+        advance_block(
             lane_pv,
-            z,
-            act,
             rows,
             nb,
             n,
@@ -1066,6 +1028,7 @@ def advance_rows(
             folded,
             workspace,
         )
+        scatter_block(z, act, rows, nb, dt, workspace)
     return lane_pv
 
 
