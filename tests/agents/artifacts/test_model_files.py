@@ -79,7 +79,7 @@ def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     zips = sorted(MODELS_DIR.glob("*.zip"))
     seeds = sorted((MODELS_DIR / "seeds").glob("*.zip"))
     # With the generalist and the two sequence generalists (ConvoyEncoder, n = 1-3 and 1-6).
-    assert len(zips) == 22 and not list(MODELS_DIR.glob("**/*.pkl"))
+    assert len(zips) == 23 and not list(MODELS_DIR.glob("**/*.pkl"))
     assert len(seeds) == 30  # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model
     for model in zips + seeds:
         card = read_card(model)
