@@ -428,7 +428,7 @@ class CheckpointError(ValueError):
 
 
 @dataclass
-class _Progress:
+class _RunState:
     """What a DAgger run has done so far (restored from its checkpoint on resume)."""
 
     iterations: int = 0
@@ -466,7 +466,7 @@ def _restore(
     stats: Any,
     planner: Labeller,
     rng: np.random.Generator,
-) -> _Progress:
+) -> _RunState:
     """Load the run's checkpoint into the model, statistics and random streams.
 
     Raises:
@@ -509,7 +509,7 @@ def _restore(
         raise CheckpointError(f"cannot resume {run_dir}: the expert's random streams differ")
     for stream, state in zip(streams, checkpoint["expert_rngs"], strict=True):
         stream.bit_generator.state = state
-    return _Progress(
+    return _RunState(
         iterations=done,
         data_obs=[observations],
         data_labels=[labels],
@@ -522,7 +522,7 @@ def _restore(
 
 def _write_checkpoint(
     run_dir: Path,
-    progress: _Progress,
+    progress: _RunState,
     model: Any,
     stats: Any,
     planner: Labeller,
@@ -577,6 +577,10 @@ def imitate(
     if config.mirror and signs is None:
         raise ValueError(f"mirror: {config.env_id} declares no mirror symmetry")
 
+    def labelled_states(chunks: list[np.ndarray]) -> int:
+        """Rows of the data set that the expert labelled (a mirrored copy is not one)."""
+        return sum(len(chunk) for chunk in chunks) // (2 if config.mirror else 1)
+
     def student() -> Any:
         policy = config.student(model, stats)
         return policy if signs is None else MirroredPolicy(policy, *signs)
@@ -621,7 +625,7 @@ def imitate(
         "training_seed": TRAINING_SEED,
         "budget": config.iterations * config.episodes * envs.max_episode_steps,
     }
-    done = _Progress(data_obs=[], data_labels=[], curve=[])
+    done = _RunState(data_obs=[], data_labels=[], curve=[])
     if resume:
         done = _restore(run_dir, config, record, model, stats, planner, rng)
         saved = json.loads((run_dir / CONFIG_FILE).read_text())
@@ -662,8 +666,7 @@ def imitate(
             config.env_kwargs,
         )
         summary = summarize(results)
-        # Labelled states (a mirrored copy is not one).
-        samples = sum(len(chunk) for chunk in data_obs) // (2 if config.mirror else 1)
+        samples = labelled_states(data_obs)
         row = {
             "timesteps": samples,
             "wall_s": round(time.perf_counter() - started, 1),
@@ -705,7 +708,7 @@ def imitate(
         _write_checkpoint(run_dir, done, model, stats, planner, rng)
     record.update(
         {
-            "timesteps": sum(len(chunk) for chunk in data_obs) // (2 if config.mirror else 1),
+            "timesteps": labelled_states(data_obs),
             "wall_time_s": round(time.perf_counter() - started, 1),
             "simulated_steps": previous_steps + planner.simulated_steps,
         }
