@@ -191,6 +191,17 @@ class MixedCore:
         ones = np.ones(self.n, dtype=np.float32)
         return np.concatenate([low, 0 * ones]), np.concatenate([high, ones])
 
+    def mirror_signs(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The mirror image's signs in the padded layout (see
+        :meth:`~trailer_env.core.ConvoyCore.mirror_signs`): the largest count's, then +1
+        for the mask. A padded zero keeps its value, so the signs of every count's rows
+        are these, whatever n the row's episode drew."""
+        signs = self.cores[self.n].mirror_signs()
+        if signs is None:
+            return None
+        observation, action = signs
+        return np.concatenate([observation, np.ones(self.n)]), action
+
     # ------------------------------------------------------------- resets
     def reset_rows(self, rows: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
         """New episodes in ``rows``, row ``rows[j]`` drawing its n, then its start, from

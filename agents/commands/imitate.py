@@ -163,7 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--mirror",
         action="store_true",
-        help="train with the convoy's mirror image (one n): mirrored copies of every "
+        help="train with the convoy's mirror image: mirrored copies of every "
         "label, a student made odd under it (its card says so)",
     )
     parser.add_argument("--run-dir", type=Path, default=None, help="run folder")

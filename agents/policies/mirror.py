@@ -21,7 +21,6 @@ import numpy as np
 from agents.envs import make_vector_env
 from agents.policies.baselines import Policy
 from trailer_env.json_types import JSONObject
-from trailer_env.mixed import is_trailer_range
 
 #: The policy-spec suffix that wraps a policy in :class:`MirroredPolicy`.
 MIRROR_SUFFIX = "+mirror"
@@ -61,17 +60,16 @@ class MirroredPolicy:
 def mirror_signs_of(env_id: str, env_kwargs: JSONObject) -> tuple[np.ndarray, np.ndarray]:
     """The observation and action signs of the env ``gym.make(env_id, **env_kwargs)``.
 
+    A range of trailer counts gives the signs of its padded layout
+    (:meth:`trailer_env.mixed.MixedCore.mirror_signs`).
+
     Raises:
-        ValueError: For a range of trailer counts or the Dict observation (the signs are
-            those of one n's flat observation), or a scene that declares no mirror
-            symmetry.
+        ValueError: For the Dict observation (a policy here reads the flat one; a
+            ``"trailers"`` model is wrapped on the flat side), or a scene that declares
+            no mirror symmetry.
     """
-    flat = env_kwargs.get("observation", "flat") == "flat"
-    if is_trailer_range(env_kwargs.get("n_trailers")) or not flat:
-        raise ValueError(
-            f"{MIRROR_SUFFIX} acts on the flat observation of one number of trailers, "
-            f"not on {env_kwargs}"
-        )
+    if env_kwargs.get("observation", "flat") != "flat":
+        raise ValueError(f"{MIRROR_SUFFIX} acts on the flat observation, not on {env_kwargs}")
     probe = make_vector_env(env_id, 1, env_kwargs)
     try:
         signs = probe.core.mirror_signs()

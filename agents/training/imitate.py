@@ -174,7 +174,7 @@ class ImitationConfig:
         observation: What the student reads: "flat" (default, normalised) or "trailers"
             (the Dict, through :class:`~agents.policies.convoy_encoder.ConvoyEncoder`).
         max_trailers: Trailer slots of "trailers" (default 8; at least the largest n).
-        mirror: Train with the convoy's mirror image (one n): every labelled state is
+        mirror: Train with the convoy's mirror image: every labelled state is
             also added mirrored with its mirrored label, and the student drives and is
             validated made odd under it (:class:`agents.policies.mirror.MirroredPolicy`);
             its card says so, and :func:`agents.policies.registry.load_policy` wraps it
@@ -233,8 +233,6 @@ class ImitationConfig:
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
         if not isinstance(self.mirror, bool):
             raise TypeError(f"mirror must be a bool, got {type(self.mirror).__name__}")
-        if self.mirror and isinstance(self.n_trailers, tuple):
-            raise ValueError("mirror: one number of trailers (the signs of one n's observation)")
         self.settings_by_count()  # a bad number of trailers fails here, named
         slots = checked_observation(self.observation, self.max_trailers, self.top_trailers)
         object.__setattr__(self, "max_trailers", slots)

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import trailer_env  # noqa: F401  (registers the ids)
+from trailer_env.mixed import pad_observations
 from trailer_env.registry import ENVIRONMENTS
 
 
@@ -57,3 +58,23 @@ def test_a_mirrored_episode_is_the_mirror_image(env_id: str, kwargs: dict[str, o
         assert image_terminated == terminated
         if terminated or truncated:
             break
+
+
+@pytest.mark.parametrize("env_id", sorted(ENVIRONMENTS))
+def test_the_padded_layout_mirrors_every_count_it_holds(env_id: str) -> None:
+
+    mixed = gym.make_vec(
+        env_id, num_envs=1, vectorization_mode="vector_entry_point", n_trailers=(1, 3)
+    )
+    signs = mixed.unwrapped.core.mirror_signs()  # type: ignore[attr-defined]
+    assert signs is not None
+    padded_signs, padded_action = signs
+    assert padded_signs.shape == mixed.single_observation_space.shape
+    for n in (1, 2, 3):
+        single = gym.make(env_id, n_trailers=n)
+        obs_signs, action_signs = single.unwrapped.core.mirror_signs()  # type: ignore[attr-defined]
+        obs = np.random.default_rng(n).normal(size=(4, obs_signs.size)).astype(np.float32)
+        np.testing.assert_array_equal(
+            pad_observations(obs, n, 3) * padded_signs, pad_observations(obs * obs_signs, n, 3)
+        )
+        np.testing.assert_array_equal(padded_action, action_signs)

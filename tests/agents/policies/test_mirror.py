@@ -8,6 +8,7 @@ import pytest
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.mirror import MirroredPolicy, split_mirror
 from agents.policies.registry import is_model_spec, load_policy, model_card, policy_label
+from trailer_env.mixed import pad_observations
 
 V1 = "trailer_env/Reverse-v1"
 
@@ -45,9 +46,25 @@ def test_the_suffix_is_read_by_every_spec_helper() -> None:
 
 
 def test_the_mirror_is_refused_where_it_has_no_meaning() -> None:
-    with pytest.raises(ValueError, match="one number of trailers"):
-        load_policy("lqr+mirror", V1, {"n_trailers": [1, 3]})
     with pytest.raises(ValueError, match="flat observation"):
         load_policy("lqr+mirror", V1, {"n_trailers": 2, "observation": "trailers"})
     with pytest.raises(ValueError, match="unknown policy"):
         load_policy("nothing+mirror", V1, {"n_trailers": 2})
+
+
+def test_a_policy_of_a_range_of_counts_is_made_odd_in_the_padded_layout() -> None:
+    kwargs = {"n_trailers": [1, 3]}
+    policy = load_policy("dagger_reverse_v1_sequence+mirror", V1, kwargs)
+    assert isinstance(policy, MirroredPolicy)
+    padded = np.array([pad_observations(_straight(n), n, 3)[0] for n in (1, 2, 3)])
+    np.testing.assert_array_equal(policy(padded), np.zeros((3, 1), dtype=np.float32))
+    rng = np.random.default_rng(4)
+    some = np.array(
+        [pad_observations(rng.normal(size=(1, 2 + 2 * n + 2)), n, 3)[0] for n in (1, 2, 3)]
+    )
+    np.testing.assert_allclose(policy(some * policy.observation_signs), -policy(some), atol=1e-6)
+
+
+def _straight(n: int) -> np.ndarray:
+    """A straight convoy reversing at unit speed with the mass centred (one n, flat)."""
+    return np.array([[-1.0, 0.0, *([0.0] * n), *([1.0] * n), 0.0, 0.0]], dtype=np.float32)

@@ -194,5 +194,25 @@ def test_a_mirrored_run_learns_from_mirrored_labels_and_acts_odd(tmp_path: Path)
     assert policy(straight)[0, 0] == 0.0
     some = np.random.default_rng(1).normal(size=(5, 6)).astype(np.float32)
     np.testing.assert_allclose(policy(some * signs), -policy(some), atol=1e-6)
-    with pytest.raises(ValueError, match="one number of trailers"):
-        ImitationConfig(V1, (1, 3), mirror=True)
+
+
+def test_a_mirrored_run_over_a_range_of_counts_mirrors_the_padded_layout(tmp_path: Path) -> None:
+    config = ImitationConfig(
+        V1,
+        (1, 2),
+        iterations=1,
+        episodes=2,
+        epochs=1,
+        validation_episodes=2,
+        net_arch=(8,),
+        mirror=True,
+    )
+    record = imitate(config, tmp_path / "run", verbose=0)
+    assert record["imitation"]["mirror"] is True
+    with np.load(tmp_path / "run" / "dataset.npz") as data:
+        labels = data["labels"]
+    half = len(labels) // 2
+    np.testing.assert_array_equal(labels[half:], -labels[:half])
+    policy = load_policy(str(tmp_path / "run" / "best_model.zip"), V1, {"n_trailers": [1, 2]})
+    straight = np.array([[-1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]], dtype=np.float32)
+    assert policy(straight)[0, 0] == 0.0  # n = 1 in the layout padded to 2, mask (1, 0)
