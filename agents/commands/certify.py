@@ -70,7 +70,7 @@ from agents.oracles.certify_goals import (
 )
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
-from agents.policies.registry import load_policy
+from agents.policies.registry import load_policy, policy_label
 from trailer_env.json_types import JSONObject
 from trailer_env.randomize import PRESETS
 
@@ -378,6 +378,9 @@ def main(argv: list[str] | None = None) -> int:
     problem = write_problem(args.out, args.overwrite)
     if problem is not None:
         parser.error(f"argument --out: {problem}")
+    labels = [policy_label(spec) for spec in warm or []]
+    if len(set(labels)) < len(labels):
+        parser.error(f"argument --warm-start: two specs of one label in {labels}")
     for spec in [*specs, *(warm or [])]:
         try:
             load_policy(spec, env_id, env_kwargs)

@@ -337,7 +337,7 @@ def warm_start(
 
     Raises:
         ValueError: For a scene that is not a goal scene, a split outside (0, 1), a bad
-            ``restarts`` or a spec that does not load.
+            ``restarts``, two specs of one label or a spec that does not load.
     """
     env_id = certificate["env_id"]
     if not is_goal_scene(env_id):
@@ -351,9 +351,13 @@ def warm_start(
     core_class = core_class_of(env_id)
     steps = core_class.max_episode_steps
     config = config or ILQRConfig()
+    labels = [policy_label(spec) for spec in specs]
+    repeated = sorted({label for label in labels if labels.count(label) > 1})
+    if repeated:
+        raise ValueError(f"warm-start specs must name different policies; repeated: {repeated}")
     policies = {
-        policy_label(spec): (spec, load_policy(spec, env_id, env_kwargs, trust_pickle=trust_pickle))
-        for spec in specs
+        label: (spec, load_policy(spec, env_id, env_kwargs, trust_pickle=trust_pickle))
+        for label, spec in zip(labels, specs, strict=True)
     }
     actions = {int(seed): np.asarray(record) for seed, record in certificate["actions"].items()}
     starts = [dict(start) for start in certificate["starts"]]

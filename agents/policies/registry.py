@@ -21,7 +21,7 @@ import numpy as np
 from agents.artifacts.cards import is_count_range, read_card
 from agents.artifacts.curves import CURVE_COLUMNS, read_curve
 from agents.artifacts.paths import curve_path, stats_path
-from agents.artifacts.run_folder import RLLIB_CHECKPOINT
+from agents.artifacts.run_folder import CONFIG_FILE, RLLIB_CHECKPOINT
 from agents.artifacts.shipped import resolve_model, shipped_models
 from agents.envs import (
     check_env_id,
@@ -85,8 +85,9 @@ def is_model_spec(spec: str) -> bool:
 
 
 def policy_label(spec: str) -> str:
-    """Short name of a policy spec for tables: the baseline name or the model's file stem
-    (then ``+mirror`` if it asks for the mirror)."""
+    """Short name of a policy spec for tables: the baseline name or the model's file stem,
+    ``<run>/<stem>`` for a model in a run folder (``best_model`` and ``final_model`` of
+    two runs stay apart), then ``+mirror`` if it asks for the mirror."""
     base, mirrored = split_mirror(spec)
     if mirrored:
         return policy_label(base) + MIRROR_SUFFIX
@@ -95,6 +96,8 @@ def policy_label(spec: str) -> str:
     path = Path(resolve_model(spec))
     if path.is_dir() and path.name == RLLIB_CHECKPOINT:
         return path.resolve().parent.name  # an RLlib run's checkpoint: the run's name
+    if (path.parent / CONFIG_FILE).is_file():
+        return f"{path.resolve().parent.name}/{path.stem}"
     return path.stem
 
 

@@ -145,6 +145,7 @@ def test_the_command_adds_witnesses_to_a_certificate(
         (["--seeds", "1077"], "not with --from-certificate"),
         (["--witnesses", "nobody"], "unknown policy 'nobody'"),
         (["--no-witnesses"], "only adds witnesses"),
+        (["--warm-start", "lqr", "lqr"], "two specs of one label"),
     ]:
         with pytest.raises(SystemExit) as raised:
             main(["--from-certificate", str(base / "certificate.json"), *argv, "--out", str(out)])

@@ -87,6 +87,12 @@ def test_saved_models_load_by_path_with_their_algorithm(tmp_path: Path) -> None:
         actions = policy(np.zeros((3, 6), np.float32))
         assert actions.shape == (3, 1) and np.all(np.abs(actions) <= 1.0)
         assert policy_label(str(path)) == f"{name}_model"
+    run = tmp_path / "ppo_run_s3"
+    run.mkdir()
+    (run / "config.json").write_text("{}")
+    (tmp_path / "ppo_model.zip").rename(run / "best_model.zip")
+    assert policy_label(str(run / "best_model.zip")) == "ppo_run_s3/best_model"  # which run's
+    (run / "best_model.zip").rename(tmp_path / "ppo_model.zip")
     with pytest.raises(ValueError, match=r"expects observations of shape \(6,\)"):
         load_policy(str(tmp_path / "ppo_model.zip"), REVERSE, {"n_trailers": 2})
 
