@@ -242,7 +242,8 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="plan the starts not kept safe (mpc: with new planner seeds, default "
         f"{DEFAULT_RESTARTS}) or not at the goal (ilqr: longer horizon, more iterations, "
-        f"default {DEFAULT_GOAL_RESTARTS}) again, up to this many times",
+        f"default {DEFAULT_GOAL_RESTARTS}; --warm-start: default 1) again, up to this many "
+        "times",
     )
     witnesses = parser.add_argument_group(
         "witnesses", "other sources of action records (agents.evaluation.witnesses)"
@@ -401,7 +402,8 @@ def main(argv: list[str] | None = None) -> int:
     if specs:
         certificate = add_witnesses(certificate, specs)
     if warm:
-        certificate = warm_start(certificate, warm, config=ilqr_config)
+        warm_restarts = 1 if args.restarts is None else args.restarts
+        certificate = warm_start(certificate, warm, config=ilqr_config, restarts=warm_restarts)
     write_certificate(certificate, args.out, args.overwrite)
     print(markdown(certificate).split("\n\n| seed")[0])
     print(f"wrote {args.out / 'certificate.json'}")
