@@ -192,7 +192,7 @@ def markdown(scores: Sequence[RunScore], fresh_seed: int, fresh_episodes: int) -
     lines.append(
         f"Test: seeds {TEST_SEED}..{TEST_SEED + TEST_EPISODES - 1}; fresh: seeds "
         f"{fresh_seed}..{fresh_seed + fresh_episodes - 1}. Kept: the run's best validation "
-        "evaluation (50 episodes from seed 50,000); final: its last model. Plateau: the "
+        "evaluation (its --eval-episodes from seed 50,000); final: its last model. Plateau: the "
         f"run's last {PLATEAU_WINDOW} validation evaluations lie within {PLATEAU_EPS} of "
         "their mean (the level); it is reached at the first evaluation from which every "
         "later one stays within that band. Wall time: the run's own clock."
