@@ -27,6 +27,7 @@ import shutil
 import subprocess
 import sys
 import threading
+import time
 import urllib.error
 import urllib.request
 from collections.abc import Iterator
@@ -147,6 +148,8 @@ Promise.all(images.map(img => img.complete ? null : new Promise(resolve => {
 }))).then(() => done(images.map(img => [img.currentSrc || img.src, img.naturalWidth])));
 """
 
+_WHERE = "return [document.location.href, document.readyState];"
+
 _COLLECT = """
 return [
     Array.from(document.querySelectorAll('[id]')).map(e => e.id)
@@ -173,6 +176,14 @@ return Array.from(column.querySelectorAll('table')).map((table, index) => {
 def visit(driver: object, url: str) -> PageReport:
     """Open ``url``; its ids, links, images that did not load and SEVERE console lines."""
     driver.get(url)  # type: ignore[attr-defined]
+    # On a loaded machine the script can run before the new document has replaced the
+    # last one (a page without GIFs was once read in place of one with two): wait for it.
+    deadline = time.monotonic() + 30.0
+    while time.monotonic() < deadline:
+        here, state = driver.execute_script(_WHERE)  # type: ignore[attr-defined]
+        if state == "complete" and _normal(here.split("#")[0]) == _normal(url):
+            break
+        time.sleep(0.1)
     images = driver.execute_async_script(_WAIT_FOR_IMAGES)  # type: ignore[attr-defined]
     ids, links = driver.execute_script(_COLLECT)  # type: ignore[attr-defined]
     report = PageReport(url, set(ids), list(links), images=[src for src, _ in images])
