@@ -58,6 +58,7 @@ from agents.evaluation.witnesses import (
     add_witnesses,
     committed_witnesses,
     default_witnesses,
+    repeated_labels,
     warm_start,
 )
 from agents.oracles.certify import DEFAULT_RESTARTS, certify, randomize_kwarg
@@ -70,7 +71,7 @@ from agents.oracles.certify_goals import (
 )
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
-from agents.policies.registry import load_policy, policy_label
+from agents.policies.registry import load_policy
 from trailer_env.json_types import JSONObject
 from trailer_env.randomize import PRESETS
 
@@ -379,9 +380,9 @@ def main(argv: list[str] | None = None) -> int:
     problem = write_problem(args.out, args.overwrite)
     if problem is not None:
         parser.error(f"argument --out: {problem}")
-    labels = [policy_label(spec) for spec in warm or []]
-    if len(set(labels)) < len(labels):
-        parser.error(f"argument --warm-start: two specs of one label in {labels}")
+    repeated = repeated_labels(warm or [])
+    if repeated:
+        parser.error(f"argument --warm-start: two specs of one label: {repeated}")
     for spec in [*specs, *(warm or [])]:
         try:
             load_policy(spec, env_id, env_kwargs)

@@ -312,6 +312,13 @@ def _prefix_states(
         core.step(action, rows)
 
 
+def repeated_labels(specs: Sequence[str]) -> list[str]:
+    """The policy labels (:func:`policy_label`) that more than one of ``specs`` has: a
+    warm start keys its policies and sources by label, so they must differ."""
+    labels = [policy_label(spec) for spec in specs]
+    return sorted({label for label in labels if labels.count(label) > 1})
+
+
 def warm_start(
     certificate: JSONObject,
     specs: Sequence[str],
@@ -352,7 +359,7 @@ def warm_start(
     steps = core_class.max_episode_steps
     config = config or ILQRConfig()
     labels = [policy_label(spec) for spec in specs]
-    repeated = sorted({label for label in labels if labels.count(label) > 1})
+    repeated = repeated_labels(specs)
     if repeated:
         raise ValueError(f"warm-start specs must name different policies; repeated: {repeated}")
     policies = {
@@ -482,6 +489,7 @@ __all__ = [
     "add_witnesses",
     "committed_witnesses",
     "default_witnesses",
+    "repeated_labels",
     "replays_to_success",
     "warm_start",
     "witness_run",
