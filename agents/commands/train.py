@@ -25,6 +25,13 @@ that is in no run folder (e.g. a shipped ``agents/models/*.zip``) starts the fre
 default run folder instead: its own folder is never turned into a run. A folder that
 already holds another run is refused unless ``--overwrite`` (:mod:`agents.artifacts.run_folder`).
 
+``--init-from MODEL`` fine-tunes: a new run whose policy starts as MODEL's (an imitation
+agent, another run's best model) under this run's hyperparameters, MODEL's observation
+statistics restored and frozen (the policy reads its inputs through them). ``--critic-warmup
+STEPS`` first trains the value function alone, so that PPO's first updates follow advantages
+of a critic that knows the policy (:class:`agents.training.callbacks.CriticWarmup`). A
+fine-tuning run is resumed with ``--resume`` and the same ``--init-from``.
+
 ``--stop-on-plateau WINDOW,EPS`` ends the run early once its validation headline rate
 (safe for Reverse, success otherwise) is flat: its last WINDOW evaluations within EPS
 of their mean (:mod:`agents.evaluation.learning_curves`); the cards record the step
@@ -61,6 +68,7 @@ import sys
 import time
 from pathlib import Path
 
+from agents.algorithms import algorithm
 from agents.artifacts import limits
 from agents.artifacts.paths import pickled_stats_path, replay_buffer_path, stats_path
 from agents.artifacts.run_folder import (
@@ -159,6 +167,22 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--resume", type=Path, default=None, help="checkpoint (.zip) to continue from"
     )
+    parser.add_argument(
+        "--init-from",
+        type=Path,
+        default=None,
+        metavar="MODEL",
+        help="fine-tune: start a new run from this model's policy (e.g. an imitation "
+        "agent), its observation statistics frozen; with --resume, the run's own",
+    )
+    parser.add_argument(
+        "--critic-warmup",
+        type=cli.bounded(0, limits.MAX_TIMESTEPS),
+        default=0,
+        metavar="STEPS",
+        help="with --init-from (ppo, ppo_lag): train the value function alone for this "
+        "many steps before the policy moves (default 0)",
+    )
     cli.add_overwrite(
         parser, "start afresh in a run folder that already holds a run; replace --export's files"
     )
@@ -225,6 +249,34 @@ def _check_resume(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
         parser.error(f"argument --resume: {error}")
 
 
+def _check_init_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse an --init-from that is missing, of another algorithm or unloadable, and a
+    --critic-warmup without it or for an algorithm without a separate value function."""
+    if args.critic_warmup and args.init_from is None:
+        parser.error("argument --critic-warmup: only with --init-from")
+    if args.critic_warmup and algorithm(args.algo).off_policy:
+        parser.error(f"argument --critic-warmup: {args.algo} has no separate value function")
+    if args.init_from is None:
+        return
+    if not args.init_from.is_file():
+        parser.error(f"argument --init-from: no model file {args.init_from}")
+    try:
+        saved_algo = detect_algo(args.init_from)
+        if saved_algo != args.algo:
+            raise ValueError(f"{args.init_from} was saved by {saved_algo}, not {args.algo}")
+        load_model(
+            args.init_from,
+            args.algo,
+            env_id=args.env,
+            env_kwargs={"n_trailers": args.n_trailers},
+            trust_pickle=args.trust_pickle,
+        )
+        if stats_path(args.init_from).is_file():
+            read_stats(stats_path(args.init_from))
+    except (ValueError, FileNotFoundError) as error:
+        parser.error(f"argument --init-from: {error}")
+
+
 def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """Refuse the options the chosen backend does not have."""
     if args.backend == "rllib":
@@ -233,6 +285,7 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
             ("--export", args.export is not None),
             ("--stop-on-plateau", args.stop_on_plateau is not None),
             ("--shaping", args.shaping not in (None, "none")),
+            ("--init-from", args.init_from is not None),
         ):
             if unsupported:
                 parser.error(f"argument {name}: not supported with --backend rllib")
@@ -292,6 +345,8 @@ def config_from_args(
             n_envs=n_envs,
             backend=args.backend,
             command=command,
+            init_from=None if args.init_from is None else str(args.init_from),
+            critic_warmup=args.critic_warmup,
         )
     except ValueError as error:
         parser.error(f"argument --timesteps, --n-envs or --seed (or the file's): {error}")
@@ -299,6 +354,16 @@ def config_from_args(
         env_settings(config.env_kwargs)
     except (TypeError, ValueError) as error:
         parser.error(f"argument --n-trailers (or the file's env_kwargs): {error}")
+    if (
+        args.init_from is not None
+        and hp.normalize is not None
+        and hp.normalize.get("norm_obs", True)
+        and not stats_path(args.init_from).is_file()
+    ):
+        parser.error(
+            f"argument --init-from: {args.init_from} has no observation statistics "
+            f"({stats_path(args.init_from).name}), but the hyperparameters normalise observations"
+        )
     if (
         args.resume is not None
         and hp.normalize is not None
@@ -320,6 +385,7 @@ def main(argv: list[str] | None = None) -> int:
     _check_backend(parser, args)
     if args.resume is not None:
         _check_resume(parser, args)
+    _check_init_from(parser, args)
     command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
     config = config_from_args(parser, args, command)
     if args.export is not None:

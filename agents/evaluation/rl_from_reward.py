@@ -18,7 +18,9 @@ training seeds are summarised as mean ± sd.
 
 Writes ``rl_from_reward.md`` (one table per (scene, n), one row per run and per
 group) and ``rl_from_reward.json`` (every figure), atomically; existing files are
-replaced only with ``--overwrite``.
+replaced only with ``--overwrite``. ``--update`` adds the RUNs to the table already in
+``--out`` instead: its rows of other runs are kept as they were scored (run folders are
+not kept forever), a run of the same name is re-scored; the fresh seeds must match.
 
 ``--export agents/models/NAME.zip`` (all RUNs of one scene, n and algorithm) commits
 the runs as the project commits a learned agent: each run's kept model goes to
@@ -222,7 +224,30 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--fresh-episodes", type=int, default=200)
     parser.add_argument("--export", type=Path, default=None, metavar="PATH.zip")
     parser.add_argument("--overwrite", action="store_true")
+    parser.add_argument(
+        "--update", action="store_true", help="add to the table in --out (see above)"
+    )
     return parser
+
+
+def _kept_scores(document: Path, fresh_seed: int, fresh_episodes: int) -> list[RunScore]:
+    """The rows of an earlier table (``--update``).
+
+    Raises:
+        ValueError: If it is unreadable or was scored on other fresh episodes.
+    """
+    try:
+        earlier = files.read_json(document)
+        scores = [RunScore(**row) for row in earlier["runs"]]
+    except (OSError, KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"cannot read the table {document}: {error}") from None
+    scored_on = (earlier.get("fresh_seed"), earlier.get("fresh_episodes"))
+    if scored_on != (fresh_seed, fresh_episodes):
+        raise ValueError(
+            f"{document} was scored on {scored_on[1]} fresh episodes from seed {scored_on[0]}, "
+            f"not {fresh_episodes} from {fresh_seed}"
+        )
+    return scores
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -239,8 +264,16 @@ def main(argv: list[str] | None = None) -> int:
     if not folders:
         parser.error("no finished run folder (config.json, best and final model) in RUN")
     targets = [args.out / TABLE, args.out / DOCUMENT]
-    if not args.overwrite and any(path.exists() for path in targets):
-        parser.error(f"{args.out} already holds a table: --overwrite replaces it")
+    kept: list[RunScore] = []
+    if args.update:
+        try:
+            kept = _kept_scores(targets[1], args.fresh_seed, args.fresh_episodes)
+        except ValueError as error:
+            parser.error(f"--update: {error}")
+        names = {folder.name for folder in folders}
+        kept = [score for score in kept if score.run not in names]
+    elif not args.overwrite and any(path.exists() for path in targets):
+        parser.error(f"{args.out} already holds a table: --overwrite replaces it (--update adds)")
     groups = group_runs([read_run(folder) for folder in folders])  # refuses unreadable runs
     if args.export is not None:
         if len(groups) != 1:
@@ -256,6 +289,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[{index}/{len(folders)}] scoring {folder}", file=sys.stderr, flush=True)
         scores.append(score_run(folder, args.fresh_seed, args.fresh_episodes))
     args.out.mkdir(parents=True, exist_ok=True)
+    scores = kept + scores
     document: dict[str, object] = {
         "fresh_seed": args.fresh_seed,
         "fresh_episodes": args.fresh_episodes,
@@ -265,7 +299,7 @@ def main(argv: list[str] | None = None) -> int:
     files.atomic_write_text(targets[0], markdown(scores, args.fresh_seed, args.fresh_episodes))
     print(f"wrote {targets[0]} and {targets[1]}")
     if args.export is not None:
-        chosen = export_selected(scores, folders, args.export)
+        chosen = export_selected(scores[len(kept) :], folders, args.export)
         print(f"exported seed {chosen} to {args.export} (siblings in agents/models/seeds/)")
     return 0
 

@@ -244,6 +244,51 @@ class SafetyEvalCallback(BaseCallback):
         return summary
 
 
+class CriticWarmup(BaseCallback):
+    """Train the value function alone for the first ``steps`` steps of a fine-tuning run.
+
+    A policy taken from elsewhere (imitation) comes with a value function that knows
+    nothing of it; PPO's first updates would follow advantages from that untrained
+    critic and can undo the policy. So every parameter the policy's actions depend on
+    (its features extractor when shared, its hidden layers, its action head and log
+    standard deviation) is frozen until ``steps``, then released. Frozen parameters get
+    no gradient, so the optimiser leaves them (and its moments for them) untouched.
+    """
+
+    def __init__(self, steps: int) -> None:
+        super().__init__(0)
+        self.steps = int(steps)
+        self.frozen: list[Any] = []
+
+    def _on_training_start(self) -> None:
+        if self.num_timesteps >= self.steps:
+            return
+        policy: Any = self.model.policy  # an ActorCriticPolicy (on-policy algorithms)
+        modules = [policy.mlp_extractor.policy_net, policy.action_net]
+        shared = policy.share_features_extractor
+        modules.append(policy.features_extractor if shared else policy.pi_features_extractor)
+        self.frozen = [p for module in modules for p in module.parameters() if p.requires_grad]
+        if getattr(policy, "log_std", None) is not None and policy.log_std.requires_grad:
+            self.frozen.append(policy.log_std)
+        for parameter in self.frozen:
+            parameter.requires_grad_(False)
+
+    def _on_rollout_start(self) -> None:
+        if self.frozen and self.num_timesteps >= self.steps:
+            for parameter in self.frozen:
+                parameter.requires_grad_(True)
+            self.frozen = []
+
+    def _on_step(self) -> bool:
+        return True
+
+    def _on_training_end(self) -> None:
+        # The saved model is left trainable, whatever step the run stopped at.
+        for parameter in self.frozen:
+            parameter.requires_grad_(True)
+        self.frozen = []
+
+
 class ProgressCallback(BaseCallback):
     """Training progress (:class:`agents.progress.Progress`) that ends at the real total.
 

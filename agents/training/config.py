@@ -454,6 +454,10 @@ class TrainConfig:
         hyperparams: The hyperparameter file's entry.
         backend: "sb3" or "rllib".
         command: The command line that started the run.
+        init_from: A fine-tuning run's starting model (its weights and frozen observation
+            statistics), e.g. an imitation agent; None: a fresh policy.
+        critic_warmup: Steps at the start of a fine-tuning run that train the value
+            function alone (:class:`agents.training.callbacks.CriticWarmup`).
     """
 
     env_id: str
@@ -465,10 +469,20 @@ class TrainConfig:
     hyperparams: Hyperparams
     backend: str = "sb3"
     command: tuple[str, ...] = ()
+    init_from: str | None = None
+    critic_warmup: int = 0
 
     def __post_init__(self) -> None:
         if self.backend not in ("sb3", "rllib"):
             raise ValueError(f"backend must be 'sb3' or 'rllib', got {self.backend!r}")
+        if self.critic_warmup < 0 or (self.critic_warmup and self.init_from is None):
+            raise ValueError(
+                f"critic_warmup must be >= 0 and needs init_from, got {self.critic_warmup}"
+            )
+        if self.critic_warmup >= self.budget:
+            raise ValueError(
+                f"critic_warmup ({self.critic_warmup}) must be under the budget ({self.budget})"
+            )
         if self.budget < 1 or self.n_envs < 1:
             raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
         if self.budget > limits.MAX_TIMESTEPS:
@@ -499,6 +513,8 @@ class TrainConfig:
         n_envs: int | None = None,
         backend: str = "sb3",
         command: tuple[str, ...] | list[str] = (),
+        init_from: str | None = None,
+        critic_warmup: int = 0,
     ) -> TrainConfig:
         """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's."""
         return cls(
@@ -511,6 +527,8 @@ class TrainConfig:
             hyperparams=hyperparams,
             backend=backend,
             command=tuple(command),
+            init_from=init_from,
+            critic_warmup=critic_warmup,
         )
 
     @property
@@ -543,6 +561,8 @@ class TrainConfig:
             )
             if self.hyperparams.shaping is not None:
                 record["shaping"] = dict(self.hyperparams.shaping)
+            if self.init_from is not None:
+                record.update({"init_from": self.init_from, "critic_warmup": self.critic_warmup})
         else:
             record["backend"] = self.backend
         return record

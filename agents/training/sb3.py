@@ -71,6 +71,7 @@ def train(
     from stable_baselines3.common.vec_env import VecNormalize
 
     from agents.training.callbacks import (
+        CriticWarmup,
         PlateauStop,
         ProgressCallback,
         SafetyEvalCallback,
@@ -100,6 +101,12 @@ def train(
         venv = VecNormalize(venv, **normalize)
         if resume is not None:
             _restore_checkpoint_stats(venv, resume, trust_pickle)
+        elif config.init_from is not None:
+            _restore_checkpoint_stats(venv, Path(config.init_from), trust_pickle)
+        if config.init_from is not None:
+            # The starting policy reads its inputs through these statistics: letting them
+            # drift would change its decisions under it (docs/agents.md, fine-tuning).
+            venv.training = False
     kwargs = dict(hp.algo_kwargs)
     if hp.action_noise_std is not None:
         dim = settings.action_dim
@@ -128,6 +135,10 @@ def train(
                     f"the replay buffer {buffer} is a pickle; pass --trust-pickle to load it"
                 )
             model.load_replay_buffer(buffer)
+    elif config.init_from is not None:
+        model = _initialised(
+            Path(config.init_from), algo, hp.policy, venv, kwargs, seed, trust_pickle
+        )
     else:
         model = algo_class(algo)(hp.policy, venv, seed=seed, device="cpu", verbose=0, **kwargs)
     outputs = ["csv"]
@@ -163,6 +174,8 @@ def train(
         save_replay_buffer=algorithm(algo).off_policy,
     )
     callbacks: list[Any] = [evaluator, checkpoints]
+    if config.critic_warmup:
+        callbacks.append(CriticWarmup(config.critic_warmup))
     if progress_bar:
         callbacks.append(ProgressCallback(f"training {algo} on {config.env_id}"))
     model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=resume is None)
@@ -184,6 +197,40 @@ def train(
     best = run_dir / BEST_MODEL
     if best.is_file():
         write_card(best, {**record, **read_card(best)})
+    return model
+
+
+def _initialised(
+    source_path: Path,
+    algo: str,
+    policy: str,
+    venv: Any,
+    algo_kwargs: dict[str, Any],
+    seed: int,
+    trust_pickle: bool,
+) -> Any:
+    """A fresh model of the run's hyperparameters whose policy is ``source_path``'s.
+
+    The network (``policy_kwargs``: layers, extractor, log standard deviation) is the
+    source's, so its weights fit; everything else (learning rate, clipping, horizon) is
+    the run's.
+
+    Raises:
+        ValueError: If the source cannot be loaded safely as ``algo`` for this env.
+    """
+    source = load_sb3(
+        source_path,
+        algo,
+        venv.observation_space,
+        venv.action_space,
+        algo_kwargs=algo_kwargs,
+        trust_pickle=trust_pickle,
+        extractors=feature_extractors(),
+    )
+    policy_kwargs = {**algo_kwargs.get("policy_kwargs", {}), **source.policy_kwargs}
+    kwargs = {**algo_kwargs, "policy_kwargs": policy_kwargs}
+    model = algo_class(algo)(policy, venv, seed=seed, device="cpu", verbose=0, **kwargs)
+    model.policy.load_state_dict(source.policy.state_dict())
     return model
 
 

@@ -122,3 +122,19 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
     with pytest.raises(SystemExit):  # an existing table without --overwrite
         main(argv)
     assert (out / "rl_from_reward.md").read_bytes() == before
+    # --update re-scores the runs given and keeps the table's other rows as scored.
+    document["runs"].append({**document["runs"][0], "run": "gone", "seed": 7, "kept_test": 0.5})
+    (out / "rl_from_reward.json").write_text(json.dumps(document))
+    assert main([str(tmp_path / "runs" / "s1"), *argv[1:], "--update"]) == 0
+    updated = json.loads((out / "rl_from_reward.json").read_text())
+    assert [(run["run"], run["seed"]) for run in updated["runs"]] == [
+        ("s0", 0),
+        ("gone", 7),
+        ("s1", 1),
+    ]
+    assert updated["runs"][1]["kept_test"] == 0.5
+    assert "| ppo seed 7 |" in (out / "rl_from_reward.md").read_text()
+    before = (out / "rl_from_reward.json").read_bytes()
+    with pytest.raises(SystemExit):  # scored on other fresh episodes: refused
+        main([str(tmp_path / "runs" / "s1"), *argv[1:3], "--fresh-episodes", "4", "--update"])
+    assert (out / "rl_from_reward.json").read_bytes() == before
