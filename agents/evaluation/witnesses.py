@@ -248,10 +248,23 @@ def add_witnesses(
         "closed_loop": _closed_loop_summary(starts, env_kwargs) if closed_loop else None,
         "wall_time_s": round(time.perf_counter() - started, 1),
     }
-    earlier = certificate.get("witnesses")
-    if isinstance(earlier, dict) and "warm_start" in earlier:
-        block["warm_start"] = earlier["warm_start"]
+    passes = warm_start_passes(certificate.get("witnesses"))
+    if passes:
+        block["warm_starts"] = passes
     return _settled(certificate, starts, actions, block)
+
+
+def warm_start_passes(witnesses: object) -> list[JSONObject]:
+    """The warm-start passes a certificate's ``witnesses`` block records, oldest first.
+
+    Each pass of :func:`warm_start` is appended to ``warm_starts``; a certificate written
+    before that kept only the last pass, as the dict ``warm_start``, which comes first.
+    """
+    if not isinstance(witnesses, dict):
+        return []
+    legacy = witnesses.get("warm_start")
+    passes = [legacy] if isinstance(legacy, dict) else []
+    return passes + [p for p in witnesses.get("warm_starts", []) if isinstance(p, dict)]
 
 
 def _closed_loop_summary(starts: list[JSONObject], env_kwargs: JSONObject) -> JSONObject:
@@ -340,7 +353,8 @@ def warm_start(
     tried again with a longer horizon (:func:`restart_config`, up to ``restarts`` times).
     A record (the policy's steps, then the planner's) that replays to success
     (:func:`replays_to_success`) makes the start feasible with ``source``
-    ``"ilqr+<label>"`` and ``warm_start_steps`` the policy's steps.
+    ``"ilqr+<label>"`` and ``warm_start_steps`` the policy's steps. The pass is
+    appended to the ``witnesses`` block's ``warm_starts`` (:func:`warm_start_passes`).
 
     Raises:
         ValueError: For a scene that is not a goal scene, a split outside (0, 1), a bad
@@ -427,13 +441,15 @@ def warm_start(
         _warm_closed_loop(env_id, env_kwargs, config, policies, solved, by_seed)
     earlier = certificate.get("witnesses")
     block = dict(earlier) if isinstance(earlier, dict) else {"runs": []}
-    block["warm_start"] = {
+    this_pass: JSONObject = {
         "specs": list(policies),
         "splits": list(splits),
         "open_before": len(open_seeds),
         "attempts": attempts,
         "wall_time_s": round(time.perf_counter() - started, 1),
     }
+    block.pop("warm_start", None)
+    block["warm_starts"] = [*warm_start_passes(earlier), this_pass]
     if closed_loop:
         block["closed_loop"] = _closed_loop_summary(starts, env_kwargs)
     return _settled(certificate, starts, actions, block)
@@ -492,5 +508,6 @@ __all__ = [
     "repeated_labels",
     "replays_to_success",
     "warm_start",
+    "warm_start_passes",
     "witness_run",
 ]

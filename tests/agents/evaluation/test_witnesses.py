@@ -25,6 +25,7 @@ from agents.commands.certify import main
 from agents.evaluation.witnesses import (
     add_witnesses,
     default_witnesses,
+    warm_start_passes,
     witness_run,
 )
 from agents.oracles.certify_goals import replay_goal
@@ -207,3 +208,11 @@ def test_no_committed_policy_solves_an_open_start(env_id: str, n: int) -> None:
         policy = load_policy(spec, env_id, {"n_trailers": n})
         run = witness_run(policy, env_id, {"n_trailers": n}, left)
         assert not run.success.any(), (spec, run.success.tolist())
+
+
+def test_warm_start_passes_accumulate_and_read_the_old_single_block() -> None:
+    first, second = {"specs": ["a"], "open_before": 12}, {"specs": ["b"], "open_before": 11}
+    assert warm_start_passes(None) == [] and warm_start_passes({"runs": []}) == []
+    assert warm_start_passes({"warm_start": first}) == [first]  # a certificate of before
+    assert warm_start_passes({"warm_start": first, "warm_starts": [second]}) == [first, second]
+    assert warm_start_passes({"warm_starts": [first, second, "junk"]}) == [first, second]
