@@ -20,7 +20,8 @@ Writes ``rl_from_reward.md`` (one table per (scene, n), one row per run and per
 group) and ``rl_from_reward.json`` (every figure), atomically; existing files are
 replaced only with ``--overwrite``. ``--update`` adds the RUNs to the table already in
 ``--out`` instead: its rows of other runs are kept as they were scored (run folders are
-not kept forever), a run of the same name is re-scored; the fresh seeds must match.
+not kept forever), a run of the same name is re-scored in its row's place; the fresh
+seeds must match.
 
 ``--export agents/models/NAME.zip`` (all RUNs of one scene, n and algorithm) commits
 the runs as the project commits a learned agent: each run's kept model goes to
@@ -270,8 +271,6 @@ def main(argv: list[str] | None = None) -> int:
             kept = _kept_scores(targets[1], args.fresh_seed, args.fresh_episodes)
         except ValueError as error:
             parser.error(f"--update: {error}")
-        names = {folder.name for folder in folders}
-        kept = [score for score in kept if score.run not in names]
     elif not args.overwrite and any(path.exists() for path in targets):
         parser.error(f"{args.out} already holds a table: --overwrite replaces it (--update adds)")
     groups = group_runs([read_run(folder) for folder in folders])  # refuses unreadable runs
@@ -289,7 +288,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"[{index}/{len(folders)}] scoring {folder}", file=sys.stderr, flush=True)
         scores.append(score_run(folder, args.fresh_seed, args.fresh_episodes))
     args.out.mkdir(parents=True, exist_ok=True)
-    scores = kept + scores
+    scored = list(scores)  # in the order of the folders
+    if kept:
+        # A re-scored run takes its earlier row's place; new runs come after.
+        rescored = {score.run: score for score in scores}
+        merged = [rescored.pop(score.run, score) for score in kept]
+        scores = merged + [score for score in scores if score.run in rescored]
     document: dict[str, object] = {
         "fresh_seed": args.fresh_seed,
         "fresh_episodes": args.fresh_episodes,
@@ -299,7 +303,7 @@ def main(argv: list[str] | None = None) -> int:
     files.atomic_write_text(targets[0], markdown(scores, args.fresh_seed, args.fresh_episodes))
     print(f"wrote {targets[0]} and {targets[1]}")
     if args.export is not None:
-        chosen = export_selected(scores[len(kept) :], folders, args.export)
+        chosen = export_selected(scored, folders, args.export)
         print(f"exported seed {chosen} to {args.export} (siblings in agents/models/seeds/)")
     return 0
 

@@ -129,10 +129,10 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
     updated = json.loads((out / "rl_from_reward.json").read_text())
     assert [(run["run"], run["seed"]) for run in updated["runs"]] == [
         ("s0", 0),
-        ("gone", 7),
         ("s1", 1),
+        ("gone", 7),
     ]
-    assert updated["runs"][1]["kept_test"] == 0.5
+    assert updated["runs"][2]["kept_test"] == 0.5
     assert "| ppo seed 7 |" in (out / "rl_from_reward.md").read_text()
     before = (out / "rl_from_reward.json").read_bytes()
     with pytest.raises(SystemExit):  # scored on other fresh episodes: refused
