@@ -43,6 +43,10 @@ class PlateauStop:
     ``window`` evaluations within ``eps`` of their mean (the rule of
     :mod:`agents.evaluation.learning_curves`), earlier sessions' evaluations included.
 
+    A window whose mean is within ``eps`` of the run's first evaluation is not a plateau:
+    a run that has not left its starting level (PPO on Reverse sits at 0 for its first
+    1.5-4M steps) has not started learning, and stops only at its budget.
+
     Args:
         metric: The rate (a key of the summaries), e.g. "safe_rate".
         window, eps: The rule.
@@ -60,7 +64,9 @@ class PlateauStop:
     def __call__(self, steps: int, summary: Mapping[str, Any]) -> bool:
         self.values.append(float(summary[self.metric]))
         if self.stopped_at is None and is_flat(self.values, self.window, self.eps):
-            self.stopped_at = steps
+            level = sum(self.values[-self.window :]) / self.window
+            if abs(level - self.values[0]) > self.eps:
+                self.stopped_at = steps
         return self.stopped_at is not None
 
 
