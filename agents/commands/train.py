@@ -35,8 +35,8 @@ fine-tuning run is resumed with ``--resume`` and the same ``--init-from``.
 ``--stop-on-plateau WINDOW,EPS`` ends the run early once its validation headline rate
 (safe for Reverse, success otherwise) is flat: its last WINDOW evaluations within EPS
 of their mean (:mod:`agents.evaluation.learning_curves`), once that level is more than
-EPS from the first evaluation's (a run that has not started learning goes on); the cards record the step
-(``stopped_on_plateau_at``).
+EPS from the first evaluation's (a run that has not started learning goes on); the
+cards record the step (``stopped_on_plateau_at``).
 
 ``--export PATH`` copies the best model, its card, statistics and learning curve to
 PATH (e.g. ``agents/models/``); existing files there are refused unless ``--overwrite``
