@@ -475,6 +475,8 @@ class TrainConfig:
     def __post_init__(self) -> None:
         if self.backend not in ("sb3", "rllib"):
             raise ValueError(f"backend must be 'sb3' or 'rllib', got {self.backend!r}")
+        if self.budget < 1 or self.n_envs < 1:
+            raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
         if self.critic_warmup < 0 or (self.critic_warmup and self.init_from is None):
             raise ValueError(
                 f"critic_warmup must be >= 0 and needs init_from, got {self.critic_warmup}"
@@ -483,8 +485,6 @@ class TrainConfig:
             raise ValueError(
                 f"critic_warmup ({self.critic_warmup}) must be under the budget ({self.budget})"
             )
-        if self.budget < 1 or self.n_envs < 1:
-            raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
         if self.budget > limits.MAX_TIMESTEPS:
             raise ValueError(f"timesteps must be <= {limits.MAX_TIMESTEPS}, got {self.budget}")
         if self.n_envs > limits.MAX_N_ENVS:
