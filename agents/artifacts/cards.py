@@ -82,6 +82,13 @@ def check_card(card: object, where: str) -> JSONObject:
     return card
 
 
+def trained_with_mirror(card: JSONObject) -> bool:
+    """Whether the card's model was imitated with the mirror image (``imitate --mirror``):
+    such a model acts as the mean of its network and the network's mirror image."""
+    imitation = card.get("imitation")
+    return isinstance(imitation, dict) and imitation.get("mirror") is True
+
+
 def read_card(model_path: Path) -> JSONObject:
     """The model card of ``model_path``, or an empty dict when there is none.
 

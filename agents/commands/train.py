@@ -65,20 +65,24 @@ a live run refuses a second writer) and the bounds of :mod:`agents.artifacts.lim
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
 
 from agents.algorithms import algorithm
 from agents.artifacts import limits
+from agents.artifacts.cards import read_card, trained_with_mirror
 from agents.artifacts.paths import pickled_stats_path, replay_buffer_path, stats_path
 from agents.artifacts.run_folder import (
+    CONFIG_FILE,
     RLLIB_CHECKPOINT,
     RunFolderError,
     claimed_run_dir,
     default_run_dir,
     export_model,
     export_problem,
+    run_dir_of_checkpoint,
 )
 from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError
 from agents.artifacts.stats import read_stats
@@ -250,6 +254,29 @@ def _check_resume(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
         parser.error(f"argument --resume: {error}")
 
 
+def _check_resumed_fine_tuning(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse a --resume of a fine-tuning run without its --init-from and --critic-warmup
+    (or of a plain run with them): the frozen statistics and the warm-up depend on them."""
+    own_run = run_dir_of_checkpoint(args.resume)
+    if own_run is None:
+        return
+    try:
+        saved = json.loads((own_run / CONFIG_FILE).read_text())
+    except (OSError, ValueError) as error:
+        parser.error(f"argument --resume: unreadable {own_run / CONFIG_FILE}: {error}")
+    if not isinstance(saved, dict):
+        parser.error(f"argument --resume: {own_run / CONFIG_FILE} is not a JSON object")
+    saved_from, saved_warmup = saved.get("init_from"), saved.get("critic_warmup", 0)
+    same_source = (saved_from is None) == (args.init_from is None) and (
+        saved_from is None or Path(str(saved_from)).resolve() == args.init_from.resolve()
+    )
+    if not same_source or saved_warmup != args.critic_warmup:
+        parser.error(
+            f"argument --resume: {own_run} was trained with --init-from {saved_from} "
+            f"--critic-warmup {saved_warmup}; resume it with the same"
+        )
+
+
 def _check_init_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """Refuse an --init-from that is missing, of another algorithm or unloadable, and a
     --critic-warmup without it or for an algorithm without a separate value function."""
@@ -259,12 +286,22 @@ def _check_init_from(parser: argparse.ArgumentParser, args: argparse.Namespace) 
         parser.error(f"argument --critic-warmup: {args.algo} has no separate value function")
     if args.init_from is None:
         return
+    if algorithm(args.algo).off_policy:
+        # Only the policy's weights would carry over: the replay buffer and SAC's entropy
+        # coefficient would restart, and learning_starts steps would act at random.
+        parser.error(
+            f"argument --init-from: {args.algo} is off-policy; only on-policy runs fine-tune"
+        )
     if not args.init_from.is_file():
         parser.error(f"argument --init-from: no model file {args.init_from}")
     try:
         saved_algo = detect_algo(args.init_from)
         if saved_algo != args.algo:
             raise ValueError(f"{args.init_from} was saved by {saved_algo}, not {args.algo}")
+        if trained_with_mirror(read_card(args.init_from)):
+            # It acts as the mean of its network and the network's mirror image; training
+            # the bare network would start from other decisions than the model's.
+            raise ValueError(f"{args.init_from} was trained with the mirror (imitation.mirror)")
         load_model(
             args.init_from,
             args.algo,
@@ -350,7 +387,10 @@ def config_from_args(
             critic_warmup=args.critic_warmup,
         )
     except ValueError as error:
-        parser.error(f"argument --timesteps, --n-envs or --seed (or the file's): {error}")
+        flags = "--timesteps, --n-envs or --seed (or the file's)"
+        if "critic_warmup" in str(error):
+            flags = "--critic-warmup"
+        parser.error(f"argument {flags}: {error}")
     try:
         env_settings(config.env_kwargs)
     except (TypeError, ValueError) as error:
@@ -386,14 +426,22 @@ def main(argv: list[str] | None = None) -> int:
     _check_backend(parser, args)
     if args.resume is not None:
         _check_resume(parser, args)
+        _check_resumed_fine_tuning(parser, args)
     _check_init_from(parser, args)
     command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
     config = config_from_args(parser, args, command)
+    default = default_run_dir(args.env, args.algo, args.n_trailers, args.seed)
+    target = args.run_dir or (args.resume and run_dir_of_checkpoint(args.resume)) or default
+    if args.init_from is not None and args.init_from.resolve().is_relative_to(target.resolve()):
+        # --overwrite would clear it, and the run's own models would replace it.
+        parser.error(
+            f"argument --init-from: {args.init_from} lies in the run folder {target}; "
+            "copy it out or choose another --run-dir"
+        )
     if args.export is not None:
         problem = export_problem(args.export, args.overwrite)
         if problem is not None:
             parser.error(f"argument --export: {problem}")
-    default = default_run_dir(args.env, args.algo, args.n_trailers, args.seed)
     try:
         with claimed_run_dir(default, args.run_dir, args.resume, args.overwrite) as run_dir:
             return _run(parser, args, config, run_dir)

@@ -20,8 +20,8 @@ Writes ``rl_from_reward.md`` (one table per (scene, n), one row per run and per
 group) and ``rl_from_reward.json`` (every figure), atomically; existing files are
 replaced only with ``--overwrite``. ``--update`` adds the RUNs to the table already in
 ``--out`` instead: its rows of other runs are kept as they were scored (run folders are
-not kept forever), a run of the same name is re-scored in its row's place; the fresh
-seeds must match.
+not kept forever), a RUN of the same scene, n, recipe and training seed as a row is
+re-scored in that row's place (whatever its folder's name); the fresh seeds must match.
 
 ``--export agents/models/NAME.zip`` (all RUNs of one scene, n and algorithm) commits
 the runs as the project commits a learned agent: each run's kept model goes to
@@ -83,6 +83,11 @@ def _rate(model: Path, env_id: str, n: int, seed: int, episodes: int, metric: st
     kwargs = {"n_trailers": n}
     policy = load_policy(str(model), env_id, kwargs, seed=seed)
     return float(summarize(rollout(policy, env_id, episodes, seed, kwargs))[metric])
+
+
+def _identity(score: RunScore) -> tuple[str, int, str, int]:
+    """What makes two rows the same run: scene, n, recipe and training seed."""
+    return score.env_id, score.n_trailers, score.algo, score.seed
 
 
 def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
@@ -290,10 +295,11 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     scored = list(scores)  # in the order of the folders
     if kept:
-        # A re-scored run takes its earlier row's place; new runs come after.
-        rescored = {score.run: score for score in scores}
-        merged = [rescored.pop(score.run, score) for score in kept]
-        scores = merged + [score for score in scores if score.run in rescored]
+        # A re-scored run (same scene, n, recipe and seed, whatever its folder's name)
+        # takes its earlier row's place, so no seed is counted twice; new runs come after.
+        rescored = {_identity(score): score for score in scores}
+        merged = [rescored.pop(_identity(score), score) for score in kept]
+        scores = merged + [score for score in scores if _identity(score) in rescored]
     document: dict[str, object] = {
         "fresh_seed": args.fresh_seed,
         "fresh_episodes": args.fresh_episodes,

@@ -264,7 +264,8 @@ def warm_start_passes(witnesses: object) -> list[JSONObject]:
         return []
     legacy = witnesses.get("warm_start")
     passes = [legacy] if isinstance(legacy, dict) else []
-    return passes + [p for p in witnesses.get("warm_starts", []) if isinstance(p, dict)]
+    later = witnesses.get("warm_starts")
+    return passes + [p for p in (later if isinstance(later, list) else []) if isinstance(p, dict)]
 
 
 def _closed_loop_summary(starts: list[JSONObject], env_kwargs: JSONObject) -> JSONObject:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.artifacts.cards import is_count_range, read_card
+from agents.artifacts.cards import is_count_range, read_card, trained_with_mirror
 from agents.artifacts.curves import CURVE_COLUMNS, read_curve
 from agents.artifacts.paths import curve_path, stats_path
 from agents.artifacts.run_folder import CONFIG_FILE, RLLIB_CHECKPOINT
@@ -276,8 +276,7 @@ def load_policy(
             path, probe.single_observation_space, probe.single_action_space, trust_pickle
         )
     card = read_card(path)
-    imitation = card.get("imitation")
-    if isinstance(imitation, dict) and imitation.get("mirror") is True:  # trained odd: acts so
+    if trained_with_mirror(card):  # trained odd: acts so
         return MirroredPolicy(
             _card_policy(path, card, spec, env_id, kwargs, trust_pickle, force),
             *mirror_signs_of(env_id, kwargs),

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 
 from agents.artifacts.cards import read_card
@@ -57,8 +58,10 @@ def test_statistics_round_trip_exactly_through_json(tmp_path: Path) -> None:
     np.testing.assert_array_equal(restored.normalize_obs(obs), venv.normalize_obs(obs))
     fresh = VecNormalize(make_sb3_env(REVERSE, 2, {"n_trailers": 2}), norm_reward=False)
     restore_stats(fresh, document)
-    np.testing.assert_array_equal(fresh.obs_rms.var, venv.obs_rms.var)
-    assert fresh.obs_rms.count == venv.obs_rms.count
+    fresh_rms, rms = fresh.obs_rms, venv.obs_rms
+    assert isinstance(fresh_rms, RunningMeanStd) and isinstance(rms, RunningMeanStd)
+    np.testing.assert_array_equal(fresh_rms.var, rms.var)
+    assert fresh_rms.count == rms.count
     with pytest.raises(ValueError, match=r"shape \(8,\), but the environment gives \(6,\)"):
         restore_stats(VecNormalize(make_sb3_env(REVERSE, 1, {"n_trailers": 1})), document)
 

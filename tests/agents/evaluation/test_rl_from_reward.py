@@ -122,8 +122,11 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
     with pytest.raises(SystemExit):  # an existing table without --overwrite
         main(argv)
     assert (out / "rl_from_reward.md").read_bytes() == before
-    # --update re-scores the runs given and keeps the table's other rows as scored.
+    # --update re-scores the runs given and keeps the table's other rows as scored; a
+    # run is its scene, n, recipe and seed, so seed 1 scored under another folder name
+    # is replaced, not counted twice.
     document["runs"].append({**document["runs"][0], "run": "gone", "seed": 7, "kept_test": 0.5})
+    document["runs"][1]["run"] = "s1_first_session"
     (out / "rl_from_reward.json").write_text(json.dumps(document))
     assert main([str(tmp_path / "runs" / "s1"), *argv[1:], "--update"]) == 0
     updated = json.loads((out / "rl_from_reward.json").read_text())

@@ -216,3 +216,4 @@ def test_warm_start_passes_accumulate_and_read_the_old_single_block() -> None:
     assert warm_start_passes({"warm_start": first}) == [first]  # a certificate of before
     assert warm_start_passes({"warm_start": first, "warm_starts": [second]}) == [first, second]
     assert warm_start_passes({"warm_starts": [first, second, "junk"]}) == [first, second]
+    assert warm_start_passes({"warm_starts": None}) == warm_start_passes({"warm_starts": 3}) == []

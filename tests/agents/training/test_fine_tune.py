@@ -65,6 +65,24 @@ def test_warm_up_trains_the_value_function_alone_then_the_policy(
     assert all(p.requires_grad for p in model.policy.parameters())  # saved trainable
 
 
+def test_resuming_a_fine_tuning_run_needs_its_source(
+    tmp_path: Path, source: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "tuned"
+    warm = ["--critic-warmup", "1024", "--checkpoint-freq", "1024", "--eval-freq", "1024"]
+    args = ["--init-from", str(source), *warm, "--timesteps", "2048", "--run-dir", str(run)]
+    assert _train(tmp_path, *args) == 0
+    checkpoint = run / "checkpoints" / "ppo_1024_steps.zip"
+    before = {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
+    for extra in ([], ["--init-from", str(source)]):
+        with pytest.raises(SystemExit) as refused:
+            _train(tmp_path, "--resume", str(checkpoint), "--timesteps", "3072", *extra)
+        assert refused.value.code == 2
+        err = capsys.readouterr().err
+        assert f"--init-from {source} --critic-warmup 1024; resume it with the same" in err
+    assert before == {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
+
+
 def test_refusals_touch_nothing(
     tmp_path: Path, source: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
@@ -76,7 +94,7 @@ def test_refusals_touch_nothing(
             ["--init-from", str(source), "--critic-warmup", "99999"],
             "critic_warmup (99999) must be under the budget (4096)",
         ),
-        (["--init-from", str(source), "--algo", "sac"], "was saved by ppo, not sac"),
+        (["--init-from", str(source), "--algo", "sac"], "--init-from: sac is off-policy"),
         (
             ["--init-from", str(source), "--backend", "rllib"],
             "--init-from: not supported with --backend rllib",
@@ -90,6 +108,20 @@ def test_refusals_touch_nothing(
         assert refused.value.code == 2
         assert message in capsys.readouterr().err
         assert not run.exists()
+    # The source in the run folder that --overwrite would clear.
+    with pytest.raises(SystemExit):
+        _train(tmp_path, "--init-from", str(source), "--run-dir", str(source.parent), "--overwrite")
+    assert f"{source} lies in the run folder {source.parent}" in capsys.readouterr().err
+    assert source.is_file() and (source.parent / "checkpoints").is_dir()
+    # A model imitated with the mirror acts through it: its bare network is another policy.
+    card = source.with_name("final_model.json")
+    saved_card = card.read_text()
+    card.write_text(json.dumps({**json.loads(saved_card), "imitation": {"mirror": True}}))
+    with pytest.raises(SystemExit):
+        _train(tmp_path, "--init-from", str(source), "--run-dir", str(run))
+    assert "was trained with the mirror" in capsys.readouterr().err
+    assert not run.exists()
+    card.write_text(saved_card)
     stats = source.with_name("final_model_vecnormalize.json")
     stats.unlink()
     with pytest.raises(SystemExit):
