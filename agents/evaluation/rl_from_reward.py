@@ -28,11 +28,18 @@ the runs as the project commits a learned agent: each run's kept model goes to
 ``agents/models/seeds/NAME_s<seed>.zip`` and the one with the best headline rate on the
 selection episodes (200 from seed 60,000, which no table uses; ties to the lower seed)
 to ``NAME.zip``, its card recording the selection.
+
+Run folders are not kept between sessions, so every scored run's curve (its
+``config.json`` and ``evaluations.csv``) is copied to
+``<out>/rl_runs/<scene>_n<n>_<recipe>_s<seed>/`` (named by the row's identity: a
+re-scored run replaces its own); ``python -m agents.curves <out>/rl_runs/...`` redraws
+the charts from there.
 """
 
 from __future__ import annotations
 
 import argparse
+import re
 import statistics
 import sys
 from collections.abc import Sequence
@@ -41,7 +48,13 @@ from pathlib import Path
 
 from agents.artifacts import files
 from agents.artifacts.cards import read_card, write_card
-from agents.artifacts.run_folder import BEST_MODEL, CONFIG_FILE, FINAL_MODEL, export_model
+from agents.artifacts.run_folder import (
+    BEST_MODEL,
+    CONFIG_FILE,
+    CURVE_FILE,
+    FINAL_MODEL,
+    export_model,
+)
 from agents.artifacts.shipped import SEEDS_DIR
 from agents.evaluation.learning_curves import final_plateau, group_runs, read_run
 from agents.evaluation.metrics import rollout, summarize
@@ -50,6 +63,8 @@ from agents.seeds import SELECTION_SEED, TEST_SEED
 
 TABLE = "rl_from_reward.md"
 DOCUMENT = "rl_from_reward.json"
+#: The folder in ``--out`` keeping the scored runs' curves.
+CURVES = "rl_runs"
 #: The plateau rule of the table (evaluations, band).
 PLATEAU_WINDOW, PLATEAU_EPS = 5, 0.05
 TEST_EPISODES = 100
@@ -88,6 +103,20 @@ def _rate(model: Path, env_id: str, n: int, seed: int, episodes: int, metric: st
 def _identity(score: RunScore) -> tuple[str, int, str, int]:
     """What makes two rows the same run: scene, n, recipe and training seed."""
     return score.env_id, score.n_trailers, score.algo, score.seed
+
+
+def curve_folder(out: Path, score: RunScore) -> Path:
+    """Where the table keeps a run's curve: named by the row's identity."""
+    scene = score.env_id.rpartition("/")[2].lower().replace("-", "_")
+    recipe = re.sub(r"[^a-z0-9]+", "_", score.algo.lower()).strip("_")
+    return out / CURVES / f"{scene}_n{score.n_trailers}_{recipe}_s{score.seed}"
+
+
+def keep_curve(run_dir: Path, destination: Path) -> None:
+    """Copy a run's ``config.json`` and ``evaluations.csv`` to ``destination``, atomically."""
+    destination.mkdir(parents=True, exist_ok=True)
+    for name in (CONFIG_FILE, CURVE_FILE):
+        files.atomic_write_bytes(destination / name, (run_dir / name).read_bytes())
 
 
 def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
@@ -305,9 +334,11 @@ def main(argv: list[str] | None = None) -> int:
         "fresh_episodes": args.fresh_episodes,
         "runs": [asdict(score) for score in scores],
     }
+    for folder, score in zip(folders, scored, strict=True):
+        keep_curve(folder, curve_folder(args.out, score))
     files.write_json(targets[1], document)
     files.atomic_write_text(targets[0], markdown(scores, args.fresh_seed, args.fresh_episodes))
-    print(f"wrote {targets[0]} and {targets[1]}")
+    print(f"wrote {targets[0]}, {targets[1]} and {len(scored)} curves in {args.out / CURVES}")
     if args.export is not None:
         chosen = export_selected(scored, folders, args.export)
         print(f"exported seed {chosen} to {args.export} (siblings in agents/models/seeds/)")

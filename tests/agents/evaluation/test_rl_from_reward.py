@@ -111,6 +111,21 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
     assert [run["seed"] for run in document["runs"]] == [0, 1]
     assert {run["budget"] for run in document["runs"]} == {1024}
     assert "| **ppo mean ± sd (2 seeds)** |" in (out / "rl_from_reward.md").read_text()
+    # The curves outlive the run folders: byte copies, named by scene, n, recipe and seed,
+    # from which agents.curves redraws the chart.
+    kept = sorted(p.name for p in (out / "rl_runs").iterdir())
+    assert kept == ["coast_v0_n1_ppo_s0", "coast_v0_n1_ppo_s1"]
+    for seed in (0, 1):
+        for name in ("config.json", "evaluations.csv"):
+            copy = out / "rl_runs" / f"coast_v0_n1_ppo_s{seed}" / name
+            assert copy.read_bytes() == (tmp_path / f"runs/s{seed}" / name).read_bytes()
+    from agents.commands import curves
+
+    assert curves.main([str(out / "rl_runs"), "--out", str(tmp_path / "chart")]) == 0
+    assert (
+        "| Coast-v0, n = 1, ppo | success_rate | 2 |"
+        in (tmp_path / "chart" / "learning_curves.md").read_text()
+    )
     card = json.loads(model.with_suffix(".json").read_text())
     assert card["selection"]["chosen_seed"] in (0, 1)
     assert card["seed"] == card["selection"]["chosen_seed"]
