@@ -65,7 +65,7 @@ class RunCurve:
     Attributes:
         run_dir: The folder.
         env_id, n_trailers, algo, seed: From its ``config.json``; ``algo`` names its reward
-            shaping too ("ppo + lqr shaping").
+            state-dependent exploration and reward shaping too ("ppo (gSDE) + lqr shaping").
         rows: Its ``evaluations.csv`` rows (floats), in step order.
     """
 
@@ -211,6 +211,16 @@ def final_plateau(
     return Plateau(step=float(x[first]), start=float(x[first]), level=level)
 
 
+def _uses_sde(hyperparams: object) -> bool:
+    """Whether a run's recorded hyperparameters turn on gSDE (PPO's argument, or SAC's
+    and TD3's ``policy_kwargs`` entry)."""
+    if not isinstance(hyperparams, dict):
+        return False
+    kwargs = hyperparams.get("policy_kwargs")
+    in_policy = isinstance(kwargs, dict) and kwargs.get("use_sde") is True
+    return hyperparams.get("use_sde") is True or in_policy
+
+
 def read_run(run_dir: Path) -> RunCurve:
     """A run folder's configuration and learning curve.
 
@@ -226,6 +236,9 @@ def read_run(run_dir: Path) -> RunCurve:
     config = files.read_json(config_path, "run configuration")
     try:
         env_id, algo = str(config["env_id"]), str(config["algo"])
+        if _uses_sde(config.get("hyperparams")):
+            # State-dependent exploration is another recipe, as shaping is.
+            algo = f"{algo} (gSDE)"
         shaping = config.get("shaping")
         if isinstance(shaping, dict):
             # A shaped run is another recipe: grouped, tabled and drawn apart from the plain one.

@@ -156,7 +156,15 @@ def results_document(
                 "kind": spec_kind(evaluation.spec),
                 "training": {
                     key: evaluation.card[key]
-                    for key in ("algo", "seed", "budget", "timesteps", "wall_time_s", "n_envs")
+                    for key in (
+                        "algo",
+                        "recipe",
+                        "seed",
+                        "budget",
+                        "timesteps",
+                        "wall_time_s",
+                        "n_envs",
+                    )
                     if key in evaluation.card
                 },
                 **evaluation.summary,

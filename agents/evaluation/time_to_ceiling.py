@@ -8,9 +8,11 @@ the agent is the committed model with the highest headline rate on those starts,
 time is the ``wall_time_s`` its run recorded on its card: for an imitation agent the
 whole ``agents.imitate`` run (the planner's labels, the training and the choice of the
 iteration kept), for reinforcement learning the whole ``agents.train`` run (training and
-its validation evaluations). Choosing among training seeds is not in it. The machine's
-load during a run is not on its card: the figures are as recorded, on the 2-core machine
-of this project, usually beside other work.
+its validation evaluations). Beside it, the best agent learned from the scene's reward
+alone (a card without an imitation ``recipe``), with its rate and time, so that imitation
+and reinforcement learning stand side by side. Choosing among training seeds is not in
+it. The machine's load during a run is not on its card: the figures are as recorded, on
+the 2-core machine of this project, usually beside other work.
 
 ``python -m agents.evaluation.time_to_ceiling RESULTS_JSON`` prints the table.
 """
@@ -38,7 +40,8 @@ TIME_TO_CEILING_LEGEND = (
     "test episodes against the certified ceiling, and the wall time its run recorded on its "
     "card (imitation: labels, training and selection of the iteration; reinforcement "
     "learning: training with its validation evaluations; on this project's 2-core machine, "
-    "its load not recorded). `python -m agents.evaluation.time_to_ceiling results.json` "
+    "its load not recorded), and beside it the best agent learned from the reward alone "
+    "(no imitation). `python -m agents.evaluation.time_to_ceiling results.json` "
     "prints it from a report's results."
 )
 
@@ -55,6 +58,9 @@ class CeilingGap:
     seeds_mean: float | None
     seeds: int
     wall_minutes: float | None
+    reward_agent: str | None = None
+    reward_rate: float | None = None
+    reward_minutes: float | None = None
 
     @property
     def gap_points(self) -> float | None:
@@ -80,7 +86,8 @@ def gap_of(document: Mapping[str, Any]) -> CeilingGap:
     best = max(learned, key=lambda policy: float(policy[metric]))
     seeds = best.get("training_seeds") or []
     seeds_mean = sum(float(row[metric]) for row in seeds) / len(seeds) if seeds else None
-    wall = best.get("training", {}).get("wall_time_s")
+    from_reward = [policy for policy in learned if "recipe" not in policy.get("training", {})]
+    reward = max(from_reward, key=lambda policy: float(policy[metric])) if from_reward else None
     return CeilingGap(
         env_id,
         n,
@@ -89,8 +96,16 @@ def gap_of(document: Mapping[str, Any]) -> CeilingGap:
         float(best[metric]),
         seeds_mean,
         len(seeds),
-        None if wall is None else float(wall) / 60.0,
+        _wall_minutes(best),
+        None if reward is None else str(reward["name"]),
+        None if reward is None else float(reward[metric]),
+        None if reward is None else _wall_minutes(reward),
     )
+
+
+def _wall_minutes(policy: Mapping[str, Any]) -> float | None:
+    wall = policy.get("training", {}).get("wall_time_s")
+    return None if wall is None else float(wall) / 60.0
 
 
 def _percent(value: float | None) -> str:
@@ -109,20 +124,25 @@ def time_to_ceiling_table(documents: Sequence[Mapping[str, Any]]) -> str:
     lines = [
         "| scene, n | ceiling (certified) | best learned agent | its rate | gap (points) "
         "| mean over training seeds | wall time of its run | within "
-        f"{GAP_TARGET_POINTS:g} points | within {TIME_TARGET_MINUTES:g} min |",
-        "|---|---|---|---|---|---|---|---|---|",
+        f"{GAP_TARGET_POINTS:g} points | within {TIME_TARGET_MINUTES:g} min "
+        "| best from reward alone | its rate | its wall time |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for document in documents:
         row = gap_of(document)
         gap = row.gap_points
         seeds = "-" if row.seeds_mean is None else f"{_percent(row.seeds_mean)} ({row.seeds})"
-        wall = "-" if row.wall_minutes is None else f"{row.wall_minutes:.1f} min"
+        wall, reward_wall = (
+            "-" if minutes is None else f"{minutes:.1f} min"
+            for minutes in (row.wall_minutes, row.reward_minutes)
+        )
         lines.append(
             f"| {scene_title(row.env_id)}, {row.n_trailers} | {_percent(row.ceiling)} "
             f"| {row.agent or '-'} | {_percent(row.rate)} "
             f"| {'-' if gap is None else f'{gap:.0f}'} | {seeds} | {wall} "
             f"| {_verdict(gap, GAP_TARGET_POINTS)} "
-            f"| {_verdict(row.wall_minutes, TIME_TARGET_MINUTES)} |"
+            f"| {_verdict(row.wall_minutes, TIME_TARGET_MINUTES)} "
+            f"| {row.reward_agent or '-'} | {_percent(row.reward_rate)} | {reward_wall} |"
         )
     return "\n".join(lines) + "\n"
 

@@ -104,6 +104,18 @@ def test_groups_and_bands_over_seeds(tmp_path: Path) -> None:
     shaped = read_run(shaped_dir)
     assert shaped.algo == "ppo + lqr shaping"
     assert list(group_runs([a, shaped])) == [(REVERSE, 2, "ppo"), (REVERSE, 2, "ppo + lqr shaping")]
+    # So is a run with state-dependent exploration (PPO's argument; SAC's policy_kwargs).
+    for name, hyperparams in [
+        ("sde", {"use_sde": True, "sde_sample_freq": 4}),
+        ("sac_sde", {"policy_kwargs": {"net_arch": [64, 64], "use_sde": True}}),
+        ("sac_plain", {"policy_kwargs": {"use_sde": False}}),
+    ]:
+        folder = make_run(tmp_path / name, 0, [0.3])
+        config = json.loads((folder / "config.json").read_text())
+        config.update(hyperparams=hyperparams, shaping={"potential": "lqr"})
+        (folder / "config.json").write_text(json.dumps(config))
+        expected = "ppo + lqr shaping" if name == "sac_plain" else "ppo (gSDE) + lqr shaping"
+        assert read_run(folder).algo == expected
 
 
 def test_chart_and_table_are_written_and_not_overwritten(tmp_path: Path) -> None:

@@ -20,11 +20,13 @@ def _document(env_id: str, n: int, policies: list[dict]) -> dict:
     }
 
 
-def _model(name: str, rate: float, wall: float, seeds: list[float] = ()) -> dict:
+def _model(
+    name: str, rate: float, wall: float, seeds: list[float] = (), recipe: str | None = None
+) -> dict:
     return {
         "name": name,
         "kind": "model",
-        "training": {"wall_time_s": wall},
+        "training": {"wall_time_s": wall, **({"recipe": recipe} if recipe else {})},
         "safe_rate": rate,
         "success_rate": rate,
         "training_seeds": [{"seed": k, "safe_rate": r} for k, r in enumerate(seeds)],
@@ -38,36 +40,59 @@ def test_the_best_model_is_set_against_the_committed_ceiling(tmp_path: Path, cap
         [
             {"name": "lqr", "kind": "baseline", "safe_rate": 0.99, "training": {}},
             _model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89]),
-            _model("fast", 0.975, 600.0),
+            _model("fast", 0.98, 600.0),
         ],
     )
     row = gap_of(document)
-    # The committed Reverse-v1 n = 3 certificate leaves 1 of the test starts 1000-1099 open.
-    assert row.ceiling == pytest.approx(0.99)
-    assert row.agent == "fast" and row.rate == 0.975  # baselines are not agents
-    assert row.gap_points == pytest.approx(1.5) and row.wall_minutes == pytest.approx(10.0)
+    # The committed Reverse-v1 n = 3 certificate solves all the test starts 1000-1099.
+    assert row.ceiling == pytest.approx(1.0)
+    assert row.agent == "fast" and row.rate == 0.98  # baselines are not agents
+    assert row.gap_points == pytest.approx(2.0) and row.wall_minutes == pytest.approx(10.0)
     assert row.seeds == 0 and row.seeds_mean is None
     table = time_to_ceiling_table([document])
-    assert "| Reverse-v1, 3 | 99 % | fast | 98 % | 2 | - | 10.0 min | yes | yes |" in table
+    assert "| Reverse-v1, 3 | 100 % | fast | 98 % | 2 | - | 10.0 min | yes | yes |" in table
+    assert table.rstrip().endswith("| fast | 98 % | 10.0 min |")
     slow = gap_of(
         _document("trailer_env/Reverse-v1", 3, [_model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89])])
     )
     assert slow.seeds == 3 and slow.seeds_mean == pytest.approx(0.91)
-    assert "| 8 | 91 % (3) | 25.0 min | no | no |" in time_to_ceiling_table(
+    assert "| 9 | 91 % (3) | 25.0 min | no | no | slow | 91 % |" in time_to_ceiling_table(
         [_document("trailer_env/Reverse-v1", 3, [_model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89])])]
     )
     at_target = _document("trailer_env/Reverse-v1", 1, [_model("edge", 0.98, 60.0)])
-    assert "| 2 | - | 1.0 min | yes | yes |" in time_to_ceiling_table([at_target])
+    assert "| 2 | - | 1.0 min | yes | yes | edge | 98 % |" in time_to_ceiling_table([at_target])
     path = tmp_path / "results.json"
     path.write_text(json.dumps([document]))
     assert main([str(path)]) == 0
     assert capsys.readouterr().out == table
 
 
+def test_the_best_agent_from_reward_alone_stands_beside_imitation() -> None:
+    document = _document(
+        "trailer_env/Reverse-v1",
+        3,
+        [
+            _model("dagger", 0.91, 1500.0, recipe="dagger"),
+            _model("ppo_shaped", 0.76, 1800.0),
+            _model("ppo_plain", 0.05, 900.0),
+        ],
+    )
+    row = gap_of(document)
+    assert (row.agent, row.reward_agent) == ("dagger", "ppo_shaped")
+    assert row.reward_rate == 0.76 and row.reward_minutes == pytest.approx(30.0)
+    assert "| no | no | ppo_shaped | 76 % | 30.0 min |" in time_to_ceiling_table([document])
+    dagger = _model("d", 0.9, 60.0, recipe="dagger")
+    only_imitation = _document("trailer_env/Reverse-v1", 3, [dagger])
+    assert gap_of(only_imitation).reward_agent is None
+    assert time_to_ceiling_table([only_imitation]).rstrip().endswith("| - | - | - |")
+
+
 def test_a_scenario_without_agents_or_certificate_shows_dashes(tmp_path: Path, capsys) -> None:
     # Heading-v0 has no certificate; no model was evaluated.
     document = _document("trailer_env/Heading-v0", 2, [])
-    assert "| Heading-v0, 2 | - | - | - | - | - | - | - | - |" in time_to_ceiling_table([document])
+    assert "| Heading-v0, 2 | - | - | - | - | - | - | - | - | - | - | - |" in time_to_ceiling_table(
+        [document]
+    )
     path = tmp_path / "broken.json"
     path.write_text('[{"env_id": "trailer_env/Heading-v0"}]')
     with pytest.raises(SystemExit) as refused:

@@ -13,6 +13,7 @@ from agents.artifacts.certificates import (
     actions_path,
     committed_actions,
     committed_certificate,
+    planner_records,
     write_actions,
 )
 from agents.evaluation.metrics import rollout
@@ -29,10 +30,18 @@ def test_the_records_replay_to_the_certified_ceiling(n: int) -> None:
     assert certificate is not None and records is not None
     feasible = {start["seed"] for start in certificate["starts"] if start["status"] == FEASIBLE}
     assert set(records) == feasible
+    planner = planner_records(REVERSE_V1, n)
+    assert planner is not None
     policy = load_policy("mpc-replay", REVERSE_V1, {"n_trailers": n}, seed=1000)
     results = rollout(policy, REVERSE_V1, 100, 1000, {"n_trailers": n})
     safe = {int(seed) for seed in results.seeds[results.safe]}
-    assert safe == feasible  # every record keeps its start safe; no other start is
+    # The oracle row replays the planner's records: each keeps its start safe, no other start is.
+    assert safe == set(planner)
+    # A witness's record (n = 3: the PPO agent's on the one start the planner left) too.
+    kwargs = {"n_trailers": n}
+    witnessed = feasible - set(planner)
+    assert all(replays_to_success(REVERSE_V1, kwargs, seed, records[seed]) for seed in witnessed)
+    assert len(witnessed) == (1 if n == 3 else 0)
     assert len(feasible) == round(100 * certificate["ceiling"])
 
 

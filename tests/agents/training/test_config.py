@@ -28,6 +28,18 @@ def test_every_scene_has_hyperparameters(algo: str, env_id: str) -> None:
     assert hp.normalize == {"norm_obs": True, "norm_reward": False}
 
 
+def test_the_gsde_recipe_differs_from_ppo_yml_only_in_exploration() -> None:
+    reverse = "trailer_env/Reverse-v1"
+    plain = load_hyperparams("ppo", reverse)
+    gsde = load_hyperparams("ppo", reverse, HYPERPARAMS_DIR / "gsde")
+    assert gsde.shaping is None and plain.shaping is None
+    assert gsde.algo_kwargs.pop("use_sde") is True and gsde.algo_kwargs.pop("sde_sample_freq") == 4
+    assert gsde.algo_kwargs.pop("policy_kwargs") == {"net_arch": [64, 64], "log_std_init": -2.0}
+    plain.algo_kwargs.pop("policy_kwargs")
+    assert gsde.algo_kwargs == plain.algo_kwargs
+    assert (gsde.n_envs, gsde.normalize) == (plain.n_envs, plain.normalize)
+
+
 def test_policy_kwargs_strings_parse_without_eval() -> None:
     parsed = parse_policy_kwargs(
         "dict(net_arch=dict(pi=[64, 64], vf=[32]), log_std_init=-1.0, activation_fn=nn.Tanh)"
