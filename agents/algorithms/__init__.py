@@ -14,10 +14,11 @@ so that the artifacts layer can load every algorithm's files.
 from __future__ import annotations
 
 import importlib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["ALGOS", "Algorithm", "algo_class", "algorithm"]
+__all__ = ["ALGOS", "Algorithm", "algo_class", "algorithm", "recipe_name"]
 
 
 @dataclass(frozen=True)
@@ -94,3 +95,32 @@ def algo_class(name: str) -> Any:
         ValueError: On an unknown algorithm.
     """
     return algorithm(name).load_class()
+
+
+def _uses_sde(hyperparams: object) -> bool:
+    """Whether recorded hyperparameters turn on gSDE (PPO's argument, or SAC's and TD3's
+    ``policy_kwargs`` entry)."""
+    if not isinstance(hyperparams, Mapping):
+        return False
+    kwargs = hyperparams.get("policy_kwargs")
+    in_policy = isinstance(kwargs, Mapping) and kwargs.get("use_sde") is True
+    return hyperparams.get("use_sde") is True or in_policy
+
+
+def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
+    """A run's recipe from its configuration or model card: "ppo", "ppo (gSDE)",
+    "ppo (gSDE) + lqr shaping" (the algorithm's name upper-cased when ``upper``).
+
+    State-dependent exploration and reward shaping are recipes of their own: runs are
+    grouped, tabled and labelled by this name, so that they are never averaged with the
+    plain algorithm's.
+    """
+    name = str(record.get("algo", "?"))
+    if upper:
+        name = name.upper()
+    if _uses_sde(record.get("hyperparams")):
+        name += " (gSDE)"
+    shaping = record.get("shaping")
+    if isinstance(shaping, Mapping):
+        name += f" + {shaping.get('potential')} shaping"
+    return name

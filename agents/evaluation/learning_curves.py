@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from agents.algorithms import recipe_name
 from agents.artifacts import files
 from agents.artifacts.curves import read_curve
 from agents.artifacts.run_folder import CONFIG_FILE, CURVE_FILE
@@ -211,16 +212,6 @@ def final_plateau(
     return Plateau(step=float(x[first]), start=float(x[first]), level=level)
 
 
-def _uses_sde(hyperparams: object) -> bool:
-    """Whether a run's recorded hyperparameters turn on gSDE (PPO's argument, or SAC's
-    and TD3's ``policy_kwargs`` entry)."""
-    if not isinstance(hyperparams, dict):
-        return False
-    kwargs = hyperparams.get("policy_kwargs")
-    in_policy = isinstance(kwargs, dict) and kwargs.get("use_sde") is True
-    return hyperparams.get("use_sde") is True or in_policy
-
-
 def read_run(run_dir: Path) -> RunCurve:
     """A run folder's configuration and learning curve.
 
@@ -236,13 +227,7 @@ def read_run(run_dir: Path) -> RunCurve:
     config = files.read_json(config_path, "run configuration")
     try:
         env_id, algo = str(config["env_id"]), str(config["algo"])
-        if _uses_sde(config.get("hyperparams")):
-            # State-dependent exploration is another recipe, as shaping is.
-            algo = f"{algo} (gSDE)"
-        shaping = config.get("shaping")
-        if isinstance(shaping, dict):
-            # A shaped run is another recipe: grouped, tabled and drawn apart from the plain one.
-            algo = f"{algo} + {shaping.get('potential')} shaping"
+        algo = recipe_name(config)  # gSDE and shaping are recipes of their own
         n_trailers, seed = config["env_kwargs"]["n_trailers"], config["seed"]
         metric = headline_metric(env_id)
     except (KeyError, TypeError, ValueError) as error:

@@ -159,6 +159,7 @@ def results_document(
                     for key in (
                         "algo",
                         "recipe",
+                        "init_from",
                         "seed",
                         "budget",
                         "timesteps",

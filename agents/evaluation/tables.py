@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from agents.algorithms import recipe_name
 from agents.envs import ENV_IDS, core_class_of, scene_title
 from agents.evaluation.results import Evaluation
 from agents.policies.baselines import BASELINES
@@ -49,7 +50,8 @@ def training_note(card: dict[str, Any], label: str = "") -> str:
             f"{algo} policy by DAgger from {card.get('expert', 'mpc')}, "
             f"seed {card.get('seed')}, {_steps_text(steps)} labels{kept}{wall_text}"
         )
-    return f"{algo}, seed {card.get('seed')}, {_steps_text(steps)} steps{chosen}{wall_text}"
+    recipe = recipe_name(card, upper=True)
+    return f"{recipe}, seed {card.get('seed')}, {_steps_text(steps)} steps{chosen}{wall_text}"
 
 
 def training_label(card: dict[str, Any], label: str = "") -> str:
@@ -60,7 +62,7 @@ def training_label(card: dict[str, Any], label: str = "") -> str:
     steps = _steps_text(card.get("timesteps", card.get("budget", 0)))
     if card.get("recipe") == "dagger":
         return f"DAgger, {steps} labels"
-    return f"{str(card.get('algo', '?')).upper()}, {steps} steps"
+    return f"{recipe_name(card, upper=True)}, {steps} steps"
 
 
 def training_footnote(evaluations: Sequence[Evaluation]) -> str:

@@ -9,7 +9,8 @@ time is the ``wall_time_s`` its run recorded on its card: for an imitation agent
 whole ``agents.imitate`` run (the planner's labels, the training and the choice of the
 iteration kept), for reinforcement learning the whole ``agents.train`` run (training and
 its validation evaluations). Beside it, the best agent learned from the scene's reward
-alone (a card without an imitation ``recipe``), with its rate and time, so that imitation
+alone (a card with neither an imitation ``recipe`` nor a fine-tuning start, ``init_from``),
+with its rate and time, so that imitation
 and reinforcement learning stand side by side. Choosing among training seeds is not in
 it. The machine's load during a run is not on its card: the figures are as recorded, on
 the 2-core machine of this project, usually beside other work.
@@ -70,6 +71,12 @@ class CeilingGap:
         return 100.0 * (self.ceiling - self.rate)
 
 
+def _from_reward(training: Mapping[str, Any]) -> bool:
+    """Whether a policy was learned from the scene's reward alone: not imitated, and not
+    fine-tuned from an imitated (or any other) model."""
+    return "recipe" not in training and "init_from" not in training
+
+
 def gap_of(document: Mapping[str, Any]) -> CeilingGap:
     """The :class:`CeilingGap` of one results document.
 
@@ -86,7 +93,7 @@ def gap_of(document: Mapping[str, Any]) -> CeilingGap:
     best = max(learned, key=lambda policy: float(policy[metric]))
     seeds = best.get("training_seeds") or []
     seeds_mean = sum(float(row[metric]) for row in seeds) / len(seeds) if seeds else None
-    from_reward = [policy for policy in learned if "recipe" not in policy.get("training", {})]
+    from_reward = [policy for policy in learned if _from_reward(policy.get("training", {}))]
     reward = max(from_reward, key=lambda policy: float(policy[metric])) if from_reward else None
     return CeilingGap(
         env_id,

@@ -23,6 +23,7 @@ from agents.evaluation.tables import (
     table_legend,
     training_footnote,
     training_label,
+    training_note,
 )
 
 DAGGER_CARD = {
@@ -74,6 +75,21 @@ def test_training_labels_are_short_and_the_notes_go_under_the_table() -> None:
         "(kept iteration 3), 500 s"
     )
     assert training_footnote(_evaluations()[:1]) == ""
+
+
+def test_training_labels_name_the_exploration_and_the_shaping() -> None:
+    gsde = {**PPO_CARD, "hyperparams": {"use_sde": True, "sde_sample_freq": 4}}
+    assert training_label(gsde) == "PPO (gSDE), 2M steps"
+    assert training_note(gsde).startswith("PPO (gSDE), seed ")
+    shaped = {**gsde, "shaping": {"potential": "lqr"}}
+    assert training_label(shaped) == "PPO (gSDE) + lqr shaping, 2M steps"
+    sac_sde = {
+        "algo": "sac",
+        "timesteps": 90_000,
+        "hyperparams": {"policy_kwargs": {"use_sde": True}},
+    }
+    assert training_label(sac_sde) == "SAC (gSDE), 90k steps"
+    assert training_label({**PPO_CARD, "hyperparams": {"use_sde": False}}) == "PPO, 2M steps"
 
 
 def test_markdown_table_rows_and_footnote() -> None:

@@ -84,6 +84,10 @@ def test_the_best_agent_from_reward_alone_stands_beside_imitation() -> None:
     dagger = _model("d", 0.9, 60.0, recipe="dagger")
     only_imitation = _document("trailer_env/Reverse-v1", 3, [dagger])
     assert gap_of(only_imitation).reward_agent is None
+    tuned = _model("ppo_from_dagger", 0.95, 600.0)
+    tuned["training"]["init_from"] = "agents/models/dagger_reverse_v1_n3.zip"
+    with_tuned = _document("trailer_env/Reverse-v1", 3, [dagger, tuned])
+    assert (gap_of(with_tuned).agent, gap_of(with_tuned).reward_agent) == ("ppo_from_dagger", None)
     assert time_to_ceiling_table([only_imitation]).rstrip().endswith("| - | - | - |")
 
 
