@@ -102,18 +102,17 @@ def markdown(
     lost_by_all: Sequence[int],
     strokes_of_lost: Sequence[float],
 ) -> str:
-    """The table and the line naming the starts every policy loses."""
-    head = "| screen stroke (share of s_max) | starts | certified feasible | "
-    lines = [head + " | ".join(labels) + " |", "|---" * (3 + len(labels)) + "|"]
-    for row in rows:
-        saved = row["saved"]
-        assert isinstance(saved, Mapping)
-        cells = [f"{saved[label]} / {row['starts']}" for label in labels]
-        lines.append(
-            f"| {_band_name(row)} | {row['starts']} | {row['feasible']} | "
-            + " | ".join(cells)
-            + " |"
-        )
+    """The table (a column per band of stroke, a row per count: the starts, the feasible
+    ones, each policy's saved ones) and the line naming the starts every policy loses."""
+    lines = [
+        "| screen stroke (share of s_max) | " + " | ".join(_band_name(row) for row in rows) + " |",
+        "|---" * (1 + len(rows)) + "|",
+        "| starts | " + " | ".join(str(row["starts"]) for row in rows) + " |",
+        "| certified feasible | " + " | ".join(str(row["feasible"]) for row in rows) + " |",
+    ]
+    for label in labels:
+        counts = [row["saved"][label] for row in rows]  # type: ignore[index]
+        lines.append(f"| saved by {label} | " + " | ".join(str(count) for count in counts) + " |")
     lost = ", ".join(
         f"{seed} ({stroke:.2f})" for seed, stroke in zip(lost_by_all, strokes_of_lost, strict=True)
     )

@@ -24,8 +24,9 @@ def test_bands_count_every_start_once_and_the_saved_ones_inside_them() -> None:
     ]
     assert [r["saved"]["a"] for r in rows] == [2, 1, 0]
     text = markdown(rows, ["a"], [1004], [0.7])
-    assert "| < 0.5 | 2 | 2 | 2 / 2 |" in text
-    assert "| >= 0.7 | 2 | 1 | 0 / 2 |" in text
+    assert "| screen stroke (share of s_max) | < 0.5 | 0.5 - 0.7 | >= 0.7 |" in text
+    assert "| certified feasible | 2 | 2 | 1 |" in text
+    assert "| saved by a | 2 | 1 | 0 |" in text
     assert text.rstrip().endswith("1004 (0.70).")
 
 
