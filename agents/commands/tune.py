@@ -9,7 +9,8 @@ Each trial samples the algorithm's search space (``agents/hyperparams/search.yml
 ``--space``) over its hyperparameter file's entry and trains ``--timesteps`` steps in
 ``<out>/trials/trial_<k>/`` (a run folder of ``agents.train``, with its ``<algo>.yml``);
 the objective is the validation headline rate averaged over the budget (the area under
-the curve; :mod:`agents.training.tune` says why), the sampler TPE seeded with ``--seed``,
+the curve; :mod:`agents.training.tune` says why), or with ``--wall-budget SECONDS`` over
+that much wall time (time to the plateau on this machine), the sampler TPE seeded with ``--seed``,
 the pruner the median of the earlier trials at each evaluation. Progress and an ETA go
 to standard error, one line per trial.
 
@@ -84,6 +85,14 @@ def build_parser() -> argparse.ArgumentParser:
         parser, 50, "validation episodes per evaluation (default 50)", flag="--eval-episodes"
     )
     parser.add_argument(
+        "--wall-budget",
+        type=cli.positive_float,
+        default=None,
+        metavar="SECONDS",
+        help="average the curve over this many seconds of wall time instead of over the "
+        "steps; each trial stops at its first evaluation past it (run the search alone)",
+    )
+    parser.add_argument(
         "--startup-trials",
         type=cli.non_negative_int,
         default=5,
@@ -138,6 +147,7 @@ def main(argv: list[str] | None = None) -> int:
         hyperparams=args.hyperparams,
         space=args.space,
         startup_trials=args.startup_trials,
+        wall_budget=args.wall_budget,
         command=tuple(command),
     )
     try:

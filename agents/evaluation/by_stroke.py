@@ -25,17 +25,29 @@ import itertools
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TypedDict, cast
 
 import numpy as np
 
 from agents.artifacts import files
 from agents.artifacts.certificates import FEASIBLE, committed_certificate
-from agents.envs import ENV_IDS, check_env_id, headline_metric
+from agents.commands import options as cli
+from agents.envs import headline_metric
 from agents.evaluation.metrics import rollout
 from agents.policies.registry import load_policy, policy_label
 from trailer_env.json_types import JSONObject
 
 OUTPUTS = ("by_stroke.md", "by_stroke.json")
+
+
+class StrokeBand(TypedDict):
+    """One band of screen stroke ``[low, high)`` (None: open) and its counts of starts."""
+
+    low: float | None
+    high: float | None
+    starts: int
+    feasible: int
+    saved: dict[str, int]
 
 
 def certificate_strokes(certificate: JSONObject) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -68,11 +80,11 @@ def band_rows(
     feasible: np.ndarray,
     saved: Mapping[str, np.ndarray],
     edges: Sequence[float],
-) -> list[dict[str, object]]:
+) -> list[StrokeBand]:
     """One row per band ``[edges[k-1], edges[k])`` (open at both ends): its starts, the
     feasible ones and each policy's saved ones, as counts."""
     bounds = [-np.inf, *edges, np.inf]
-    rows: list[dict[str, object]] = []
+    rows: list[StrokeBand] = []
     for low, high in itertools.pairwise(bounds):
         inside = (strokes >= low) & (strokes < high)
         rows.append(
@@ -87,7 +99,7 @@ def band_rows(
     return rows
 
 
-def _band_name(row: Mapping[str, object]) -> str:
+def _band_name(row: StrokeBand) -> str:
     low, high = row["low"], row["high"]
     if low is None:
         return f"< {high:g}"
@@ -97,7 +109,7 @@ def _band_name(row: Mapping[str, object]) -> str:
 
 
 def markdown(
-    rows: Sequence[Mapping[str, object]],
+    rows: Sequence[StrokeBand],
     labels: Sequence[str],
     lost_by_all: Sequence[int],
     strokes_of_lost: Sequence[float],
@@ -111,7 +123,7 @@ def markdown(
         "| certified feasible | " + " | ".join(str(row["feasible"]) for row in rows) + " |",
     ]
     for label in labels:
-        counts = [row["saved"][label] for row in rows]  # type: ignore[index]
+        counts = [row["saved"][label] for row in rows]
         lines.append(f"| saved by {label} | " + " | ".join(str(count) for count in counts) + " |")
     lost = ", ".join(
         f"{seed} ({stroke:.2f})" for seed, stroke in zip(lost_by_all, strokes_of_lost, strict=True)
@@ -151,7 +163,7 @@ def by_stroke(
         "outcome": outcome,
         "edges": [float(edge) for edge in edges],
         "policies": list(saved),
-        "bands": band_rows(strokes, feasible, saved, edges),
+        "bands": cast(list[JSONObject], band_rows(strokes, feasible, saved, edges)),
         "lost_by_all": [int(seed) for seed in seeds[lost]],
         "lost_by_all_strokes": [float(stroke) for stroke in strokes[lost]],
     }
@@ -171,14 +183,12 @@ def _edges(text: str) -> list[float]:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m agents.evaluation.by_stroke",
+        prog=cli.program("agents.evaluation.by_stroke"),
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    parser.add_argument(
-        "--env", default="trailer_env/Reverse-v1", help=f"one of {', '.join(ENV_IDS)}"
-    )
-    parser.add_argument("--n-trailers", type=int, required=True)
+    cli.add_env(parser, "trailer_env/Reverse-v1")
+    cli.add_n_trailers(parser, 3)
     parser.add_argument(
         "--policy", nargs="+", required=True, help="policy specs, as agents.evaluate's"
     )
@@ -188,17 +198,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--out", type=Path, default=None, help="also write the table and figures here"
     )
-    parser.add_argument("--overwrite", action="store_true")
+    cli.add_overwrite(parser, "replace by_stroke.md and by_stroke.json in --out")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
-    try:
-        check_env_id(args.env)
-    except ValueError as error:
-        parser.error(f"--env: {error}")
     if args.out is not None and not args.overwrite:
         existing = [name for name in OUTPUTS if (args.out / name).exists()]
         if existing:
@@ -208,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as error:
         parser.error(str(error))
     text = markdown(
-        document["bands"],
+        cast(list[StrokeBand], document["bands"]),
         document["policies"],
         document["lost_by_all"],
         document["lost_by_all_strokes"],

@@ -226,7 +226,9 @@ def read_run(run_dir: Path) -> RunCurve:
             raise ValueError(f"{run_dir} is not a run folder: it has no {path.name}")
     config = files.read_json(config_path, "run configuration")
     try:
-        env_id, algo = str(config["env_id"]), str(config["algo"])
+        env_id = str(config["env_id"])
+        if "algo" not in config:
+            raise KeyError("algo")
         algo = recipe_name(config)  # gSDE and shaping are recipes of their own
         n_trailers, seed = config["env_kwargs"]["n_trailers"], config["seed"]
         metric = headline_metric(env_id)

@@ -34,7 +34,8 @@ from agents.progress import Progress
 from agents.seeds import VALIDATION_SEED
 from trailer_env.json_types import JSONObject
 
-#: Called after each evaluation with (steps, summary); returns True to stop the run.
+#: Called after each evaluation with (steps, summary); returns True to stop the run. The
+#: summary is the evaluation's, with ``wall_s``: the run's training seconds so far.
 EvaluationHook = Callable[[int, Mapping[str, Any]], bool]
 
 
@@ -245,8 +246,9 @@ class SafetyEvalCallback(BaseCallback):
                 f"band {summary['band_time_fraction']:.3f}  ({row['wall_s']:.0f} s)",
                 flush=True,
             )
+        seen = {**summary, "wall_s": row["wall_s"]}
         for hook in self.hooks:
-            self.stop_requested = hook(steps, summary) or self.stop_requested
+            self.stop_requested = hook(steps, seen) or self.stop_requested
         return summary
 
 

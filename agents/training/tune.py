@@ -16,13 +16,25 @@ times the share of the budget left after the curve reached it otherwise. It rewa
 high rate *and* an early plateau in one number (a second objective, "first step at 0.9
 of the best rate", would make the search multi-objective, where Optuna's pruners do not
 apply, and is noisy on 50-episode evaluations). The final and best rates are kept with
-each trial (``user_attrs``) and in ``best_trials.md``.
+each trial (``user_attrs``) and in ``best_trials.md``, with the steps and the wall time at
+which its curve first reached 90 % of its best rate (its time to the plateau).
+
+With ``wall_budget`` (seconds) the objective is the same area over **wall time**
+instead: the rate averaged over the first ``wall_budget`` seconds of training
+(evaluations included), each trial stopping at its first evaluation past that time or at
+its step budget, whichever comes first; a trial that ends its steps early keeps its last
+rate to the end of the window (its model exists from then on). It ranks hyperparameters
+by how soon *this machine* gets a good policy: a configuration that learns more per step
+but costs more per step wins only if it wins per second. Wall time depends on the
+machine's load, so such a search compares trials only when run alone (or at a steady
+load), and its winner is a statement about that machine.
 
 Sampler and pruner: TPE (Optuna's ``TPESampler``, seeded with ``--seed``) and the
 median pruner on the intermediate values: after each evaluation the trial reports the
 area so far (over the whole budget, so trials are compared at the same evaluation
-index) and stops once below the median of the earlier trials at that index
-(``n_startup_trials`` complete trials first, no pruning before the second evaluation).
+index; over wall time, at the same tenth of the window) and stops once below the median
+of the earlier trials there (``n_startup_trials`` complete trials first, no pruning
+before the second evaluation or tenth).
 
 The study is an Optuna journal file, ``<out>/study.log``: a search that was killed
 resumes by running the same command again (trials left running are marked failed; the
@@ -212,10 +224,13 @@ def trial_entry(base: Mapping[str, Any], params: Mapping[str, Any]) -> JSONObjec
     return entry
 
 
-def area_over_budget(steps: Sequence[float], rates: Sequence[float], budget: float) -> float:
+def area_over_budget(
+    steps: Sequence[float], rates: Sequence[float], budget: float, *, hold_last: bool = False
+) -> float:
     """The area under the curve (trapezoids) up to ``budget``, divided by ``budget``: the
     rate averaged over the budget (the part of the curve past ``budget`` is cut off;
-    a curve that ends earlier counts 0 after its end)."""
+    a curve that ends earlier counts 0 after its end, or its last rate with
+    ``hold_last``). ``steps`` may be steps or seconds."""
     x = np.asarray(steps, dtype=float)
     y = np.asarray(rates, dtype=float)
     if x.size == 0:
@@ -223,7 +238,18 @@ def area_over_budget(steps: Sequence[float], rates: Sequence[float], budget: flo
     if x[-1] > budget:
         keep = x < budget
         x, y = np.append(x[keep], budget), np.append(y[keep], np.interp(budget, x, y))
+    elif hold_last and x[-1] < budget:
+        x, y = np.append(x, budget), np.append(y, y[-1])
     return float(np.trapezoid(y, x) / budget) if x.size > 1 else 0.0
+
+
+def first_reaching(rates: Sequence[float], share: float = 0.9) -> int | None:
+    """The index of the first evaluation at ``share`` of the curve's best rate (None for a
+    curve that never rises above 0): where its plateau begins, by a stated rule."""
+    if not rates or max(rates) <= 0.0:
+        return None
+    goal = share * max(rates)
+    return next(i for i, rate in enumerate(rates) if rate >= goal)
 
 
 @dataclass(frozen=True)
@@ -239,6 +265,8 @@ class TuneSettings:
         hyperparams: Folder of the base ``<algo>.yml`` (None: the package's).
         space: The search-space file.
         startup_trials: Complete trials before the pruner prunes.
+        wall_budget: Seconds of training per trial; when set, the objective is the
+            area over wall time (see the module), not over steps.
     """
 
     env_id: str
@@ -252,12 +280,37 @@ class TuneSettings:
     hyperparams: Path | None = None
     space: Path = SEARCH_SPACES
     startup_trials: int = 5
+    wall_budget: float | None = None
     command: tuple[str, ...] = field(default=(), compare=False)
 
     @property
     def evaluation_every(self) -> int:
         """Steps between evaluations (default: a tenth of the budget)."""
         return self.eval_freq or max(self.budget // 10, 1)
+
+    @property
+    def objective_text(self) -> str:
+        """What the objective averages over, in words."""
+        if self.wall_budget is None:
+            return f"over the {self.budget:,}-step budget"
+        return f"over the first {self.wall_budget:g} s of wall time (at most {self.budget:,} steps)"
+
+    def objective(
+        self, steps: Sequence[float], seconds: Sequence[float], rates: Sequence[float]
+    ) -> float:
+        """The objective of a curve (evaluations at ``steps``, ``seconds`` into training)."""
+        if self.wall_budget is None:
+            return area_over_budget(steps, rates, self.budget)
+        return area_over_budget(seconds, rates, self.wall_budget, hold_last=True)
+
+    def report_index(self, evaluation: int, seconds: float) -> int:
+        """Where an intermediate value is compared with the other trials' (the pruner's
+        step): the evaluation's index over steps; over wall time, the tenth of the window
+        it falls in, since trials evaluate at different times (only the first evaluation in
+        each tenth is reported)."""
+        if self.wall_budget is None:
+            return evaluation
+        return int(10 * seconds / self.wall_budget)
 
     def document(self) -> JSONObject:
         """The record of ``search.json`` (without the command, which may differ on resume)."""
@@ -407,16 +460,23 @@ def _run_trial(
 ) -> tuple[str, float | None]:
     """Train one trial; returns ("complete", value), ("pruned", None) or ("fail", None)."""
     steps: list[float] = []
+    seconds: list[float] = []
     rates: list[float] = []
     pruned: list[int] = []
+    reported: set[int] = set()
 
     def report(step: int, summary: Mapping[str, Any]) -> bool:
         steps.append(float(step))
+        seconds.append(float(summary["wall_s"]))
         rates.append(float(summary[metric]))
-        trial.report(area_over_budget(steps, rates, settings.budget), len(steps) - 1)
-        if not pruned and trial.should_prune():
-            pruned.append(step)
-        return bool(pruned)
+        index = settings.report_index(len(steps) - 1, seconds[-1])
+        if index not in reported:
+            reported.add(index)
+            trial.report(settings.objective(steps, seconds, rates), index)
+            if not pruned and trial.should_prune():
+                pruned.append(step)
+        out_of_time = settings.wall_budget is not None and seconds[-1] >= settings.wall_budget
+        return bool(pruned) or out_of_time
 
     try:
         hp = load_hyperparams(settings.algo, settings.env_id, run_dir)
@@ -445,16 +505,22 @@ def _run_trial(
         # not the search.
         trial.set_user_attr("error", f"{type(error).__name__}: {error}"[:500])
         return "fail", None
-    rows = read_curve(run_dir / CURVE_FILE, ("timesteps", metric))
+    rows = read_curve(run_dir / CURVE_FILE, ("timesteps", "wall_s", metric))
     x = [row["timesteps"] for row in rows]
+    t = [row["wall_s"] for row in rows]
     y = [row[metric] for row in rows]
     trial.set_user_attr("final_rate", y[-1] if y else math.nan)
     trial.set_user_attr("best_rate", max(y) if y else math.nan)
     trial.set_user_attr("steps", x[-1] if x else 0)
+    trial.set_user_attr("wall_s", t[-1] if t else 0.0)
+    reached = first_reaching(y)
+    if reached is not None:
+        trial.set_user_attr("plateau_steps", x[reached])
+        trial.set_user_attr("plateau_wall_s", t[reached])
     if pruned:
         trial.set_user_attr("pruned_at", pruned[0])
         return "pruned", None
-    return "complete", area_over_budget(x, y, settings.budget)
+    return "complete", settings.objective(x, t, y)
 
 
 def write_results(study: Any, settings: TuneSettings, base: Mapping[str, Any], out: Path) -> None:
@@ -471,19 +537,29 @@ def write_results(study: Any, settings: TuneSettings, base: Mapping[str, Any], o
         f"# Search: {settings.algo} on {settings.env_id}, n = {settings.n_trailers}",
         "",
         f"{settings.budget:,} steps per trial; objective: the validation {metric} averaged "
-        "over the budget (area under the curve / budget); trials: "
+        f"{settings.objective_text} (area under the curve / budget); trials: "
         + ", ".join(f"{count} {name}" for name, count in counts.items()),
         "",
-        "| rank | trial | objective | final rate | best rate | hyperparameters |",
-        "|---|---|---|---|---|---|",
+        "Plateau: the first evaluation at 90 % of the trial's best rate (steps, wall "
+        "seconds), evaluations included.",
+        "",
+        "| rank | trial | objective | final rate | best rate | plateau | wall | hyperparameters |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     ranked = sorted(complete, key=lambda trial: -float(trial.value))
     for rank, trial in enumerate(ranked[:10], start=1):
         params = ", ".join(f"{key}={_short(value)}" for key, value in trial.params.items())
+        attrs = trial.user_attrs
+        plateau = (
+            f"{attrs['plateau_steps']:,.0f} / {attrs['plateau_wall_s']:.0f} s"
+            if "plateau_steps" in attrs
+            else "-"
+        )
         lines.append(
             f"| {rank} | {trial.number} | {trial.value:.3f} | "
-            f"{trial.user_attrs.get('final_rate', math.nan):.2f} | "
-            f"{trial.user_attrs.get('best_rate', math.nan):.2f} | {params} |"
+            f"{attrs.get('final_rate', math.nan):.2f} | "
+            f"{attrs.get('best_rate', math.nan):.2f} | {plateau} | "
+            f"{attrs.get('wall_s', math.nan):.0f} s | {params} |"
         )
     files.atomic_write_text(out / BEST_TRIALS, "\n".join(lines) + "\n")
     if not ranked:

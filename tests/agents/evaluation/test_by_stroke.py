@@ -45,7 +45,9 @@ def test_the_committed_certificate_gives_one_stroke_per_test_start() -> None:
         certificate_strokes(broken)
 
 
-def test_the_command_writes_the_table_and_refuses_to_overwrite(tmp_path: Path, capsys) -> None:
+def test_the_command_writes_the_table_and_refuses_to_overwrite(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
     out = tmp_path / "bands"
     args = ["--n-trailers", "1", "--policy", "zero", "--edges", "0.3,0.6", "--out", str(out)]
     assert main(args) == 0

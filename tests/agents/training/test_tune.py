@@ -14,7 +14,9 @@ from agents.training.tune import (
     BEST_TRIALS,
     MISSING_OPTUNA,
     STUDY_FILE,
+    TuneSettings,
     area_over_budget,
+    first_reaching,
     read_space,
     trial_entry,
 )
@@ -39,6 +41,25 @@ def test_objective_is_the_rate_averaged_over_the_budget() -> None:
     # A curve that stops at half the budget counts nothing after it.
     assert area_over_budget([0, 50], [1.0, 1.0], 100) == pytest.approx(0.5)
     assert area_over_budget([], [], 100) == 0.0
+    # Over wall time, a trial that ended its steps early keeps its last rate: (25 + 50) / 100.
+    assert area_over_budget([0, 50], [0.0, 1.0], 100, hold_last=True) == pytest.approx(0.75)
+    assert area_over_budget([0, 200], [0.0, 1.0], 100, hold_last=True) == pytest.approx(0.25)
+
+
+def test_the_plateau_starts_at_90_percent_of_the_best_rate() -> None:
+    assert first_reaching([0.0, 0.5, 0.9, 0.95, 1.0]) == 2
+    assert first_reaching([0.0, 0.2, 0.19], share=0.9) == 1
+    assert first_reaching([0.0, 0.0]) is None and first_reaching([]) is None
+
+
+def test_the_pruner_compares_trials_at_the_same_step_or_the_same_time() -> None:
+    over_steps = TuneSettings(REVERSE, "ppo", 1, budget=1000)
+    over_time = TuneSettings(REVERSE, "ppo", 1, budget=1000, wall_budget=100.0)
+    assert over_steps.report_index(3, 55.0) == 3
+    # Over wall time, the tenth of the window: a trial evaluating often and one evaluating
+    # rarely are compared at 55 s, not at their third evaluation.
+    assert over_time.report_index(3, 55.0) == 5 and over_time.report_index(9, 55.0) == 5
+    assert over_time.objective([0, 10], [0.0, 50.0], [0.0, 1.0]) == pytest.approx(0.75)
 
 
 def test_trial_entry_puts_the_policy_keys_into_policy_kwargs() -> None:
@@ -163,3 +184,36 @@ def test_missing_optuna_is_one_line_naming_the_extra(
         _tune(tmp_path, tmp_path / "search", "--trials", "1")
     assert refused.value.code == 2 and MISSING_OPTUNA in capsys.readouterr().err
     assert "trailer-env[tune]" in MISSING_OPTUNA and not (tmp_path / "search").exists()
+
+
+def test_a_search_over_wall_time_stops_trials_by_the_clock(tmp_path: Path) -> None:
+    from agents.artifacts.curves import read_curve
+
+    tiny_ppo_hyperparams(tmp_path / "hp", REVERSE, "dict(net_arch=[8], log_std_init=-1.0)")
+    (tmp_path / "space.yml").write_text(SPACE)
+    # A window no trial reaches: every trial trains its 1024 steps and keeps its last
+    # rate to the end of the window, so its objective is about that rate.
+    long = tmp_path / "long"
+    assert _tune(tmp_path, long, "--trials", "1", "--wall-budget", "1e6") == 0
+    storage = optuna.storages.JournalStorage(
+        optuna.storages.journal.JournalFileBackend(str(long / STUDY_FILE))
+    )
+    (trial,) = optuna.load_study(study_name="search", storage=storage).trials
+    rows = read_curve(
+        long / "trials" / "trial_0000" / "evaluations.csv", ("timesteps", "wall_s", "safe_rate")
+    )
+    assert rows[-1]["timesteps"] >= 1024
+    seconds = [row["wall_s"] for row in rows]
+    rates = [row["safe_rate"] for row in rows]
+    assert trial.value == pytest.approx(area_over_budget(seconds, rates, 1e6, hold_last=True))
+    assert trial.user_attrs["wall_s"] == seconds[-1]
+    table = (long / BEST_TRIALS).read_text()
+    assert "over the first 1e+06 s of wall time (at most 1,024 steps)" in table
+    # A window shorter than the first evaluation: the trial stops after it, by the clock.
+    short = tmp_path / "short"
+    assert _tune(tmp_path, short, "--trials", "1", "--wall-budget", "0.001") == 0
+    rows = read_curve(short / "trials" / "trial_0000" / "evaluations.csv", ("timesteps",))
+    assert [row["timesteps"] for row in rows] == [0]
+    # The window is part of the search's settings: another one is another search.
+    with pytest.raises(SystemExit):
+        _tune(tmp_path, short, "--trials", "2", "--wall-budget", "5", "--overwrite")
