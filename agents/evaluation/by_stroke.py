@@ -31,8 +31,7 @@ import numpy as np
 
 from agents.artifacts import files
 from agents.artifacts.certificates import FEASIBLE, committed_certificate
-from agents.commands import options as cli
-from agents.envs import headline_metric
+from agents.envs import ENV_IDS, headline_metric
 from agents.evaluation.metrics import rollout
 from agents.policies.registry import load_policy, policy_label
 from trailer_env.json_types import JSONObject
@@ -183,12 +182,18 @@ def _edges(text: str) -> list[float]:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog=cli.program("agents.evaluation.by_stroke"),
+        prog="python -m agents.evaluation.by_stroke",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    cli.add_env(parser, "trailer_env/Reverse-v1")
-    cli.add_n_trailers(parser, 3)
+    parser.add_argument(
+        "--env",
+        default="trailer_env/Reverse-v1",
+        choices=ENV_IDS,
+        metavar="ENV_ID",
+        help=f"one of {', '.join(ENV_IDS)} (default trailer_env/Reverse-v1)",
+    )
+    parser.add_argument("--n-trailers", type=int, required=True)
     parser.add_argument(
         "--policy", nargs="+", required=True, help="policy specs, as agents.evaluate's"
     )
@@ -198,7 +203,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--out", type=Path, default=None, help="also write the table and figures here"
     )
-    cli.add_overwrite(parser, "replace by_stroke.md and by_stroke.json in --out")
+    parser.add_argument(
+        "--overwrite", action="store_true", help="replace by_stroke.md and .json in --out"
+    )
     return parser
 
 
