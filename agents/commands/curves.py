@@ -15,9 +15,9 @@ seeds with the min-max band, and horizontal lines: the certified ceiling of the
 scene's committed certificate (``agents/certificates/``; measured on the test starts
 1000-1099, not the validation ones; ``--no-ceiling`` leaves it out) and every
 ``--level NAME=RATE`` (e.g. the LQR's validation rate). ``<out>/learning_curves.md``
-tables the final and best rates over seeds and where each seed's curve reached its
-plateau (``--plateau WINDOW,EPS``: the last WINDOW evaluations within EPS of their
-mean).
+tables the final and best rates over seeds and where each seed's curve settled for good
+(``--plateau WINDOW,EPS``: its last WINDOW evaluations within EPS of their mean, from the
+first evaluation after which every one stays within EPS of that level).
 
 Everything is checked before anything is written (exit status 2 naming the
 argument): every RUN is read, ``--out`` must be a writable folder and its two files

@@ -5,7 +5,9 @@ and ``evaluations.csv`` (the validation evaluations: steps, wall time and the ra
 :func:`read_run` reads one; :func:`group_runs` puts runs of the same (environment,
 n, algorithm) together, one per training seed; :func:`seed_band` gives a group's mean
 and min-max band of the scene's headline rate (safe for Reverse, success otherwise)
-against environment steps or wall time; :func:`plateau` finds where a curve went flat;
+against environment steps or wall time; :func:`plateau` finds where a curve first went
+flat (what an early stop acts on) and :func:`final_plateau` where it settled for good
+(what the table reports);
 :func:`write_learning_curves` draws the chart (PNG) and writes the table (Markdown),
 both atomically and only over earlier files with ``overwrite``.
 
@@ -306,7 +308,9 @@ def markdown_table(
 ) -> str:
     """The groups' table: final and best rate over seeds, plateaus, steps, wall time, levels."""
     lines = [
-        f"Plateau: {window} evaluations within {eps:g} of their mean (detected at step).",
+        f"Plateau: where each seed settled for good, at that level: its last {window} "
+        f"evaluations within {eps:g} of their mean, from the first evaluation after which "
+        "every one stays within it (a flat stretch before a rise is not a plateau).",
         "",
         "| scene, n, algorithm | metric | seeds | final (mean ± sd, min-max) | best | "
         "plateau per seed | steps | wall time (s) | levels |",
@@ -317,8 +321,10 @@ def markdown_table(
         bests = [float(run.series()[1].max()) for run in runs]
         plateaus = []
         for run in runs:
-            found = plateau(*run.series(), window, eps)
-            reached = "not reached" if found is None else f"{found.step:,.0f} ({found.level:.2f})"
+            found = final_plateau(*run.series(), window, eps)
+            reached = (
+                "not flat at the end" if found is None else f"{found.step:,.0f} ({found.level:.2f})"
+            )
             plateaus.append(f"s{run.seed}: {reached}")
         steps = max(run.rows[-1]["timesteps"] for run in runs)
         wall = max(run.rows[-1]["wall_s"] for run in runs)

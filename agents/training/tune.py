@@ -293,7 +293,7 @@ class TuneSettings:
         """What the objective averages over, in words."""
         if self.wall_budget is None:
             return f"over the {self.budget:,}-step budget"
-        return f"over the first {self.wall_budget:g} s of wall time (at most {self.budget:,} steps)"
+        return f"over the first {self.wall_budget:g} s of wall time"
 
     def objective(
         self, steps: Sequence[float], seconds: Sequence[float], rates: Sequence[float]
@@ -536,7 +536,8 @@ def write_results(study: Any, settings: TuneSettings, base: Mapping[str, Any], o
     lines = [
         f"# Search: {settings.algo} on {settings.env_id}, n = {settings.n_trailers}",
         "",
-        f"{settings.budget:,} steps per trial; objective: the validation {metric} averaged "
+        f"{'at most ' if settings.wall_budget else ''}{settings.budget:,} steps per trial; "
+        f"objective: the validation {metric} averaged "
         f"{settings.objective_text} (area under the curve / budget); trials: "
         + ", ".join(f"{count} {name}" for name, count in counts.items()),
         "",

@@ -128,10 +128,12 @@ def test_chart_and_table_are_written_and_not_overwritten(tmp_path: Path) -> None
     chart, table = write_learning_curves(runs, out, window=3, eps=0.02, levels=levels)
     assert chart.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and chart.name == CHART_FILE
     lines = table.read_text().splitlines()
-    assert lines[0] == "Plateau: 3 evaluations within 0.02 of their mean (detected at step)."
+    assert lines[0].startswith(
+        "Plateau: where each seed settled for good, at that level: its last 3"
+    )
     assert lines[-1] == (
         "| Reverse-v1, n = 2, ppo | safe_rate | 2 | 0.80 ± 0.10 (0.70-0.90) | "
-        "0.81 ± 0.09 (0.72-0.90) | s0: 400 (0.71); s1: not reached | 500 | 50 | "
+        "0.81 ± 0.09 (0.72-0.90) | s0: 200 (0.71); s1: not flat at the end | 500 | 50 | "
         "lqr 0.62, ceiling 0.98 |"
     )
     before = table.read_text()
@@ -152,7 +154,7 @@ def test_command_writes_and_refuses(tmp_path: Path, capsys: pytest.CaptureFixtur
         curves.main([str(runs), "--out", str(out), "--plateau", "2,0.0", "--level", "lqr=0.5"]) == 0
     )
     text = (out / TABLE_FILE).read_text()
-    assert "s0: 300 (0.70); s1: 300 (0.70)" in text
+    assert "s0: 200 (0.70); s1: 200 (0.70)" in text
     assert "certified ceiling (test starts) 1.00, lqr 0.50" in text
     before = {path.name: path.read_bytes() for path in out.iterdir()}
     capsys.readouterr()
