@@ -18,7 +18,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["ALGOS", "Algorithm", "algo_class", "algorithm", "recipe_name"]
+__all__ = ["ALGOS", "DEFAULT_NET_ARCH", "Algorithm", "algo_class", "algorithm", "recipe_name"]
+
+#: The hidden layers of every hyperparameter file's policies unless a recipe says
+#: otherwise (small nets keep a saved model under 300 kB); a recipe with others is
+#: labelled with its width (:func:`recipe_name`).
+DEFAULT_NET_ARCH = (64, 64)
 
 
 @dataclass(frozen=True)
@@ -107,19 +112,36 @@ def _uses_sde(hyperparams: object) -> bool:
     return hyperparams.get("use_sde") is True or in_policy
 
 
+def _net_width(hyperparams: object) -> str | None:
+    """The hidden layers as "256x256" when recorded and not :data:`DEFAULT_NET_ARCH`."""
+    if not isinstance(hyperparams, Mapping):
+        return None
+    kwargs = hyperparams.get("policy_kwargs")
+    arch = kwargs.get("net_arch") if isinstance(kwargs, Mapping) else None
+    if not isinstance(arch, list) or arch == list(DEFAULT_NET_ARCH):
+        return None
+    return "x".join(str(width) for width in arch)
+
+
 def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     """A run's recipe from its configuration or model card: "ppo", "ppo (gSDE)",
-    "ppo (gSDE) + lqr shaping" (the algorithm's name upper-cased when ``upper``).
+    "ppo (gSDE, 256x256)", "ppo (gSDE) + lqr shaping" (the algorithm's name upper-cased
+    when ``upper``).
 
-    State-dependent exploration and reward shaping are recipes of their own: runs are
-    grouped, tabled and labelled by this name, so that they are never averaged with the
-    plain algorithm's.
+    State-dependent exploration, a network other than :data:`DEFAULT_NET_ARCH` and reward
+    shaping are recipes of their own: runs are grouped, tabled and labelled by this name,
+    so that they are never averaged with the plain algorithm's.
     """
     name = str(record.get("algo", "?"))
     if upper:
         name = name.upper()
-    if _uses_sde(record.get("hyperparams")):
-        name += " (gSDE)"
+    hyperparams = record.get("hyperparams")
+    tags = ["gSDE"] if _uses_sde(hyperparams) else []
+    width = _net_width(hyperparams)
+    if width is not None:
+        tags.append(width)
+    if tags:
+        name += f" ({', '.join(tags)})"
     shaping = record.get("shaping")
     if isinstance(shaping, Mapping):
         name += f" + {shaping.get('potential')} shaping"

@@ -110,20 +110,21 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
     document = json.loads((out / "rl_from_reward.json").read_text())
     assert [run["seed"] for run in document["runs"]] == [0, 1]
     assert {run["budget"] for run in document["runs"]} == {1024}
-    assert "| **ppo mean ± sd (2 seeds)** |" in (out / "rl_from_reward.md").read_text()
+    # The tiny runs' one hidden layer of 8 is in the recipe's name (not 64 x 64).
+    assert "| **ppo (8) mean ± sd (2 seeds)** |" in (out / "rl_from_reward.md").read_text()
     # The curves outlive the run folders: byte copies, named by scene, n, recipe and seed,
     # from which agents.curves redraws the chart.
     kept = sorted(p.name for p in (out / "rl_runs").iterdir())
-    assert kept == ["coast_v0_n1_ppo_s0", "coast_v0_n1_ppo_s1"]
+    assert kept == ["coast_v0_n1_ppo_8_s0", "coast_v0_n1_ppo_8_s1"]
     for seed in (0, 1):
         for name in ("config.json", "evaluations.csv"):
-            copy = out / "rl_runs" / f"coast_v0_n1_ppo_s{seed}" / name
+            copy = out / "rl_runs" / f"coast_v0_n1_ppo_8_s{seed}" / name
             assert copy.read_bytes() == (tmp_path / f"runs/s{seed}" / name).read_bytes()
     from agents.commands import curves
 
     assert curves.main([str(out / "rl_runs"), "--out", str(tmp_path / "chart")]) == 0
     assert (
-        "| Coast-v0, n = 1, ppo | success_rate | 2 |"
+        "| Coast-v0, n = 1, ppo (8) | success_rate | 2 |"
         in (tmp_path / "chart" / "learning_curves.md").read_text()
     )
     card = json.loads(model.with_suffix(".json").read_text())
@@ -151,7 +152,7 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
         ("gone", 7),
     ]
     assert updated["runs"][2]["kept_test"] == 0.5
-    assert "| ppo seed 7 |" in (out / "rl_from_reward.md").read_text()
+    assert "| ppo (8) seed 7 |" in (out / "rl_from_reward.md").read_text()
     before = (out / "rl_from_reward.json").read_bytes()
     with pytest.raises(SystemExit):  # scored on other fresh episodes: refused
         main([str(tmp_path / "runs" / "s1"), *argv[1:3], "--fresh-episodes", "4", "--update"])

@@ -90,6 +90,13 @@ def test_training_labels_name_the_exploration_and_the_shaping() -> None:
     }
     assert training_label(sac_sde) == "SAC (gSDE), 90k steps"
     assert training_label({**PPO_CARD, "hyperparams": {"use_sde": False}}) == "PPO, 2M steps"
+    wide = {"use_sde": True, "policy_kwargs": {"net_arch": [256, 256]}}
+    assert training_label({**PPO_CARD, "hyperparams": wide}) == "PPO (gSDE, 256x256), 2M steps"
+    narrow = {"policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.0}}
+    assert training_label({**PPO_CARD, "hyperparams": narrow}) == "PPO, 2M steps"
+    assert training_label({**PPO_CARD, "hyperparams": {"policy_kwargs": {"net_arch": [32]}}}) == (
+        "PPO (32), 2M steps"
+    )
 
 
 def test_markdown_table_rows_and_footnote() -> None:

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import pytest
 import torch.nn
 
+from agents.artifacts.shipped import MODELS_DIR
 from agents.envs import ENV_IDS
 from agents.training.config import (
     HYPERPARAMS_DIR,
@@ -38,6 +40,29 @@ def test_the_gsde_recipe_differs_from_ppo_yml_only_in_exploration() -> None:
     plain.algo_kwargs.pop("policy_kwargs")
     assert gsde.algo_kwargs == plain.algo_kwargs
     assert (gsde.n_envs, gsde.normalize) == (plain.n_envs, plain.normalize)
+
+
+@pytest.mark.parametrize("env_id", ["trailer_env/Reverse-v1", "trailer_env/Coast-v0"])
+def test_the_wide_and_coast_gsde_recipes_change_only_what_they_name(env_id: str) -> None:
+    plain = load_hyperparams("ppo", env_id)
+    gsde = load_hyperparams("ppo", env_id, HYPERPARAMS_DIR / "gsde")
+    plain_policy = plain.algo_kwargs.pop("policy_kwargs")
+    gsde_policy = gsde.algo_kwargs.pop("policy_kwargs")
+    assert gsde_policy == {**plain_policy, "log_std_init": -2.0}
+    assert gsde.algo_kwargs == {**plain.algo_kwargs, "use_sde": True, "sde_sample_freq": 4}
+    if env_id == "trailer_env/Reverse-v1":
+        wide = load_hyperparams("ppo", env_id, HYPERPARAMS_DIR / "gsde_wide")
+        assert wide.algo_kwargs.pop("policy_kwargs") == {**gsde_policy, "net_arch": [256, 256]}
+        assert wide.algo_kwargs == gsde.algo_kwargs and wide.env_kwargs == {"n_trailers": 3}
+
+
+def test_the_committed_three_trailer_agent_is_the_wide_recipe() -> None:
+    card = json.loads((MODELS_DIR / "ppo_reverse_v1_n3.json").read_text())
+    wide = load_hyperparams("ppo", "trailer_env/Reverse-v1", HYPERPARAMS_DIR / "gsde_wide")
+    recorded = dict(card["hyperparams"])
+    assert recorded.pop("policy_kwargs") == wide.algo_kwargs.pop("policy_kwargs")
+    assert recorded == wide.algo_kwargs
+    assert card["env_kwargs"] == wide.env_kwargs and card["n_envs"] == wide.n_envs
 
 
 def test_policy_kwargs_strings_parse_without_eval() -> None:
