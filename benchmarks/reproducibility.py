@@ -21,9 +21,11 @@ generic      ``NUMBA_CPU_NAME=generic``, ``ATEN_CPU_CAPABILITY=default``,
 ===========  ==============================================================================
 
 and compares every target's episodes with the reference: per episode the outcome
-(safe, success, failure, fold, length) must be identical, and the returns agree to
-:data:`RETURN_RTOL`. The contract this measures is written in docs/reliability.md
-("What reproduces where"); ``tests/test_reproducibility.py`` checks it on one task.
+(safe, success, failure, fold, and the length of an episode that did not fail) must be
+identical, and the returns agree to :data:`RETURN_RTOL`; a failure at another step is
+counted apart (:func:`compare`). The contract this measures, and where a host breaks it,
+is written in docs/reliability.md ("What reproduces where");
+``tests/benchmarks/test_reproducibility.py`` checks it on the headline task.
 
 Outputs: ``reproducibility.csv`` (one row per target, task and policy) and
 ``reproducibility.md`` under ``--results``; the raw episodes of each target as JSON
@@ -53,8 +55,10 @@ import numpy as np
 from benchmarks._common import RESULTS, machine_note, report_written, write_csv
 
 #: Relative tolerance of an episode's return across targets (see the module docstring):
-#: the largest measured difference is 6.2e-5 (the PPO agent of Reverse-v1, n = 2, whose
-#: closed loop amplifies last-bit differences most), so 1e-3 leaves a margin of 16.
+#: on the hosts of sessions up to 16 the largest measured difference was 6.2e-5 (the PPO
+#: agent of Reverse-v1, n = 2), a margin of 16. On the AVX-512 host with AMX of session
+#: 17 the headline task stays within 7e-5, but other tasks exceed it (7.0e-3 on
+#: Reverse-v1 n = 3, 1.7e-2 on Coast-v0 n = 2), so the full run reports a failure there.
 RETURN_RTOL = 1e-3
 #: Per-episode outcomes that must be identical across targets. An episode's length is one
 #: too, except where it ended in a failure: after a policy has lost the unstable convoy,
@@ -153,7 +157,7 @@ def compare(reference: Mapping[str, Any], other: Mapping[str, Any]) -> list[dict
         changed = np.zeros(len(mine["returns"]), dtype=bool)
         for name in OUTCOMES:
             changed |= np.asarray(mine[name]) != np.asarray(theirs[name])
-        failed = np.asarray(mine["failed"], dtype=bool) | np.asarray(mine["jackknifed"], bool)
+        failed = np.asarray(mine["failed"], bool) | np.asarray(mine["jackknifed"], bool)
         lengths_differ = np.asarray(mine["lengths"]) != np.asarray(theirs["lengths"])
         failure_time = lengths_differ & failed & ~changed
         changed |= lengths_differ & ~failed
