@@ -42,23 +42,48 @@ def test_the_gsde_recipe_differs_from_ppo_yml_only_in_exploration() -> None:
     assert (gsde.n_envs, gsde.normalize) == (plain.n_envs, plain.normalize)
 
 
-@pytest.mark.parametrize("env_id", ["trailer_env/Reverse-v1", "trailer_env/Coast-v0"])
-def test_the_wide_and_coast_gsde_recipes_change_only_what_they_name(env_id: str) -> None:
+@pytest.mark.parametrize(
+    ("env_id", "n_trailers"), [("trailer_env/Reverse-v1", 3), ("trailer_env/Coast-v0", 2)]
+)
+def test_the_wide_and_coast_gsde_recipes_change_only_what_they_name(
+    env_id: str, n_trailers: int
+) -> None:
     plain = load_hyperparams("ppo", env_id)
     gsde = load_hyperparams("ppo", env_id, HYPERPARAMS_DIR / "gsde")
     plain_policy = plain.algo_kwargs.pop("policy_kwargs")
     gsde_policy = gsde.algo_kwargs.pop("policy_kwargs")
     assert gsde_policy == {**plain_policy, "log_std_init": -2.0}
     assert gsde.algo_kwargs == {**plain.algo_kwargs, "use_sde": True, "sde_sample_freq": 4}
-    if env_id == "trailer_env/Reverse-v1":
-        wide = load_hyperparams("ppo", env_id, HYPERPARAMS_DIR / "gsde_wide")
-        assert wide.algo_kwargs.pop("policy_kwargs") == {**gsde_policy, "net_arch": [256, 256]}
-        assert wide.algo_kwargs == gsde.algo_kwargs and wide.env_kwargs == {"n_trailers": 3}
+    wide = load_hyperparams("ppo", env_id, HYPERPARAMS_DIR / "gsde_wide")
+    assert wide.algo_kwargs.pop("policy_kwargs") == {**gsde_policy, "net_arch": [256, 256]}
+    assert wide.algo_kwargs == gsde.algo_kwargs
+    assert wide.env_kwargs == {"n_trailers": n_trailers}
 
 
-def test_the_committed_three_trailer_agent_is_the_wide_recipe() -> None:
-    card = json.loads((MODELS_DIR / "ppo_reverse_v1_n3.json").read_text())
-    wide = load_hyperparams("ppo", "trailer_env/Reverse-v1", HYPERPARAMS_DIR / "gsde_wide")
+def test_the_wide_dock_recipe_is_the_plain_one_with_gsde_and_wider_networks() -> None:
+    plain = load_hyperparams("ppo", "trailer_env/Dock-v0")
+    wide = load_hyperparams("ppo", "trailer_env/Dock-v0", HYPERPARAMS_DIR / "gsde_wide")
+    plain_policy = plain.algo_kwargs.pop("policy_kwargs")
+    assert wide.algo_kwargs.pop("policy_kwargs") == {
+        **plain_policy,
+        "log_std_init": -2.0,
+        "net_arch": [256, 256],
+    }
+    assert wide.algo_kwargs == {**plain.algo_kwargs, "use_sde": True, "sde_sample_freq": 4}
+    assert wide.env_kwargs == plain.env_kwargs == {"n_trailers": 2}
+
+
+@pytest.mark.parametrize(
+    ("model", "env_id"),
+    [
+        ("ppo_reverse_v1_n3", "trailer_env/Reverse-v1"),
+        ("ppo_coast_n2", "trailer_env/Coast-v0"),
+        ("ppo_dock_n2", "trailer_env/Dock-v0"),
+    ],
+)
+def test_the_committed_wide_agents_are_the_wide_recipe(model: str, env_id: str) -> None:
+    card = json.loads((MODELS_DIR / f"{model}.json").read_text())
+    wide = load_hyperparams("ppo", env_id, HYPERPARAMS_DIR / "gsde_wide")
     recorded = dict(card["hyperparams"])
     assert recorded.pop("policy_kwargs") == wide.algo_kwargs.pop("policy_kwargs")
     assert recorded == wide.algo_kwargs
