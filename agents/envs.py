@@ -7,6 +7,7 @@ from typing import Any
 import gymnasium as gym
 
 from trailer_env.json_types import JSONObject
+from trailer_env.mixed import is_trailer_range, mixed_settings
 from trailer_env.registry import ENVIRONMENTS, core_class_of, env_class_of
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 from trailer_env.vector import ConvoyVectorEnv
@@ -58,6 +59,15 @@ def scene_baselines(env_id: str) -> tuple[str, ...]:
 def env_settings(env_kwargs: JSONObject | None = None) -> EnvSettings:
     """The settings that ``gym.make(id, **env_kwargs)`` would build (validated)."""
     return settings_from_kwargs(**(env_kwargs or {}))
+
+
+def settings_by_count(env_kwargs: JSONObject) -> dict[int, EnvSettings]:
+    """The validated settings of each n that ``env_kwargs`` asks for: one entry for one
+    count, one per count of a range ``n_trailers=(low, high)`` (:mod:`trailer_env.mixed`)."""
+    if is_trailer_range(env_kwargs.get("n_trailers")):
+        return mixed_settings(env_kwargs)
+    settings = env_settings(env_kwargs)
+    return {settings.n_trailers: settings}
 
 
 def make_vector_env(

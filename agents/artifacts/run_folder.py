@@ -63,9 +63,10 @@ class RunFolderError(ValueError):
     """The run folder cannot be used as asked (not a folder, or it holds another run)."""
 
 
-def default_run_dir(env_id: str, algo: str, n_trailers: int, seed: int) -> Path:
-    """``runs/<scene>_n<n>_<algo>_s<seed>``."""
-    return Path("runs") / f"{scene_of(env_id)}_n{n_trailers}_{algo}_s{seed}"
+def default_run_dir(env_id: str, algo: str, n_trailers: int | tuple[int, int], seed: int) -> Path:
+    """``runs/<scene>_n<n>_<algo>_s<seed>`` (a range: ``n<low>-<high>``)."""
+    label = "-".join(map(str, n_trailers)) if isinstance(n_trailers, tuple) else n_trailers
+    return Path("runs") / f"{scene_of(env_id)}_n{label}_{algo}_s{seed}"
 
 
 def holds_run(folder: Path) -> bool:

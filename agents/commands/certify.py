@@ -27,7 +27,10 @@ that env and n) are then tried on the starts the planner leaves open, and a reco
 theirs that replays to success makes the start feasible with that ``source``
 (:mod:`agents.evaluation.witnesses`); ``--no-witnesses`` keeps the planner's records
 only. ``--from-certificate PATH`` skips the planner and adds witnesses to an existing
-certificate (its records beside it). ``--warm-start [SPEC ...]`` (goal scenes) then plans
+certificate (its records beside it). ``--witness-samples K`` then plays every model
+witness K more times on each start still open, its actions sampled from its
+distribution (``--sample-seed``): a stochastic policy's lucky episode is as good a
+record as any once it replays. ``--warm-start [SPEC ...]`` (goal scenes) then plans
 the starts still open with iLQR from the states those policies reach.
 
 ``--out`` must be a writable folder; an existing one is written into only with
@@ -55,6 +58,7 @@ from agents.artifacts.certificates import (
 from agents.commands import options as cli
 from agents.envs import ENV_IDS, check_env_id, env_settings
 from agents.evaluation.witnesses import (
+    MAX_WITNESS_SAMPLES,
     add_witnesses,
     committed_witnesses,
     default_witnesses,
@@ -276,6 +280,21 @@ def build_parser() -> argparse.ArgumentParser:
         help="goal scenes: then plan the starts still open with iLQR from states these "
         "policies reach (default when given bare: every committed model of this env and n)",
     )
+    witnesses.add_argument(
+        "--witness-samples",
+        type=cli.bounded(0, MAX_WITNESS_SAMPLES),
+        default=0,
+        metavar="K",
+        help="then play every model witness K times more on each start still open, its "
+        "actions sampled from its distribution (seeded by --sample-seed); default 0, at "
+        f"most {MAX_WITNESS_SAMPLES}",
+    )
+    witnesses.add_argument(
+        "--sample-seed",
+        type=cli.seed_value,
+        default=0,
+        help="seed of --witness-samples' draws (default 0)",
+    )
     parser.set_defaults(env=None, n_trailers=None, seeds=None)
     return parser
 
@@ -349,6 +368,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --seeds: {error}")
     if args.no_witnesses and (args.witnesses is not None or args.warm_start is not None):
         parser.error("argument --no-witnesses: not with --witnesses or --warm-start")
+    if args.no_witnesses and args.witness_samples:
+        parser.error("argument --no-witnesses: not with --witness-samples")
     if args.no_witnesses and base is not None:
         parser.error("argument --no-witnesses: --from-certificate only adds witnesses")
     if args.warm_start is not None and not is_goal_scene(env_id):
@@ -401,7 +422,9 @@ def main(argv: list[str] | None = None) -> int:
             env_id, n_trailers, seeds, config, restarts=restarts, randomize=randomize
         )
     if specs:
-        certificate = add_witnesses(certificate, specs)
+        certificate = add_witnesses(
+            certificate, specs, samples=args.witness_samples, sample_seed=args.sample_seed
+        )
     if warm:
         warm_restarts = 1 if args.restarts is None else args.restarts
         certificate = warm_start(certificate, warm, config=ilqr_config, restarts=warm_restarts)

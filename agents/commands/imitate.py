@@ -61,7 +61,6 @@ from agents.policies.sb3 import limit_torch_threads
 from agents.training.imitate import CHECKPOINT_FILE, CheckpointError, ImitationConfig, imitate
 from dynamics.params import MAX_TRAILERS
 from trailer_env.observation import OBSERVATIONS
-from trailer_env.randomize import PRESETS
 
 #: The longest ``--planner-horizon`` (twice Dock's default): the iLQR's derivative core
 #: holds episodes x (horizon + 1) x (d + 2) rows, at 4,096 convoys and n = 3 9.9M,
@@ -69,41 +68,14 @@ from trailer_env.randomize import PRESETS
 MAX_ILQR_HORIZON = 200
 
 
-def trailer_counts(text: str) -> int | tuple[int, int]:
-    """``--n-trailers``: ``N`` (>= 0) or ``LOW-HIGH`` (0 <= LOW < HIGH)."""
-    low, dash, high = text.partition("-")
-    try:
-        if not dash:
-            value = int(text)
-            if value < 0:
-                raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-            return value
-        bounds = (int(low), int(high))
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a count N or a range LOW-HIGH such as 1-3, got {text[:40]!r}"
-        ) from None
-    if not 0 <= bounds[0] < bounds[1]:
-        raise argparse.ArgumentTypeError(f"a range LOW-HIGH needs 0 <= LOW < HIGH, got {text!r}")
-    return bounds
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=cli.program("agents.imitate"), description=(__doc__ or "").split("\n")[0]
     )
     cli.add_env(parser, default=HEADLINE_ENV_ID)
-    parser.add_argument(
-        "--n-trailers",
-        type=trailer_counts,
-        default=2,
-        help="number of trailers (default 2), or a range LOW-HIGH (e.g. 1-3): a generalist",
-    )
-    parser.add_argument(
-        "--randomize",
-        choices=sorted(PRESETS),
-        default=None,
-        help="randomised physics, a preset (the expert plans with the true parameters)",
+    cli.add_n_trailers(parser, ranges=True)
+    cli.add_randomize(
+        parser, "randomised physics, a preset (the expert plans with the true parameters)"
     )
     cli.add_seed(parser, 0, "seed of the network, the training episodes and the planner")
     parser.add_argument(

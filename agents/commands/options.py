@@ -134,14 +134,44 @@ def add_env(parser: argparse.ArgumentParser, default: str | None = None) -> None
     )
 
 
-def add_n_trailers(parser: argparse.ArgumentParser, default: int = 2) -> None:
-    """``--n-trailers N`` (>= 0)."""
+def trailer_counts(text: str) -> int | tuple[int, int]:
+    """``--n-trailers``: ``N`` (>= 0) or ``LOW-HIGH`` (0 <= LOW < HIGH)."""
+    low, dash, high = text.partition("-")
+    try:
+        if not dash:
+            value = int(text)
+            if value < 0:
+                raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+            return value
+        bounds = (int(low), int(high))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a count N or a range LOW-HIGH such as 1-3, got {text[:40]!r}"
+        ) from None
+    if not 0 <= bounds[0] < bounds[1]:
+        raise argparse.ArgumentTypeError(f"a range LOW-HIGH needs 0 <= LOW < HIGH, got {text!r}")
+    return bounds
+
+
+def add_n_trailers(
+    parser: argparse.ArgumentParser, default: int = 2, *, ranges: bool = False
+) -> None:
+    """``--n-trailers N`` (>= 0); with ``ranges`` also ``LOW-HIGH`` (a generalist: every
+    episode draws its n, :mod:`trailer_env.mixed`)."""
     parser.add_argument(
         "--n-trailers",
-        type=at_least(0),
+        type=trailer_counts if ranges else at_least(0),
         default=default,
-        help=f"number of trailers (default {default})",
+        help=f"number of trailers (default {default})"
+        + (", or a range LOW-HIGH (e.g. 1-3): a generalist" if ranges else ""),
     )
+
+
+def add_randomize(parser: argparse.ArgumentParser, help: str) -> None:
+    """``--randomize PRESET``: a preset of :data:`trailer_env.randomize.PRESETS` (default None)."""
+    from trailer_env.randomize import PRESETS
+
+    parser.add_argument("--randomize", choices=sorted(PRESETS), default=None, help=help)
 
 
 def add_env_kwargs(parser: argparse.ArgumentParser) -> None:

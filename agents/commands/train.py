@@ -17,6 +17,13 @@ run folder (default ``runs/<scene>_n<n>_<algo>_s<seed>``) receives:
 * ``checkpoints/<algo>_<steps>_steps.zip`` (and the replay buffer for SAC/TD3);
 * ``logs/``: SB3's training statistics (CSV; TensorBoard too when installed).
 
+``--n-trailers LOW-HIGH`` trains one policy for a range of trailer counts (a generalist:
+every episode draws its n, and the policy reads the observation padded to HIGH trailers
+with the trailer mask, :mod:`trailer_env.mixed`; default folder ``runs/<scene>_n1-3_...``);
+``--randomize PRESET`` draws the physics per episode (:mod:`trailer_env.randomize`). Both
+go over the file's ``env_kwargs`` and into the cards, so ``agents.evaluate`` plays such a
+model on any n of its range. Shaping needs one n (its potential is one n's LQR).
+
 ``--resume <checkpoint.zip>`` continues a run: the timestep count goes on from the
 checkpoint's and ``--timesteps`` is the run's total budget. Without ``--run-dir`` the
 run goes on in the checkpoint's run folder (the folder holding it, or the one above
@@ -87,7 +94,7 @@ from agents.artifacts.run_folder import (
 from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError
 from agents.artifacts.stats import read_stats
 from agents.commands import options as cli
-from agents.envs import env_settings
+from agents.envs import settings_by_count
 from agents.policies.sb3 import detect_algo, limit_torch_threads, load_model
 from agents.progress import plural
 from agents.training.config import TrainConfig, load_hyperparams, shaping_setting
@@ -120,7 +127,10 @@ def build_parser() -> argparse.ArgumentParser:
         choices=sorted(ALGOS),
         help="algorithm: " + "; ".join(f"{name}: {record.label}" for name, record in ALGOS.items()),
     )
-    cli.add_n_trailers(parser)
+    cli.add_n_trailers(parser, ranges=True)
+    cli.add_randomize(
+        parser, "randomised physics, a preset over the file's env_kwargs (trailer_env.randomize)"
+    )
     _optional_positive(
         parser,
         "--timesteps",
@@ -368,6 +378,11 @@ def config_from_args(
             hp.shaping = shaping_setting(args.shaping, "--shaping")
         except ValueError as error:
             parser.error(f"argument {error}")
+    if hp.shaping is not None and isinstance(args.n_trailers, tuple):
+        # The potential is one LQR's cost-to-go, designed for one n.
+        parser.error(
+            "argument --shaping (or the file's shaping): one count of trailers, not a range"
+        )
     n_envs = args.n_envs
     if args.backend == "rllib":
         runners = max(args.num_env_runners, 1)
@@ -385,6 +400,7 @@ def config_from_args(
             command=command,
             init_from=None if args.init_from is None else str(args.init_from),
             critic_warmup=args.critic_warmup,
+            randomize=args.randomize,
         )
     except ValueError as error:
         flags = "--timesteps, --n-envs or --seed (or the file's)"
@@ -392,9 +408,9 @@ def config_from_args(
             flags = "--critic-warmup"
         parser.error(f"argument {flags}: {error}")
     try:
-        env_settings(config.env_kwargs)
+        settings_by_count(config.env_kwargs)
     except (TypeError, ValueError) as error:
-        parser.error(f"argument --n-trailers (or the file's env_kwargs): {error}")
+        parser.error(f"argument --n-trailers, --randomize (or the file's env_kwargs): {error}")
     if (
         args.init_from is not None
         and hp.normalize is not None

@@ -61,6 +61,7 @@ from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.ilqr_costs import scene_horizon
 from agents.policies.baselines import Policy
 from agents.policies.registry import load_policy, policy_label
+from agents.policies.sb3 import ModelPolicy, SampledPolicy
 from agents.progress import Progress
 from trailer_env.benchmark import privileged_view
 from trailer_env.core import ConvoyCore
@@ -175,12 +176,18 @@ def replays_to_success(env_id: str, env_kwargs: JSONObject, seed: int, record: n
     return outcome.safe and outcome.length == core_class_of(env_id).max_episode_steps
 
 
+#: Most sampled episodes per (start, model) of :func:`add_witnesses`.
+MAX_WITNESS_SAMPLES = 1024
+
+
 def add_witnesses(
     certificate: JSONObject,
     specs: Sequence[str],
     *,
     closed_loop: bool = True,
     trust_pickle: bool = False,
+    samples: int = 0,
+    sample_seed: int = 0,
 ) -> JSONObject:
     """``certificate`` (with its ``actions``) with the starts it leaves open (or not
     recoverable) tried by each witness in ``specs``, in order; returns a new certificate.
@@ -191,10 +198,22 @@ def add_witnesses(
     ``sources`` (label -> feasible starts) and ``witnesses`` (what each spec was tried on
     and solved, the closed-loop check) are brought up to date; nothing else changes.
 
+    ``samples`` > 0: then each model witness (an SB3 model on the flat observation), in
+    order, plays each start still open ``samples`` times with its actions sampled from its
+    distribution (:class:`agents.policies.sb3.SampledPolicy`, draws seeded by
+    ``sample_seed``, all (start, draw) rows in one batch). The first draw whose record
+    replays to success makes the start feasible, ``source`` ``"<label> (sampled)"`` and
+    ``witness_draw`` its draw; the closed-loop check re-runs the same draws on the plant.
+
     Raises:
-        ValueError: If a spec does not load for the certificate's env and n, or a feasible
-            start of ``certificate`` has no record.
+        ValueError: If a spec does not load for the certificate's env and n, a feasible
+            start of ``certificate`` has no record, or ``samples`` is not an integer in
+            0 .. :data:`MAX_WITNESS_SAMPLES`.
     """
+    if isinstance(samples, bool) or not isinstance(samples, int):
+        raise ValueError(f"samples must be an integer, got {samples!r}")
+    if not 0 <= samples <= MAX_WITNESS_SAMPLES:
+        raise ValueError(f"samples must be in 0 .. {MAX_WITNESS_SAMPLES}, got {samples}")
     env_id = certificate["env_id"]
     env_kwargs = dict(certificate["env_kwargs"])
     actions = {int(seed): np.asarray(record) for seed, record in certificate["actions"].items()}
@@ -241,6 +260,23 @@ def add_witnesses(
             for seed, reached in zip(solved, checked.success, strict=True):
                 by_seed[seed]["witness_closed_loop_success"] = bool(reached)
         runs.append({"source": label, "tried": len(pending), "solved": len(solved)})
+    # Sampled draws only after every witness's own (deterministic) decisions were tried.
+    for spec, label, policy in policies if samples else []:
+        still = [start["seed"] for start in starts if start["status"] != FEASIBLE]
+        if still and type(policy) is ModelPolicy:
+            witness = SampledWitness(spec, label, policy, samples, sample_seed)
+            runs.append(
+                _sampled_witness(
+                    witness,
+                    env_id,
+                    env_kwargs,
+                    still,
+                    by_seed,
+                    actions,
+                    closed_loop=closed_loop,
+                    trust_pickle=trust_pickle,
+                )
+            )
     block = {
         "runs": _merged_runs(certificate.get("witnesses"), runs),
         "success": "the record replayed open-loop in a fresh env (gym.make, "
@@ -252,6 +288,68 @@ def add_witnesses(
     if passes:
         block["warm_starts"] = passes
     return _settled(certificate, starts, actions, block)
+
+
+@dataclass(frozen=True)
+class SampledWitness:
+    """A model witness played with sampled actions: ``samples`` draws per start, seeded."""
+
+    spec: str
+    label: str
+    policy: ModelPolicy
+    samples: int
+    seed: int
+
+
+def _sampled_witness(
+    witness: SampledWitness,
+    env_id: str,
+    env_kwargs: JSONObject,
+    pending: list[int],
+    by_seed: dict[int, JSONObject],
+    actions: dict[int, np.ndarray],
+    *,
+    closed_loop: bool,
+    trust_pickle: bool,
+) -> JSONObject:
+    """Play ``witness`` ``samples`` times on each pending start (one batch, rows start-major);
+    a draw whose record replays to success makes its start feasible. Returns the run's
+    entry of the ``witnesses`` block."""
+    source = f"{witness.label} (sampled)"
+    rows = [seed for seed in pending for _ in range(witness.samples)]
+    run = witness_run(SampledPolicy(witness.policy, witness.seed), env_id, env_kwargs, rows)
+    solved: dict[int, int] = {}
+    for row, seed in enumerate(rows):
+        if seed in solved or not run.success[row]:
+            continue
+        record = run.actions[row, : run.lengths[row]].copy()
+        if not replays_to_success(env_id, env_kwargs, seed, record):
+            continue
+        solved[seed] = row
+        actions[seed] = record
+        by_seed[seed].update(
+            status=FEASIBLE,
+            source=source,
+            witness_length=int(run.lengths[row]),
+            witness_draw=row % witness.samples,
+        )
+        by_seed[seed]["replay_success" if is_goal_scene(env_id) else "replay_safe"] = True
+    if solved and closed_loop:
+        # The same draws: the same seed on the same batch of rows, on the plant.
+        fresh = load_policy(witness.spec, env_id, env_kwargs, trust_pickle=trust_pickle)
+        if not isinstance(fresh, ModelPolicy):  # pragma: no cover - the same spec loaded it
+            raise TypeError(f"{witness.spec} no longer loads as a model")
+        plant = {**env_kwargs, "fidelity": _closed_loop_fidelity(env_kwargs)}
+        checked = witness_run(SampledPolicy(fresh, witness.seed), env_id, plant, rows)
+        for seed, row in solved.items():
+            by_seed[seed]["witness_closed_loop_success"] = bool(checked.success[row])
+    return {
+        "source": source,
+        "tried": len(pending),
+        "solved": len(solved),
+        "draws": witness.samples,
+        "sample_seed": witness.seed,
+    }
 
 
 def warm_start_passes(witnesses: object) -> list[JSONObject]:
@@ -500,8 +598,10 @@ def _merged_runs(earlier: object, runs: list[JSONObject]) -> list[JSONObject]:
 
 
 __all__ = [
+    "MAX_WITNESS_SAMPLES",
     "RANDOMIZED_CLOSED_LOOP",
     "WITNESS_CLOSED_LOOP",
+    "SampledWitness",
     "WitnessRun",
     "add_witnesses",
     "committed_witnesses",

@@ -106,6 +106,50 @@ class ModelPolicy:
         return np.asarray(actions, dtype=np.float32)
 
 
+class SampledPolicy:
+    """A model's action *sampled* from its distribution, batched and reproducible.
+
+    Each call draws ``model.predict(obs, deterministic=False)`` under a private torch
+    generator state started from ``seed`` (the global torch generator is left as it was),
+    so the same seed on the same batch draws the same actions. A gSDE policy's noise
+    matrices are drawn afresh for the whole batch every ``sde_sample_freq`` calls (once,
+    at the first call, when it is not positive), as in its training rollouts; other
+    policies sample their Gaussian (or squashed Gaussian) every call.
+
+    Args:
+        policy: The deterministic :class:`ModelPolicy` whose model is sampled.
+        seed: Seed of the draws.
+    """
+
+    def __init__(self, policy: ModelPolicy, seed: int) -> None:
+        import torch
+
+        self.model = policy.model
+        self.stats = policy.stats
+        self.calls = 0
+        with torch.random.fork_rng(devices=[]):
+            torch.manual_seed(seed)
+            self._rng_state = torch.get_rng_state()
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        import torch
+
+        batch = np.atleast_2d(obs)
+        if self.stats is not None:
+            batch = np.asarray(self.stats.normalize_obs(batch))
+        period = int(getattr(self.model, "sde_sample_freq", -1))
+        with torch.random.fork_rng(devices=[]):
+            torch.set_rng_state(self._rng_state)
+            if getattr(self.model, "use_sde", False) and (
+                self.calls == 0 or (period > 0 and self.calls % period == 0)
+            ):
+                self.model.policy.reset_noise(len(batch))  # type: ignore[operator]
+            actions, _ = self.model.predict(batch, deterministic=False)
+            self._rng_state = torch.get_rng_state()
+        self.calls += 1
+        return np.asarray(actions, dtype=np.float32)
+
+
 class TrailersPolicy:
     """A policy of ``observation="trailers"`` acting on flat observations: each batch is
     rearranged by :func:`trailer_env.observation.trailers_observation` first.

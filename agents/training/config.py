@@ -447,7 +447,8 @@ class TrainConfig:
     Attributes:
         env_id: A trailer_env id.
         algo: A name of :data:`agents.algorithms.ALGOS` ("ppo", "ppo_lag", "sac", "td3").
-        n_trailers: Number of trailers (over the file's ``env_kwargs``).
+        n_trailers: Number of trailers, or a range ``(low, high)`` (a generalist: every
+            episode draws its n, :mod:`trailer_env.mixed`), over the file's ``env_kwargs``.
         seed: Seed of the model and of the training environments (env i gets seed + i).
         budget: Total training budget in environment steps.
         n_envs: Environments in the training batch (RLlib: all runners together).
@@ -458,11 +459,13 @@ class TrainConfig:
             statistics), e.g. an imitation agent; None: a fresh policy.
         critic_warmup: Steps at the start of a fine-tuning run that train the value
             function alone (:class:`agents.training.callbacks.CriticWarmup`).
+        randomize: A preset of :data:`trailer_env.randomize.PRESETS` over the file's
+            ``env_kwargs`` (None: the file's).
     """
 
     env_id: str
     algo: str
-    n_trailers: int
+    n_trailers: int | tuple[int, int]
     seed: int
     budget: int
     n_envs: int
@@ -471,6 +474,7 @@ class TrainConfig:
     command: tuple[str, ...] = ()
     init_from: str | None = None
     critic_warmup: int = 0
+    randomize: str | None = None
 
     def __post_init__(self) -> None:
         if self.backend not in ("sb3", "rllib"):
@@ -505,7 +509,7 @@ class TrainConfig:
         cls,
         env_id: str,
         algo: str,
-        n_trailers: int,
+        n_trailers: int | tuple[int, int],
         seed: int,
         hyperparams: Hyperparams,
         *,
@@ -515,6 +519,7 @@ class TrainConfig:
         command: tuple[str, ...] | list[str] = (),
         init_from: str | None = None,
         critic_warmup: int = 0,
+        randomize: str | None = None,
     ) -> TrainConfig:
         """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's."""
         return cls(
@@ -529,12 +534,21 @@ class TrainConfig:
             command=tuple(command),
             init_from=init_from,
             critic_warmup=critic_warmup,
+            randomize=randomize,
         )
 
     @property
     def env_kwargs(self) -> JSONObject:
-        """The environment's keyword arguments: the file's, with this run's ``n_trailers``."""
-        return {**self.hyperparams.env_kwargs, "n_trailers": self.n_trailers}
+        """The environment's keyword arguments: the file's, with this run's ``n_trailers``
+        (a range as a JSON list) and ``randomize``."""
+        counts = self.n_trailers
+        kwargs: JSONObject = {
+            **self.hyperparams.env_kwargs,
+            "n_trailers": list(counts) if isinstance(counts, tuple) else counts,
+        }
+        if self.randomize is not None:
+            kwargs["randomize"] = self.randomize
+        return kwargs
 
     def document(self) -> JSONObject:
         """The run's record (JSON-ready) for ``config.json`` and the model cards.

@@ -81,7 +81,7 @@ from agents.artifacts.run_folder import (
 )
 from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import read_stats, restore_stats, save_stats
-from agents.envs import check_env_id, env_settings, make_sb3_env
+from agents.envs import check_env_id, make_sb3_env, settings_by_count
 from agents.evaluation.metrics import rollout, summarize
 from agents.oracles.experts import EXPERTS, ExpertConfig, Labeller, default_expert
 from agents.oracles.planner import SamplingPlanner
@@ -93,7 +93,7 @@ from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
 from agents.training.config import load_hyperparams, parse_policy_kwargs
 from trailer_env.json_types import JSONObject
-from trailer_env.mixed import is_trailer_range, mixed_settings, trailer_range
+from trailer_env.mixed import is_trailer_range, trailer_range
 from trailer_env.observation import checked_observation, flat_observation, trailers_observation
 from trailer_env.randomize import PRESETS, Randomization
 from trailer_env.registry import core_class_of
@@ -310,9 +310,7 @@ class ImitationConfig:
 
     def settings_by_count(self) -> dict[int, Any]:
         """The env settings of each count (one entry for one n)."""
-        if isinstance(self.n_trailers, tuple):
-            return mixed_settings(self.env_kwargs)
-        return {self.n_trailers: env_settings(self.env_kwargs)}
+        return settings_by_count(self.env_kwargs)
 
 
 def collect(

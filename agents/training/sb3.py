@@ -20,7 +20,7 @@ from agents.artifacts.run_folder import (
 )
 from agents.artifacts.sb3_zip import UnsafeFileError, algo_class, load_sb3, save_model
 from agents.artifacts.stats import load_pickled_stats, read_stats, restore_stats, save_stats
-from agents.envs import env_settings, make_sb3_env
+from agents.envs import make_sb3_env, settings_by_count
 from agents.policies.extractors import feature_extractors
 from agents.training.config import TrainConfig
 
@@ -82,7 +82,9 @@ def train(
     hp = config.hyperparams
     algo, seed, budget, batch = config.algo, config.seed, config.budget, config.n_envs
     env_kwargs = config.env_kwargs
-    settings = env_settings(env_kwargs)  # fail early on bad settings
+    # Fail early on bad settings; every count of a range shares the observation kind and
+    # the action space.
+    settings = next(iter(settings_by_count(env_kwargs).values()))
     if settings.observation != "flat":
         # Its evaluations score on the flat observation and its statistics files hold one
         # array; SB3 trains on the Dict directly (docs/agents.md, ConvoyEncoder).

@@ -190,3 +190,33 @@ def test_off_policy_resume_restores_the_replay_buffer(
     export_model(run, export)
     assert export.is_file() and export.with_suffix(".json").is_file()
     assert export.with_suffix(".csv").is_file()
+
+
+def test_a_generalist_trains_on_a_range_of_counts_and_randomised_physics(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    _hyperparams(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    extra = ("--timesteps", "2048", "--n-trailers", "1-3", "--randomize", "mismatch20")
+    assert _train(tmp_path, *extra) == 0
+    run = tmp_path / "runs" / "reverse_n1-3_ppo_s0"  # the default folder names the range
+    card = json.loads((run / "final_model.json").read_text())
+    assert card["env_kwargs"] == {"n_trailers": [1, 3], "randomize": "mismatch20"}
+    assert "--randomize" in card["command"]
+    # The padded model acts on each n of its range through agents.evaluate's loader.
+    for n in (1, 3):
+        summary = summarize(rollout(load_policy(str(run / "final_model.zip"), REVERSE,
+                                                {"n_trailers": n}), REVERSE, 4, 1000,
+                                    {"n_trailers": n}))  # fmt: skip
+        assert summary["episodes"] == 4
+    for bad, message in (
+        (("--n-trailers", "3-1"), "a range LOW-HIGH needs 0 <= LOW < HIGH"),
+        (("--n-trailers", "1-9"), "n_trailers = (1, 9)"),
+        (("--randomize", "mismatch50"), "invalid choice: 'mismatch50'"),
+        (("--n-trailers", "1-3", "--shaping", "lqr"), "--shaping (or the file's shaping): one"),
+    ):
+        with pytest.raises(SystemExit) as refused:
+            _train(tmp_path, "--timesteps", "2048", "--run-dir", str(tmp_path / "r2"), *bad)
+        assert refused.value.code == 2
+        assert message in capsys.readouterr().err
+        assert not (tmp_path / "r2").exists()
