@@ -60,7 +60,7 @@ from agents.oracles.certify_goals import (
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.ilqr_costs import scene_horizon
 from agents.policies.baselines import Policy
-from agents.policies.registry import load_policy, policy_label
+from agents.policies.registry import PaddedPolicy, load_policy, policy_label
 from agents.policies.sb3 import ModelPolicy, SampledPolicy
 from agents.progress import Progress
 from trailer_env.benchmark import privileged_view
@@ -198,10 +198,11 @@ def add_witnesses(
     ``sources`` (label -> feasible starts) and ``witnesses`` (what each spec was tried on
     and solved, the closed-loop check) are brought up to date; nothing else changes.
 
-    ``samples`` > 0: then each model witness (an SB3 model on the flat observation), in
-    order, plays each start still open ``samples`` times with its actions sampled from its
-    distribution (:class:`agents.policies.sb3.SampledPolicy`, draws seeded by
-    ``sample_seed``, all (start, draw) rows in one batch). The first draw whose record
+    ``samples`` > 0: then each model witness (an SB3 model on the flat observation, a
+    padded generalist's included: :func:`sampled`), in order, plays each start still
+    open ``samples`` times with its actions sampled from its distribution
+    (:class:`agents.policies.sb3.SampledPolicy`, draws seeded by ``sample_seed``, all
+    (start, draw) rows in one batch). The first draw whose record
     replays to success makes the start feasible, ``source`` ``"<label> (sampled)"`` and
     ``witness_draw`` its draw; the closed-loop check re-runs the same draws on the plant.
 
@@ -263,7 +264,7 @@ def add_witnesses(
     # Sampled draws only after every witness's own (deterministic) decisions were tried.
     for spec, label, policy in policies if samples else []:
         still = [start["seed"] for start in starts if start["status"] != FEASIBLE]
-        if still and type(policy) is ModelPolicy:
+        if still and sampled(policy, sample_seed) is not None:
             witness = SampledWitness(spec, label, policy, samples, sample_seed)
             runs.append(
                 _sampled_witness(
@@ -290,15 +291,33 @@ def add_witnesses(
     return _settled(certificate, starts, actions, block)
 
 
+def sampled(policy: Policy, seed: int) -> Policy | None:
+    """``policy`` with its actions sampled (:class:`SampledPolicy`, seeded by ``seed``): an
+    SB3 model on the flat observation, alone or padded for a generalist's n; None for
+    anything else (a baseline, a mirrored or sequence policy)."""
+    if type(policy) is ModelPolicy:
+        return SampledPolicy(policy, seed)
+    if type(policy) is PaddedPolicy and type(policy.policy) is ModelPolicy:
+        return PaddedPolicy(SampledPolicy(policy.policy, seed), policy.n, policy.top)
+    return None
+
+
 @dataclass(frozen=True)
 class SampledWitness:
     """A model witness played with sampled actions: ``samples`` draws per start, seeded."""
 
     spec: str
     label: str
-    policy: ModelPolicy
+    policy: Policy
     samples: int
     seed: int
+
+    def draws(self, policy: Policy | None = None) -> Policy:
+        """The sampling policy (of ``policy``, a fresh load of the spec, if given)."""
+        drawing = sampled(self.policy if policy is None else policy, self.seed)
+        if drawing is None:  # pragma: no cover - checked before a SampledWitness is made
+            raise TypeError(f"{self.spec} cannot be sampled")
+        return drawing
 
 
 def _sampled_witness(
@@ -317,7 +336,7 @@ def _sampled_witness(
     entry of the ``witnesses`` block."""
     source = f"{witness.label} (sampled)"
     rows = [seed for seed in pending for _ in range(witness.samples)]
-    run = witness_run(SampledPolicy(witness.policy, witness.seed), env_id, env_kwargs, rows)
+    run = witness_run(witness.draws(), env_id, env_kwargs, rows)
     solved: dict[int, int] = {}
     for row, seed in enumerate(rows):
         if seed in solved or not run.success[row]:
@@ -337,10 +356,8 @@ def _sampled_witness(
     if solved and closed_loop:
         # The same draws: the same seed on the same batch of rows, on the plant.
         fresh = load_policy(witness.spec, env_id, env_kwargs, trust_pickle=trust_pickle)
-        if not isinstance(fresh, ModelPolicy):  # pragma: no cover - the same spec loaded it
-            raise TypeError(f"{witness.spec} no longer loads as a model")
         plant = {**env_kwargs, "fidelity": _closed_loop_fidelity(env_kwargs)}
-        checked = witness_run(SampledPolicy(fresh, witness.seed), env_id, plant, rows)
+        checked = witness_run(witness.draws(fresh), env_id, plant, rows)
         for seed, row in solved.items():
             by_seed[seed]["witness_closed_loop_success"] = bool(checked.success[row])
     return {
@@ -608,6 +625,7 @@ __all__ = [
     "default_witnesses",
     "repeated_labels",
     "replays_to_success",
+    "sampled",
     "warm_start",
     "warm_start_passes",
     "witness_run",

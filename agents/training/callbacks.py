@@ -133,6 +133,9 @@ class SafetyEvalCallback(BaseCallback):
         verbose: 1 prints one line per evaluation.
         hooks: Called after each evaluation (:data:`EvaluationHook`); the run stops at
             its next step once one returns True (a plateau, a pruned trial).
+        record: The run's record (:meth:`agents.training.config.TrainConfig.document`),
+            the base of the best model's card from its first save, so that the model loads
+            and evaluates (its env, n, algorithm) while the run is still going.
     """
 
     def __init__(
@@ -146,9 +149,11 @@ class SafetyEvalCallback(BaseCallback):
         resume_from: int | None = None,
         verbose: int = 1,
         hooks: Sequence[EvaluationHook] = (),
+        record: JSONObject | None = None,
     ) -> None:
         super().__init__(verbose)
         self.hooks = list(hooks)
+        self.record = dict(record or {})
         #: Set once a hook asked the run to stop.
         self.stop_requested = False
         self.env_id = env_id
@@ -237,7 +242,10 @@ class SafetyEvalCallback(BaseCallback):
             if stats is not None:
                 save_stats(stats, stats_path(self.best_path))
             save_model(self.model, self.best_path)
-            write_card(self.best_path, {"selected_at_timesteps": steps, "validation": row})
+            write_card(
+                self.best_path,
+                {**self.record, "selected_at_timesteps": steps, "validation": row},
+            )
         if self.verbose:
             print(
                 f"[eval] {steps:>9d} steps  return {summary['mean_return']:8.1f}  "

@@ -163,6 +163,7 @@ def train(
         resume_from=start_steps if resume is not None else None,
         verbose=verbose,
         hooks=hooks,
+        record=record,
     )
     plateau = None
     if stop_on_plateau is not None:

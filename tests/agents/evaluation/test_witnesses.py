@@ -26,11 +26,13 @@ from agents.envs import make_vector_env
 from agents.evaluation.witnesses import (
     add_witnesses,
     default_witnesses,
+    sampled,
     warm_start_passes,
     witness_run,
 )
 from agents.oracles.certify_goals import replay_goal
 from agents.policies import load_policy
+from agents.policies.registry import PaddedPolicy
 from agents.policies.sb3 import ModelPolicy, SampledPolicy
 
 COAST = "trailer_env/Coast-v0"
@@ -256,3 +258,13 @@ def test_sampled_actions_are_seeded_and_leave_the_global_generator_alone() -> No
     assert np.array_equal(first[0], first[1])
     assert not np.array_equal(first[0], SampledPolicy(model, 4)(obs))
     assert not np.allclose(first[0], model(obs))  # not the mean
+
+
+def test_models_are_sampled_alone_or_padded_and_baselines_are_not() -> None:
+    kwargs = {"n_trailers": 2}
+    padded = sampled(load_policy("dagger_reverse_v1_general", V1, kwargs), 0)
+    assert isinstance(padded, PaddedPolicy) and isinstance(padded.policy, SampledPolicy)
+    assert (padded.n, padded.top) == (2, 3)
+    assert isinstance(sampled(load_policy("ppo_reverse_v1_n2", V1, kwargs), 0), SampledPolicy)
+    assert sampled(load_policy("lqr", V1, kwargs), 0) is None
+    assert sampled(load_policy("dagger_reverse_v1_sequence", V1, kwargs), 0) is None

@@ -220,3 +220,31 @@ def test_a_generalist_trains_on_a_range_of_counts_and_randomised_physics(
         assert refused.value.code == 2
         assert message in capsys.readouterr().err
         assert not (tmp_path / "r2").exists()
+
+
+def test_the_best_model_loads_while_the_run_goes_on(tmp_path: Path) -> None:
+    """The best model's card names its env, n and algorithm from its first save, so that
+    a padded generalist's kept model evaluates mid-run (the card was the validation row
+    alone until the run ended)."""
+    from agents.training.config import TrainConfig, load_hyperparams
+    from agents.training.sb3 import train as train_sb3
+
+    folder = _hyperparams(tmp_path)
+    hp = load_hyperparams("ppo", REVERSE, folder)
+    config = TrainConfig.resolve(REVERSE, "ppo", (1, 2), 0, hp, timesteps=2048)
+    run = tmp_path / "run"
+    seen: list[dict[str, object]] = []
+
+    def peek(steps: int, row: object) -> bool:
+        seen.append(json.loads((run / "best_model.json").read_text()))
+        summary = summarize(rollout(load_policy(str(run / "best_model.zip"), REVERSE,
+                                                {"n_trailers": 2}), REVERSE, 2, 1000,
+                                    {"n_trailers": 2}))  # fmt: skip
+        assert summary["episodes"] == 2
+        return False
+
+    train_sb3(config, run, eval_freq=1024, eval_episodes=2, progress_bar=False, verbose=0,
+              hooks=[peek])  # fmt: skip
+    assert [card["selected_at_timesteps"] for card in seen][:1] == [0]
+    assert all(card["env_kwargs"] == {"n_trailers": [1, 2]} for card in seen)
+    assert all(card["algo"] == "ppo" and "timesteps" not in card for card in seen)
