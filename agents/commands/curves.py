@@ -119,7 +119,10 @@ def levels_of(
     levels: dict[GroupKey, dict[str, float]] = {}
     for key in group_runs(runs):
         lines: dict[str, float] = {}
-        certificate = committed_certificate(key[0], key[1]) if ceiling else None
+        counts = key[1]  # a generalist's range has no one certificate
+        certificate = (
+            committed_certificate(key[0], counts) if ceiling and isinstance(counts, int) else None
+        )
         if certificate is not None:
             lines[CEILING] = float(certificate["ceiling"])
         lines.update(given)

@@ -33,6 +33,7 @@ import numpy as np
 
 from agents.algorithms import recipe_name
 from agents.artifacts import files
+from agents.artifacts.cards import is_count_range
 from agents.artifacts.curves import read_curve
 from agents.artifacts.run_folder import CONFIG_FILE, CURVE_FILE
 from agents.envs import headline_metric, scene_title
@@ -57,8 +58,10 @@ TABLE_FILE = "learning_curves.md"
 #: The x axes of a band: evaluations.csv's step count and its wall time.
 AXES = ("timesteps", "wall_s")
 
+#: A run's trailers: one count, or a generalist's range ``(low, high)``.
+TrailerCounts = int | tuple[int, int]
 #: (environment id, number of trailers, algorithm): one group of runs over training seeds.
-GroupKey = tuple[str, int, str]
+GroupKey = tuple[str, TrailerCounts, str]
 
 
 @dataclass(frozen=True)
@@ -67,14 +70,15 @@ class RunCurve:
 
     Attributes:
         run_dir: The folder.
-        env_id, n_trailers, algo, seed: From its ``config.json``; ``algo`` names its reward
-            state-dependent exploration and reward shaping too ("ppo (gSDE) + lqr shaping").
+        env_id, n_trailers, algo, seed: From its ``config.json`` (``n_trailers`` a pair for
+            a generalist's range); ``algo`` names its reward state-dependent exploration and
+            reward shaping too ("ppo (gSDE) + lqr shaping").
         rows: Its ``evaluations.csv`` rows (floats), in step order.
     """
 
     run_dir: Path
     env_id: str
-    n_trailers: int
+    n_trailers: TrailerCounts
     algo: str
     seed: int
     rows: tuple[dict[str, float], ...]
@@ -238,13 +242,25 @@ def read_run(run_dir: Path) -> RunCurve:
         raise ValueError(
             f"{config_path} lacks the run's environment, n, algorithm or seed: {error}"
         ) from None
-    if not (files.is_integer(n_trailers, 1) and files.is_integer(seed, 0)):
-        raise ValueError(f"{config_path}: n_trailers and seed must be integers")
+    counts: TrailerCounts
+    if is_count_range(n_trailers):
+        counts = (int(n_trailers[0]), int(n_trailers[1]))
+    elif files.is_integer(n_trailers, 1):
+        counts = int(n_trailers)
+    else:
+        raise ValueError(f"{config_path}: n_trailers must be an integer or a range [low, high]")
+    if not files.is_integer(seed, 0):
+        raise ValueError(f"{config_path}: seed must be an integer")
     rows = read_curve(curve_path, ("wall_s", metric))
     if not rows:
         raise ValueError(f"{curve_path} has no evaluation")
     rows.sort(key=lambda row: row["timesteps"])
-    return RunCurve(run_dir, env_id, int(n_trailers), algo, int(seed), tuple(rows))
+    return RunCurve(run_dir, env_id, counts, algo, int(seed), tuple(rows))
+
+
+def counts_text(counts: TrailerCounts) -> str:
+    """``2`` or ``1-3``."""
+    return f"{counts[0]}-{counts[1]}" if isinstance(counts, tuple) else str(counts)
 
 
 def group_runs(runs: Sequence[RunCurve]) -> dict[GroupKey, list[RunCurve]]:
@@ -261,7 +277,7 @@ def group_runs(runs: Sequence[RunCurve]) -> dict[GroupKey, list[RunCurve]]:
         seeds = [run.seed for run in members]
         if len(set(seeds)) != len(seeds):
             raise ValueError(
-                f"{key[0]} n = {key[1]} {key[2]}: two runs of one seed "
+                f"{key[0]} n = {counts_text(key[1])} {key[2]}: two runs of one seed "
                 f"({', '.join(str(run.run_dir) for run in members)})"
             )
     return groups
@@ -291,7 +307,7 @@ def seed_band(runs: Sequence[RunCurve], axis: str = "timesteps") -> Band:
 
 def _group_label(key: GroupKey) -> str:
     env_id, n, algo = key
-    return f"{scene_title(env_id)}, n = {n}, {algo}"
+    return f"{scene_title(env_id)}, n = {counts_text(n)}, {algo}"
 
 
 def _rate_text(values: Sequence[float]) -> str:

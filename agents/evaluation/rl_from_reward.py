@@ -56,7 +56,7 @@ from agents.artifacts.run_folder import (
     export_model,
 )
 from agents.artifacts.shipped import SEEDS_DIR
-from agents.evaluation.learning_curves import final_plateau, group_runs, read_run
+from agents.evaluation.learning_curves import counts_text, final_plateau, group_runs, read_run
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.registry import load_policy
 from agents.seeds import SELECTION_SEED, TEST_SEED
@@ -126,6 +126,11 @@ def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
     walls, _ = curve.series("wall_s")
     flat = final_plateau(steps, values, PLATEAU_WINDOW, PLATEAU_EPS)
     env_id, n, metric = curve.env_id, curve.n_trailers, curve.metric
+    if isinstance(n, tuple):
+        raise ValueError(
+            f"{run_dir} trained one policy for n = {n[0]}-{n[1]}: this table scores one n; "
+            "score it on each n with agents.evaluate"
+        )
     best, final = run_dir / BEST_MODEL, run_dir / FINAL_MODEL
     card = read_card(best)
     return RunScore(
@@ -308,6 +313,12 @@ def main(argv: list[str] | None = None) -> int:
     elif not args.overwrite and any(path.exists() for path in targets):
         parser.error(f"{args.out} already holds a table: --overwrite replaces it (--update adds)")
     groups = group_runs([read_run(folder) for folder in folders])  # refuses unreadable runs
+    ranges = [f"{key[0]} n = {counts_text(key[1])}" for key in groups if isinstance(key[1], tuple)]
+    if ranges:
+        parser.error(
+            f"RUN: {ranges[0]} is one policy for a range of n; this table scores one n "
+            "(score it on each n with agents.evaluate)"
+        )
     if args.export is not None:
         if len(groups) != 1:
             parser.error(

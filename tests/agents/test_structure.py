@@ -146,6 +146,7 @@ def test_report_scenarios_come_from_the_committed_cards(tmp_path: Path) -> None:
         ("trailer_env/Reverse-v1", 3),
         ("trailer_env/Reverse-v1", 4),
         ("trailer_env/Reverse-v1", 5),
+        ("trailer_env/Reverse-v1", 6),
         ("trailer_env/Coast-v0", 1),
         ("trailer_env/Coast-v0", 2),
         ("trailer_env/Heading-v0", 2),

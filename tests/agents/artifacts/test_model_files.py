@@ -83,7 +83,7 @@ def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     seeds = sorted((MODELS_DIR / "seeds").glob("*.zip"))
     # With the generalist and the three sequence generalists (ConvoyEncoder: n = 1-3, n = 1-6
     # and n = 1-6 trained with the mirror).
-    assert len(zips) == 25 and not list(MODELS_DIR.glob("**/*.pkl"))
+    assert len(zips) == 26 and not list(MODELS_DIR.glob("**/*.pkl"))
     assert len(seeds) == 33  # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model
     for model in zips + seeds:
         card = read_card(model)

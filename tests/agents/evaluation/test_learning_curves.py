@@ -174,3 +174,25 @@ def test_command_writes_and_refuses(tmp_path: Path, capsys: pytest.CaptureFixtur
         curves.main([str(runs), "--out", str(tmp_path / "fresh")])
     assert "lacks ['safe_rate']" in capsys.readouterr().err
     assert not (tmp_path / "fresh").exists()
+
+
+def test_a_generalists_range_is_its_own_group_without_a_ceiling(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    general = make_run(tmp_path / "general", 0, [0.0, 0.3, 0.31, 0.3])
+    config = json.loads((general / "config.json").read_text())
+    config["env_kwargs"] = {"n_trailers": [1, 3], "randomize": "mismatch20"}
+    (general / "config.json").write_text(json.dumps(config))
+    runs = [read_run(general), read_run(make_run(tmp_path / "two", 0, [0.5]))]
+    assert runs[0].n_trailers == (1, 3)
+    assert list(group_runs(runs)) == [(REVERSE, (1, 3), "ppo"), (REVERSE, 2, "ppo")]
+    assert list(curves.levels_of(runs, [("lqr", 0.69)], ceiling=True).values()) == [
+        {"lqr": 0.69},  # no certificate for a range
+        {"certified ceiling (test starts)": 1.0, "lqr": 0.69},
+    ]
+    _, table = write_learning_curves(runs[:1], tmp_path / "out", window=3, eps=0.02)
+    assert table.read_text().splitlines()[-1].startswith("| Reverse-v1, n = 1-3, ppo | safe_rate |")
+    config["env_kwargs"]["n_trailers"] = [3, 1]
+    (general / "config.json").write_text(json.dumps(config))
+    with pytest.raises(ValueError, match="n_trailers must be an integer or a range"):
+        read_run(general)

@@ -70,6 +70,26 @@ def test_refusals_write_nothing(tmp_path: Path) -> None:
     assert not (tmp_path / "out").exists()
 
 
+def test_a_generalists_run_is_refused_by_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+
+    run = tmp_path / "general"
+    run.mkdir()
+    config = {"env_id": "trailer_env/Reverse-v1", "algo": "ppo", "seed": 0,
+              "env_kwargs": {"n_trailers": [1, 3]}}  # fmt: skip
+    (run / "config.json").write_text(json.dumps(config))
+    (run / "evaluations.csv").write_text("timesteps,wall_s,safe_rate\n0,0.0,0.0\n")
+    for name in ("best_model.zip", "final_model.zip"):
+        (run / name).write_bytes(b"")
+    with pytest.raises(SystemExit) as refused:
+        main([str(run), "--out", str(tmp_path / "out")])
+    assert refused.value.code == 2
+    assert "Reverse-v1 n = 1-3 is one policy for a range of n" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
 def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path) -> None:
     import json
 
