@@ -13,6 +13,13 @@ the scene for that n from the same generator. So the vector env still replays si
 environments seeded ``s + i`` bit for bit, and each episode of n trailers is exactly an
 episode of the scene made with ``n_trailers=n`` whose generator drew one number first.
 
+``trailer_draw="row"`` fixes the count by the batch row instead: row i runs
+``n = low + i mod count`` in every episode and its generator draws no count, so row i
+is exactly the environment made with ``n_trailers=low + i mod count`` seeded ``s + i``
+(a single env is row 0: the count ``low``). Every count then gets the same share of
+the batch's steps, however early its episodes end: what training a policy for several
+counts needs when the longer convoys fold early and would otherwise get fewer steps.
+
 Observation (float32), padded to ``N = high`` trailers, ``m`` mass features (2 on the
 rail, 4 planar) and the scene's ``T`` task features:
 
@@ -52,7 +59,7 @@ from trailer_env.core import INFO_FIELDS, ConvoyCore
 from trailer_env.generators import GeneratorBank
 from trailer_env.json_types import JSONObject
 from trailer_env.observation import ObservationView
-from trailer_env.settings import EnvSettings, settings_from_kwargs
+from trailer_env.settings import EnvSettings, check_trailer_draw, settings_from_kwargs
 
 #: Most trailer counts one environment may mix (one scene core each).
 MAX_COUNTS = 8
@@ -145,13 +152,20 @@ class MixedCore:
         core_class: The scene's core.
         settings: Settings of each count (``{n: settings}``, consecutive counts).
         batch_size: B >= 1.
+        draw: "episode" (each episode draws its count) or "row" (row i runs the count
+            ``low + i mod count``); see the module's docstring.
     """
 
     task_keys: tuple[str, ...] = ()
 
     def __init__(
-        self, core_class: type[ConvoyCore], settings: dict[int, EnvSettings], batch_size: int
+        self,
+        core_class: type[ConvoyCore],
+        settings: dict[int, EnvSettings],
+        batch_size: int,
+        draw: str = "episode",
     ) -> None:
+        self.draw = check_trailer_draw(draw)
         self.counts = sorted(settings)
         self.low, self.n = self.counts[0], self.counts[-1]
         self.settings = settings[self.n]
@@ -214,8 +228,11 @@ class MixedCore:
         self._start(rows, bank, rows.astype(np.int64, copy=False))
 
     def _start(self, rows: np.ndarray, bank: GeneratorBank, picks: np.ndarray) -> None:
-        counts = np.empty(rows.size, dtype=np.int64)
-        draw_counts(bank.typed, picks, self.low, len(self.counts), counts)
+        if self.draw == "row":
+            counts = self.low + rows.astype(np.int64) % len(self.counts)
+        else:
+            counts = np.empty(rows.size, dtype=np.int64)
+            draw_counts(bank.typed, picks, self.low, len(self.counts), counts)
         self.trailers[rows] = counts
         self.obs[rows] = 0.0
         for n, core in self.cores.items():
@@ -354,7 +371,7 @@ def build_core(
     by_count = mixed_settings(kwargs)
     if track_pose:
         raise ValueError("rendering needs one number of trailers, not a range")
-    core = MixedCore(core_class, by_count, batch_size)
+    core = MixedCore(core_class, by_count, batch_size, kwargs.get("trailer_draw", "episode"))
     return core.settings, core
 
 

@@ -213,6 +213,25 @@ class EnvSettings:
         return self.actuator.action_dim
 
 
+#: How an environment made with a range ``n_trailers=(low, high)`` gives each episode its
+#: count (:mod:`trailer_env.mixed`): "episode" (default) draws it from the episode's
+#: generator, uniformly; "row" fixes it by the batch row, ``low + i mod (high - low + 1)``
+#: for row i, so every count gets the same share of a batch's steps however long its
+#: episodes last.
+TRAILER_DRAWS = ("episode", "row")
+
+
+def check_trailer_draw(value: object) -> str:
+    """``value`` if it is one of :data:`TRAILER_DRAWS`.
+
+    Raises:
+        TypeError: If it is not a str.
+        ValueError: If it is another str, naming the choices.
+    """
+    one_of("trailer_draw", value, TRAILER_DRAWS)
+    return str(value)
+
+
 def settings_from_kwargs(
     n_trailers: int | None = None,
     params: ConvoyParams | None = None,
@@ -227,6 +246,7 @@ def settings_from_kwargs(
     observe_params: bool = False,
     observation: str = "flat",
     max_trailers: int | None = None,
+    trailer_draw: str = "episode",
     **param_overrides: float,
 ) -> EnvSettings:
     """Build settings from ``gym.make``-style keyword arguments.
@@ -238,6 +258,9 @@ def settings_from_kwargs(
         dt, fidelity, action_mode, rail_accel_max, servo_bandwidth: See :class:`EnvSettings`.
         singular_band, fold_angle, randomize, observe_params: See :class:`EnvSettings`.
         observation, max_trailers: See :class:`EnvSettings`.
+        trailer_draw: How a range of ``n_trailers`` assigns counts
+            (:data:`trailer_env.mixed.TRAILER_DRAWS`); checked here, used by
+            :class:`trailer_env.mixed.MixedCore`; with one count there is nothing to draw.
         **param_overrides: ConvoyParams fields, e.g. ``mu=0.4``.
 
     Raises:
@@ -254,10 +277,11 @@ def settings_from_kwargs(
             "; ".join(f"unexpected keyword argument {name!r}" for name in unknown)
             + "; valid: n_trailers, params, dt, fidelity, action_mode, rail_accel_max, "
             "servo_bandwidth, singular_band, fold_angle, randomize, observe_params, "
-            "observation, max_trailers and the "
+            "observation, max_trailers, trailer_draw and the "
             "ConvoyParams fields "
             f"{sorted(_PARAM_FIELDS - {'n_trailers'})}"
         )
+    check_trailer_draw(trailer_draw)
     count = (
         None if n_trailers is None else bounded_integer("n_trailers", n_trailers, 0, MAX_TRAILERS)
     )

@@ -128,9 +128,11 @@ def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     "ppo (gSDE, 256x256)", "ppo (gSDE) + lqr shaping" (the algorithm's name upper-cased
     when ``upper``).
 
-    State-dependent exploration, a network other than :data:`DEFAULT_NET_ARCH` and reward
-    shaping are recipes of their own: runs are grouped, tabled and labelled by this name,
-    so that they are never averaged with the plain algorithm's.
+    State-dependent exploration, a network other than :data:`DEFAULT_NET_ARCH`, reward
+    shaping, randomised physics (``env_kwargs["randomize"]``: "ppo (mismatch20)") and
+    counts fixed by the batch row (``trailer_draw="row"``: "n by row") are recipes of
+    their own: runs are grouped, tabled and labelled by this name, so that they are never
+    averaged with the plain algorithm's.
     """
     name = str(record.get("algo", "?"))
     if upper:
@@ -140,6 +142,13 @@ def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     width = _net_width(hyperparams)
     if width is not None:
         tags.append(width)
+    env_kwargs = record.get("env_kwargs")
+    if isinstance(env_kwargs, Mapping):
+        randomize = env_kwargs.get("randomize")
+        if randomize is not None:
+            tags.append(randomize if isinstance(randomize, str) else "randomised")
+        if env_kwargs.get("trailer_draw") == "row":
+            tags.append("n by row")
     if tags:
         name += f" ({', '.join(tags)})"
     shaping = record.get("shaping")

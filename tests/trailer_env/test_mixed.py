@@ -52,6 +52,30 @@ def test_an_episode_of_n_is_the_scene_with_n_trailers_after_one_draw(env_id: str
     assert mixed.observation_space.shape == (2 + 2 * 3 + tail + 3,)
 
 
+def replay_rows(
+    envs: Any, singles: list, rng: np.random.Generator, steps: int, columns: list
+) -> tuple[int, list]:
+    """Step ``envs`` with random actions, checking row i (its ``columns[i]``) against
+    ``singles[i]`` step for step, autoresets included; the episodes ended and the
+    ``info["n_trailers"]`` of every step."""
+    needs_reset = np.zeros(len(singles), dtype=bool)
+    ended, counts = 0, []
+    for _ in range(steps):
+        actions = rng.uniform(-1, 1, (len(singles), 1)).astype(np.float32)
+        obs, rewards, terminated, truncated, infos = envs.step(actions)
+        for i, env in enumerate(singles):
+            if needs_reset[i]:  # next_step autoreset: this step reset the env
+                expected, _ = env.reset()
+                ended += 1
+            else:
+                expected, reward, done, _, _ = env.step(actions[i])
+                assert rewards[i] == reward and terminated[i] == done
+            np.testing.assert_array_equal(obs[i, columns[i]], expected)
+        counts.append(infos["n_trailers"].tolist())
+        needs_reset = terminated | truncated
+    return ended, counts
+
+
 def test_the_vector_env_replays_single_mixed_envs(rng: np.random.Generator) -> None:
     count, seed = 5, 40
     envs = gym.make_vec(
@@ -63,21 +87,9 @@ def test_the_vector_env_replays_single_mixed_envs(rng: np.random.Generator) -> N
         single_obs, info = env.reset(seed=seed + i)
         np.testing.assert_array_equal(obs[i], single_obs)
         assert infos["n_trailers"][i] == info["n_trailers"]
-    needs_reset = np.zeros(count, dtype=bool)
-    ended = 0
-    for _ in range(160):
-        actions = rng.uniform(-1, 1, (count, 1)).astype(np.float32)
-        obs, rewards, terminated, truncated, infos = envs.step(actions)
-        for i, env in enumerate(singles):
-            if needs_reset[i]:  # next_step autoreset: this step reset the env
-                single_obs, _ = env.reset()
-                ended += 1
-            else:
-                single_obs, reward, done, _, _ = env.step(actions[i])
-                assert rewards[i] == reward and terminated[i] == done
-            np.testing.assert_array_equal(obs[i], single_obs)
-        needs_reset = terminated | truncated
-    assert ended >= 3 and len(set(infos["n_trailers"].tolist())) >= 2
+    everything = [slice(None)] * count
+    ended, counts = replay_rows(envs, singles, rng, 160, everything)
+    assert ended >= 3 and len(set(counts[-1])) >= 2
 
 
 def test_the_sb3_adapter_takes_a_range() -> None:
@@ -89,6 +101,49 @@ def test_the_sb3_adapter_takes_a_range() -> None:
         obs, _, dones, infos = venv.step(np.zeros((8, 1), dtype=np.float32))
     assert dones.all() and {info["n_trailers"] for info in infos} <= {1, 2}
     assert all(info["episode"]["l"] <= 20 for info in infos)
+
+
+def test_by_row_each_row_is_the_scene_with_its_count_and_no_draw(
+    rng: np.random.Generator,
+) -> None:
+    """trailer_draw="row": row i runs n = low + i mod count in every episode, exactly the
+    env made with that n seeded seed + i (its generator draws no count), autoresets too."""
+    count, seed = 7, 100
+    envs = gym.make_vec(
+        REVERSE,
+        num_envs=count,
+        vectorization_mode="vector_entry_point",
+        n_trailers=(1, 3),
+        trailer_draw="row",
+    )
+    obs, infos = envs.reset(seed=seed)
+    np.testing.assert_array_equal(infos["n_trailers"], [1, 2, 3, 1, 2, 3, 1])
+    singles = [gym.make(REVERSE, n_trailers=1 + i % 3) for i in range(count)]
+    columns = []
+    for i, env in enumerate(singles):
+        expected, _ = env.reset(seed=seed + i)
+        n = 1 + i % 3
+        columns.append(padded_columns(n, 3, expected.size - (2 + 2 * n)))
+        np.testing.assert_array_equal(obs[i, columns[i]], expected)
+    ended, counts = replay_rows(envs, singles, rng, 120, columns)
+    assert ended >= 3 and all(step == [1, 2, 3, 1, 2, 3, 1] for step in counts)
+    single = gym.make(REVERSE, n_trailers=(2, 3), trailer_draw="row")
+    assert all(single.reset(seed=s)[1]["n_trailers"] == 2 for s in range(4))  # row 0
+
+
+@pytest.mark.parametrize(
+    ("value", "error"), [("steps", ValueError), ("", ValueError), (1, TypeError), (None, TypeError)]
+)
+def test_a_bad_trailer_draw_is_refused_naming_the_choices(value: object, error: type) -> None:
+    for counts in ((1, 3), 2):
+        with pytest.raises(error, match=r"trailer_draw must be one of \('episode', 'row'\)"):
+            gym.make(REVERSE, n_trailers=counts, trailer_draw=value)
+
+
+def test_one_count_has_nothing_to_draw() -> None:
+    plain, _ = gym.make(REVERSE, n_trailers=2).reset(seed=3)
+    by_row, _ = gym.make(REVERSE, n_trailers=2, trailer_draw="row").reset(seed=3)
+    np.testing.assert_array_equal(plain, by_row)
 
 
 @pytest.mark.parametrize(

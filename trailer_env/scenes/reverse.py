@@ -337,7 +337,9 @@ class ReverseEnv(ConvoyEnv):
                    fidelity="rk4", action_mode="servo", render_mode="rgb_array")
     ```
 
-    `n_trailers` (default 2), any `dynamics.ConvoyParams` field (its defaults:
+    `n_trailers` (default 2, or a range `(low, high)`: every episode draws its n, or
+    with `trailer_draw="row"` row i of a batch runs `low + i mod (high - low + 1)`;
+    `trailer_env.mixed`), any `dynamics.ConvoyParams` field (its defaults:
     `mu = 0.5, b = 1.0, s_max = 0.5` for the actuator), `dt`,
     `fidelity` (`trailer_env.fidelity.Fidelity`, a dict, an integrator name or a substep
     count), `action_mode`, `rail_accel_max` (4 m/s^2), `servo_bandwidth` (5 rad/s),

@@ -185,13 +185,25 @@ def test_a_generalists_range_is_its_own_group_without_a_ceiling(
     (general / "config.json").write_text(json.dumps(config))
     runs = [read_run(general), read_run(make_run(tmp_path / "two", 0, [0.5]))]
     assert runs[0].n_trailers == (1, 3)
-    assert list(group_runs(runs)) == [(REVERSE, (1, 3), "ppo"), (REVERSE, 2, "ppo")]
+    assert list(group_runs(runs)) == [(REVERSE, (1, 3), "ppo (mismatch20)"), (REVERSE, 2, "ppo")]
     assert list(curves.levels_of(runs, [("lqr", 0.69)], ceiling=True).values()) == [
         {"lqr": 0.69},  # no certificate for a range
         {"certified ceiling (test starts)": 1.0, "lqr": 0.69},
     ]
     _, table = write_learning_curves(runs[:1], tmp_path / "out", window=3, eps=0.02)
-    assert table.read_text().splitlines()[-1].startswith("| Reverse-v1, n = 1-3, ppo | safe_rate |")
+    assert (
+        table.read_text()
+        .splitlines()[-1]
+        .startswith("| Reverse-v1, n = 1-3, ppo (mismatch20) | safe_rate |")
+    )
+    by_row = make_run(tmp_path / "by_row", 0, [0.0, 0.33])  # the same seed, another recipe
+    row_config = json.loads((by_row / "config.json").read_text())
+    row_config["env_kwargs"] = {"n_trailers": [1, 3], "trailer_draw": "row"}
+    (by_row / "config.json").write_text(json.dumps(row_config))
+    assert list(group_runs([runs[0], read_run(by_row)])) == [
+        (REVERSE, (1, 3), "ppo (mismatch20)"),
+        (REVERSE, (1, 3), "ppo (n by row)"),
+    ]
     config["env_kwargs"]["n_trailers"] = [3, 1]
     (general / "config.json").write_text(json.dumps(config))
     with pytest.raises(ValueError, match="n_trailers must be an integer or a range"):

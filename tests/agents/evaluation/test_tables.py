@@ -97,6 +97,14 @@ def test_training_labels_name_the_exploration_and_the_shaping() -> None:
     assert training_label({**PPO_CARD, "hyperparams": {"policy_kwargs": {"net_arch": [32]}}}) == (
         "PPO (32), 2M steps"
     )
+    randomised = {**PPO_CARD, "hyperparams": wide, "env_kwargs": {"randomize": "mismatch20"}}
+    assert training_label(randomised) == "PPO (gSDE, 256x256, mismatch20), 2M steps"
+    by_row = {"n_trailers": [1, 3], "trailer_draw": "row", "randomize": {"M": [0.8, 1.2]}}
+    assert training_label({**PPO_CARD, "env_kwargs": by_row}) == (
+        "PPO (randomised, n by row), 2M steps"
+    )
+    plain = {"n_trailers": [1, 3], "trailer_draw": "episode"}
+    assert training_label({**PPO_CARD, "env_kwargs": plain}) == "PPO, 2M steps"
 
 
 def test_markdown_table_rows_and_footnote() -> None:
