@@ -259,7 +259,7 @@ def settings_from_kwargs(
         singular_band, fold_angle, randomize, observe_params: See :class:`EnvSettings`.
         observation, max_trailers: See :class:`EnvSettings`.
         trailer_draw: How a range of ``n_trailers`` assigns counts
-            (:data:`trailer_env.mixed.TRAILER_DRAWS`); checked here, used by
+            (:data:`TRAILER_DRAWS`); checked here, used by
             :class:`trailer_env.mixed.MixedCore`; with one count there is nothing to draw.
         **param_overrides: ConvoyParams fields, e.g. ``mu=0.4``.
 
