@@ -44,6 +44,7 @@ __all__ = [
     "Band",
     "Plateau",
     "RunCurve",
+    "bands_overlap",
     "final_plateau",
     "group_runs",
     "plateau",
@@ -294,8 +295,7 @@ def seed_band(runs: Sequence[RunCurve], axis: str = "timesteps") -> Band:
     if not runs:
         raise ValueError("no runs to draw")
     series = [run.series(axis) for run in runs]
-    start = max(float(x[0]) for x, _ in series)
-    end = min(float(x[-1]) for x, _ in series)
+    start, end = _common_range(series)
     if start > end:
         raise ValueError(f"the runs' {axis} ranges do not overlap ({start:g} > {end:g})")
     grid = np.unique(np.concatenate([x[(x >= start) & (x <= end)] for x, _ in series]))
@@ -303,6 +303,21 @@ def seed_band(runs: Sequence[RunCurve], axis: str = "timesteps") -> Band:
         grid = np.array([start])
     values = np.array([np.interp(grid, x, y) for x, y in series])
     return Band(grid, values.mean(axis=0), values.min(axis=0), values.max(axis=0), len(runs))
+
+
+def _common_range(series: Sequence[tuple[np.ndarray, np.ndarray]]) -> tuple[float, float]:
+    """The x range every curve covers (start > end when they do not overlap)."""
+    return max(float(x[0]) for x, _ in series), min(float(x[-1]) for x, _ in series)
+
+
+def bands_overlap(runs: Sequence[RunCurve], axis: str) -> bool:
+    """Whether the runs cover a common ``axis`` range, so :func:`seed_band` can draw them.
+
+    Wall time may not: a run whose first evaluation waited for a kernel compile can start
+    after a short run ended.
+    """
+    start, end = _common_range([run.series(axis) for run in runs])
+    return start <= end
 
 
 def _group_label(key: GroupKey) -> str:
@@ -369,17 +384,29 @@ def _chart_png(
             zip(AXES, ("env steps", "wall time (s)"), strict=True)
         ):
             ax = axes[row][column]
-            band = seed_band(runs, axis)
-            ax.plot(
-                band.x,
-                band.mean,
-                color="C0",
-                label=f"mean of {band.seeds} seeds" if band.seeds > 1 else "one seed",
-            )
-            if band.seeds > 1:
-                ax.fill_between(
-                    band.x, band.low, band.high, color="C0", alpha=0.25, label="min-max over seeds"
+            if bands_overlap(runs, axis):
+                band = seed_band(runs, axis)
+                ax.plot(
+                    band.x,
+                    band.mean,
+                    color="C0",
+                    label=f"mean of {band.seeds} seeds" if band.seeds > 1 else "one seed",
                 )
+                if band.seeds > 1:
+                    ax.fill_between(
+                        band.x,
+                        band.low,
+                        band.high,
+                        color="C0",
+                        alpha=0.25,
+                        label="min-max over seeds",
+                    )
+            else:  # no common range, so no mean: each seed on its own
+                for k, run in enumerate(runs):
+                    x, y = run.series(axis)
+                    ax.plot(
+                        x, y, color="C0", alpha=1.0 - 0.5 * k / len(runs), label=f"seed {run.seed}"
+                    )
             for k, (name, value) in enumerate(levels.get(key, {}).items()):
                 ax.axhline(value, color=f"C{k + 1}", linestyle="--", label=f"{name} {value:.2f}")
             ax.set_xlabel(label)

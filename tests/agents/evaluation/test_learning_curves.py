@@ -14,6 +14,7 @@ from agents.evaluation.learning_curves import (
     CHART_FILE,
     TABLE_FILE,
     Plateau,
+    bands_overlap,
     group_runs,
     plateau,
     read_run,
@@ -59,6 +60,7 @@ def make_run(
     algo: str = "ppo",
     n: int = 2,
     wall_per_eval: float = 10.0,
+    wall_start: float = 0.0,
 ) -> Path:
     """A synthetic run folder: config.json and evaluations.csv with ``rates`` as safe_rate."""
     folder.mkdir(parents=True)
@@ -68,7 +70,7 @@ def make_run(
         {
             **dict.fromkeys(CURVE_COLUMNS, 0.0),
             "timesteps": step,
-            "wall_s": wall_per_eval * i,
+            "wall_s": wall_start + wall_per_eval * i,
             "safe_rate": rate,
         }
         for i, (step, rate) in enumerate(zip(STEPS, rates, strict=False))
@@ -116,6 +118,26 @@ def test_groups_and_bands_over_seeds(tmp_path: Path) -> None:
         (folder / "config.json").write_text(json.dumps(config))
         expected = "ppo + lqr shaping" if name == "sac_plain" else "ppo (gSDE) + lqr shaping"
         assert read_run(folder).algo == expected
+
+
+def test_seeds_without_a_common_wall_range_are_drawn_one_by_one(tmp_path: Path) -> None:
+    # A run whose first evaluation waited for a kernel compile can start after a short
+    # run ended: no mean against wall time, but the chart is still written.
+    runs = [
+        read_run(make_run(tmp_path / "s0", 0, [0.1, 0.5, 0.7], wall_per_eval=0.1)),
+        read_run(make_run(tmp_path / "s1", 1, [0.2, 0.6, 0.9], wall_start=24.0)),
+    ]
+    assert bands_overlap(runs, "timesteps") and not bands_overlap(runs, "wall_s")
+    with pytest.raises(ValueError, match=r"wall_s ranges do not overlap \(24 > 0.2\)"):
+        seed_band(runs, "wall_s")
+    np.testing.assert_allclose(seed_band(runs).mean, [0.15, 0.55, 0.8])
+    chart, table = write_learning_curves(runs, tmp_path / "out", window=3, eps=0.02)
+    assert chart.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (
+        table.read_text()
+        .splitlines()[-1]
+        .startswith("| Reverse-v1, n = 2, ppo | safe_rate | 2 | 0.80 ± 0.10 (0.70-0.90) |")
+    )
 
 
 def test_chart_and_table_are_written_and_not_overwritten(tmp_path: Path) -> None:
