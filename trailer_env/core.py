@@ -88,6 +88,7 @@ import numpy as np
 
 from dynamics.columns import ACT_WIDTH, ETA, ETA_DOT, XI
 from dynamics.jit import pack_params
+from dynamics.params import bounded_real
 from trailer_env.core_infos import INFO_FIELDS, InfoMixin  # noqa: F401  (INFO_FIELDS: re-exported)
 from trailer_env.core_physics import PhysicsMixin
 from trailer_env.core_retry import RetryMixin
@@ -207,6 +208,9 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
     #: positions use ``l``): a ``randomize`` dict that names one is refused; a preset
     #: (``"mismatch10"``, ``"mismatch20"``) leaves them nominal and varies the others.
     fixed_parameters: ClassVar[tuple[str, ...]] = ()
+    #: Whether the scene's start is a perturbation of a size that :meth:`set_start_scale`
+    #: can shrink or widen (a start curriculum); False: the method refuses.
+    start_scalable: ClassVar[bool] = False
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
         if (
@@ -372,11 +376,35 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
         self._saved: tuple[np.ndarray, ...] | None = None  # save_step's copies
         self._start: tuple | None = None  # built on the first reset
+        #: Factor on the size of the starting perturbation (:meth:`set_start_scale`).
+        self.start_scale = 1.0
 
     def _start_arguments(self) -> tuple:
         """The start kernel's last argument (the task arrays and constants it writes and
         reads), built once; passed as a plain tuple."""
         return ()
+
+    def set_start_scale(self, scale: float) -> None:
+        """Draw the next starts with the perturbation's size times ``scale`` (a start
+        curriculum; 1, the default, is the scene's own distribution).
+
+        Only the size changes: every row draws the same numbers from its generator as at
+        scale 1, so a start at scale ``s`` is the scale-1 start with its perturbation
+        multiplied by ``s``. Starts at a scale other than 1 are not the scene's and carry
+        no certificate.
+
+        Raises:
+            TypeError: If ``scale`` is not a real number.
+            ValueError: If it is not in (0, 2], or the scene's starts have no size to scale
+                (:attr:`start_scalable`); nothing changes.
+        """
+        if not self.start_scalable:
+            raise ValueError(
+                f"{self.scene}-v{self.version}'s starts have no perturbation size to scale "
+                "(set_start_scale applies to Reverse-v1)"
+            )
+        self.start_scale = bounded_real("start_scale", scale, 0.0, 2.0, low_open=True)
+        self._start = None
 
     def _start_tuple(self) -> tuple:
         if self._start is None:

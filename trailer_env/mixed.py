@@ -217,6 +217,19 @@ class MixedCore:
         return np.concatenate([observation, np.ones(self.n)]), action
 
     # ------------------------------------------------------------- resets
+    @property
+    def start_scale(self) -> float:
+        """The factor on every count's starting perturbation (:meth:`set_start_scale`)."""
+        return self.cores[self.n].start_scale
+
+    def set_start_scale(self, scale: float) -> None:
+        """:meth:`~trailer_env.core.ConvoyCore.set_start_scale` for every count's core
+        (checked on the first before any changes, so a refusal changes nothing)."""
+        first, *others = self.cores.values()
+        first.set_start_scale(scale)
+        for core in others:
+            core.set_start_scale(scale)
+
     def reset_rows(self, rows: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:
         """New episodes in ``rows``, row ``rows[j]`` drawing its n, then its start, from
         ``rngs[j]``."""

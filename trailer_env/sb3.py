@@ -153,6 +153,12 @@ class ConvoySB3VecEnv(VecEnv):
             infos = BatchInfos(core.info_batch(), extras, self.num_envs)
         return self._view.batch(core.obs), rewards, dones, infos  # type: ignore[return-value]
 
+    def set_start_scale(self, scale: float) -> None:
+        """Draw the episodes that start from now on with the starting perturbation's
+        size times ``scale`` (:meth:`trailer_env.core.ConvoyCore.set_start_scale`; raises
+        as it does)."""
+        self.core.set_start_scale(scale)
+
     def close(self) -> None:
         """Nothing to release."""
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import importlib
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import PurePath
 from typing import Any
 
 __all__ = ["ALGOS", "DEFAULT_NET_ARCH", "Algorithm", "algo_class", "algorithm", "recipe_name"]
@@ -125,14 +126,16 @@ def _net_width(hyperparams: object) -> str | None:
 
 def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     """A run's recipe from its configuration or model card: "ppo", "ppo (gSDE)",
-    "ppo (gSDE, 256x256)", "ppo (gSDE) + lqr shaping" (the algorithm's name upper-cased
-    when ``upper``).
+    "ppo (gSDE, 256x256)", "ppo (gSDE) + lqr shaping", "ppo (gSDE) + start curriculum",
+    "ppo from dagger_reverse_v1_n4" (the algorithm's name upper-cased when ``upper``).
 
     State-dependent exploration, a network other than :data:`DEFAULT_NET_ARCH`, reward
-    shaping, randomised physics (``env_kwargs["randomize"]``: "ppo (mismatch20)") and
-    counts fixed by the batch row (``trailer_draw="row"``: "n by row") are recipes of
-    their own: runs are grouped, tabled and labelled by this name, so that they are never
-    averaged with the plain algorithm's.
+    shaping, a start curriculum (``start_curriculum``), a fine-tuning run's starting
+    model (``init_from``, by its stem), randomised physics
+    (``env_kwargs["randomize"]``: "ppo (mismatch20)") and counts fixed by the batch row
+    (``trailer_draw="row"``: "n by row") are recipes of their own: runs are grouped,
+    tabled and labelled by this name, so that they are never averaged with the plain
+    algorithm's.
     """
     name = str(record.get("algo", "?"))
     if upper:
@@ -154,4 +157,9 @@ def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     shaping = record.get("shaping")
     if isinstance(shaping, Mapping):
         name += f" + {shaping.get('potential')} shaping"
+    if isinstance(record.get("start_curriculum"), Mapping):
+        name += " + start curriculum"
+    init_from = record.get("init_from")
+    if isinstance(init_from, str):
+        name += f" from {PurePath(init_from).stem}"
     return name

@@ -105,6 +105,24 @@ def plateau_rule(text: str) -> tuple[int, float]:
     return window, eps
 
 
+def start_curriculum(text: str) -> tuple[float, int]:
+    """``FROM,STEPS``: a start scale in (0, 1) and a step count >= 1 ("4e6" too), the
+    schedule of :class:`agents.training.callbacks.StartCurriculum`."""
+    low_text, comma, steps_text = text.partition(",")
+    try:
+        low = float(low_text)
+        steps = _integer(steps_text, 1, "", float_text=True) if comma else 0
+        valid = bool(comma) and 0.0 < low < 1.0 and steps <= limits.MAX_TIMESTEPS
+    except (ValueError, argparse.ArgumentTypeError):
+        valid = False
+    if not valid:
+        raise argparse.ArgumentTypeError(
+            f"expected FROM,STEPS (a scale in (0, 1) and a step count in 1 .. "
+            f"{limits.MAX_TIMESTEPS:,}), got {text[:40]!r}"
+        )
+    return low, steps
+
+
 def bounded(minimum: int, maximum: int) -> Callable[[str], int]:
     """A parser of integers in ``minimum .. maximum``, also written as "1e6"."""
 

@@ -39,6 +39,11 @@ STEPS`` first trains the value function alone, so that PPO's first updates follo
 of a critic that knows the policy (:class:`agents.training.callbacks.CriticWarmup`). A
 fine-tuning run is resumed with ``--resume`` and the same ``--init-from``.
 
+``--start-curriculum FROM,STEPS`` grows the training starts' perturbation from FROM times
+the scene's size to its own over the first STEPS steps (Reverse-v1, whose start is a
+perturbation of one size; :class:`agents.training.callbacks.StartCurriculum`); the
+evaluations, and so the learning curve and the kept model, use the scene's starts.
+
 ``--stop-on-plateau WINDOW,EPS`` ends the run early once its validation headline rate
 (safe for Reverse, success otherwise) is flat: its last WINDOW evaluations within EPS
 of their mean (:mod:`agents.evaluation.learning_curves`), once that level is more than
@@ -99,6 +104,7 @@ from agents.policies.sb3 import detect_algo, limit_torch_threads, load_model
 from agents.progress import plural
 from agents.training.config import TrainConfig, load_hyperparams, shaping_setting
 from agents.training.sb3 import train
+from trailer_env.registry import core_class_of
 
 
 def _optional_positive(parser: argparse.ArgumentParser, flag: str, help: str) -> None:
@@ -198,6 +204,15 @@ def build_parser() -> argparse.ArgumentParser:
         help="with --init-from (ppo, ppo_lag): train the value function alone for this "
         "many steps before the policy moves (default 0)",
     )
+    parser.add_argument(
+        "--start-curriculum",
+        type=cli.start_curriculum,
+        default=None,
+        metavar="FROM,STEPS",
+        help="grow the training starts' perturbation linearly from FROM (in (0, 1)) times "
+        "the scene's size to its own over the first STEPS steps (Reverse-v1; sb3 only); "
+        "evaluations use the scene's starts",
+    )
     cli.add_overwrite(
         parser, "start afresh in a run folder that already holds a run; replace --export's files"
     )
@@ -264,9 +279,10 @@ def _check_resume(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
         parser.error(f"argument --resume: {error}")
 
 
-def _check_resumed_fine_tuning(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+def _check_resumed_run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """Refuse a --resume of a fine-tuning run without its --init-from and --critic-warmup
-    (or of a plain run with them): the frozen statistics and the warm-up depend on them."""
+    (or of a plain run with them): the frozen statistics and the warm-up depend on them;
+    and one without the run's --start-curriculum (or with another): its schedule goes on."""
     own_run = run_dir_of_checkpoint(args.resume)
     if own_run is None:
         return
@@ -276,6 +292,18 @@ def _check_resumed_fine_tuning(parser: argparse.ArgumentParser, args: argparse.N
         parser.error(f"argument --resume: unreadable {own_run / CONFIG_FILE}: {error}")
     if not isinstance(saved, dict):
         parser.error(f"argument --resume: {own_run / CONFIG_FILE} is not a JSON object")
+    saved_curriculum = saved.get("start_curriculum")
+    asked = args.start_curriculum
+    wanted = None if asked is None else {"from": asked[0], "steps": asked[1]}
+    if saved_curriculum != wanted:
+        shown = (
+            "no --start-curriculum"
+            if saved_curriculum is None
+            else f"--start-curriculum {saved_curriculum['from']},{saved_curriculum['steps']}"
+        )
+        parser.error(
+            f"argument --resume: {own_run} was trained with {shown}; resume it with the same"
+        )
     saved_from, saved_warmup = saved.get("init_from"), saved.get("critic_warmup", 0)
     same_source = (saved_from is None) == (args.init_from is None) and (
         saved_from is None or Path(str(saved_from)).resolve() == args.init_from.resolve()
@@ -325,6 +353,15 @@ def _check_init_from(parser: argparse.ArgumentParser, args: argparse.Namespace) 
         parser.error(f"argument --init-from: {error}")
 
 
+def _check_start_curriculum(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse a --start-curriculum on a scene whose starts have no size to scale."""
+    if args.start_curriculum is not None and not core_class_of(args.env).start_scalable:
+        parser.error(
+            f"argument --start-curriculum: {args.env}'s starts have no perturbation size to "
+            "scale (Reverse-v1's have)"
+        )
+
+
 def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
     """Refuse the options the chosen backend does not have."""
     if args.backend == "rllib":
@@ -334,6 +371,7 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
             ("--stop-on-plateau", args.stop_on_plateau is not None),
             ("--shaping", args.shaping not in (None, "none")),
             ("--init-from", args.init_from is not None),
+            ("--start-curriculum", args.start_curriculum is not None),
         ):
             if unsupported:
                 parser.error(f"argument {name}: not supported with --backend rllib")
@@ -401,6 +439,7 @@ def config_from_args(
             init_from=None if args.init_from is None else str(args.init_from),
             critic_warmup=args.critic_warmup,
             randomize=args.randomize,
+            start_curriculum=args.start_curriculum,
         )
     except ValueError as error:
         flags = "--timesteps, --n-envs or --seed (or the file's)"
@@ -440,9 +479,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     _check_backend(parser, args)
+    _check_start_curriculum(parser, args)
     if args.resume is not None:
         _check_resume(parser, args)
-        _check_resumed_fine_tuning(parser, args)
+        _check_resumed_run(parser, args)
     _check_init_from(parser, args)
     command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
     config = config_from_args(parser, args, command)

@@ -19,6 +19,15 @@ evaluation. A rate measured on 50 validation episodes moves by 0.02 per episode,
 its binomial standard error near 0.7 is 0.065: ``eps`` well under that calls noise a
 trend, and the default of the command (``5,0.05``) treats five evaluations within 0.05
 of their mean as flat.
+
+That rule is sized for curves near 1.0, where the noise is small: a curve flat at 0.8
+passes it in only about a fifth of its windows (five evaluations of 50 episodes, sd
+0.057 each). Whether a curve still climbs is asked of its end instead by
+:func:`trend`: the least-squares line through the evaluations of its last third of
+steps (at least :data:`TREND_MIN_EVALUATIONS`), the rise that line makes over them and
+its standard error; it is *rising* when the rise exceeds its error times Student's t
+(one-sided 97.5 %, on the fit's degrees of freedom: 3.18 for five evaluations, 2.1-2.2
+for ten to twenty), so that five points that happen to line up are not called a climb.
 """
 
 from __future__ import annotations
@@ -41,15 +50,22 @@ from agents.envs import headline_metric, scene_title
 __all__ = [
     "CHART_FILE",
     "TABLE_FILE",
+    "TREND_FRACTION",
+    "TREND_MIN_EVALUATIONS",
     "Band",
     "Plateau",
     "RunCurve",
+    "Trend",
     "bands_overlap",
     "final_plateau",
     "group_runs",
+    "is_rising",
     "plateau",
     "read_run",
+    "rise_text",
     "seed_band",
+    "student_t",
+    "trend",
     "write_learning_curves",
 ]
 
@@ -58,6 +74,11 @@ CHART_FILE = "learning_curves.png"
 TABLE_FILE = "learning_curves.md"
 #: The x axes of a band: evaluations.csv's step count and its wall time.
 AXES = ("timesteps", "wall_s")
+
+#: The end of a curve that :func:`trend` fits: its last third of steps, and at least
+#: five evaluations (fewer leave the line's error on two or three degrees of freedom).
+TREND_FRACTION = 1 / 3
+TREND_MIN_EVALUATIONS = 5
 
 #: A run's trailers: one count, or a generalist's range ``(low, high)``.
 TrailerCounts = int | tuple[int, int]
@@ -108,6 +129,63 @@ class Plateau:
     step: float
     start: float
     level: float
+
+
+@dataclass(frozen=True)
+class Trend:
+    """The least-squares line through a curve's last evaluations (:func:`trend`).
+
+    Attributes:
+        start, end: The x of the first and last evaluation fitted.
+        change: The line's rise from ``start`` to ``end`` (slope times ``end - start``).
+        se: Its standard error (from the residuals; 0 for points on a line).
+        evaluations: How many were fitted.
+    """
+
+    start: float
+    end: float
+    change: float
+    se: float
+    evaluations: int
+
+    @property
+    def rising(self) -> bool:
+        """Whether the curve still climbs (:func:`is_rising`)."""
+        return is_rising(self.change, self.se, self.evaluations)
+
+    def text(self) -> str:
+        """:func:`rise_text` of the trend."""
+        return rise_text(self.change, self.se, self.evaluations)
+
+
+#: Student's t, one-sided 97.5 % (two-sided 95 %), by degrees of freedom 1..30.
+_STUDENT_T = (12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+              2.201, 2.179, 2.160, 2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086,
+              2.080, 2.074, 2.069, 2.064, 2.060, 2.056, 2.052, 2.048, 2.045, 2.042)  # fmt: skip
+_NORMAL_975 = 1.959964
+
+
+def student_t(dof: int) -> float:
+    """Student's t at one-sided 97.5 % for ``dof`` >= 1 degrees of freedom (the table to
+    30, then the normal quantile with two Cornish-Fisher terms, within 0.0002)."""
+    if dof < 1:
+        raise ValueError(f"dof must be >= 1, got {dof}")
+    if dof <= len(_STUDENT_T):
+        return _STUDENT_T[dof - 1]
+    z = _NORMAL_975
+    return z + (z**3 + z) / (4 * dof) + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * dof**2)
+
+
+def is_rising(change: float, se: float, evaluations: int) -> bool:
+    """Whether a fitted rise over ``evaluations`` points exceeds its standard error times
+    :func:`student_t` of the fit's ``evaluations - 2`` degrees of freedom."""
+    return change > student_t(evaluations - 2) * se
+
+
+def rise_text(change: float, se: float, evaluations: int) -> str:
+    """A trend in the tables: "+0.02 ± 0.03", and ", rising" when :func:`is_rising`."""
+    rising = ", rising" if is_rising(change, se, evaluations) else ""
+    return f"{change:+.2f} ± {se:.2f}{rising}"
 
 
 @dataclass(frozen=True)
@@ -217,6 +295,53 @@ def final_plateau(
     outside = np.flatnonzero(np.abs(y - level) > eps + 1e-12)
     first = 0 if outside.size == 0 else int(outside[-1]) + 1
     return Plateau(step=float(x[first]), start=float(x[first]), level=level)
+
+
+def trend(
+    steps: Sequence[float] | np.ndarray,
+    values: Sequence[float] | np.ndarray,
+    fraction: float = TREND_FRACTION,
+    minimum: int = TREND_MIN_EVALUATIONS,
+) -> Trend | None:
+    """The least-squares line through a curve's end: the evaluations in its last
+    ``fraction`` of steps (from ``last - fraction (last - first)``), or its last
+    ``minimum`` when that holds fewer; None when the curve has fewer than ``minimum``.
+
+    A fixed count of evaluations would reach back into the rise of a run evaluated
+    seldom (ten evaluations of a 2M-step run every 0.2M are all of it), and call a curve
+    that rose and then sat flat "rising".
+
+    Raises:
+        TypeError: If ``minimum`` is not an integer or ``fraction`` not a number.
+        ValueError: On ``minimum`` < 3 (a line through two points has no error),
+            ``fraction`` outside (0, 1], or steps and values as :func:`plateau` refuses.
+    """
+    if isinstance(minimum, bool) or not isinstance(minimum, (int, np.integer)):
+        raise TypeError(f"minimum must be an integer, got {type(minimum).__name__}")
+    if minimum < 3:
+        raise ValueError(f"minimum must be >= 3 evaluations, got {minimum}")
+    if isinstance(fraction, bool) or not isinstance(fraction, (int, float, np.floating)):
+        raise TypeError(f"fraction must be a number, got {type(fraction).__name__}")
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"fraction must be in (0, 1], got {fraction!r}")
+    x, y = _curve(steps, values)
+    if len(y) < minimum:
+        return None
+    count = max(int(np.count_nonzero(x >= x[-1] - fraction * (x[-1] - x[0]))), minimum)
+    x, y = x[-count:], y[-count:]
+    centred = x - x.mean()
+    spread = float(np.dot(centred, centred))
+    slope = float(np.dot(centred, y - y.mean())) / spread
+    residuals = y - y.mean() - slope * centred
+    variance = float(np.dot(residuals, residuals)) / (count - 2)
+    span = float(x[-1] - x[0])
+    return Trend(
+        start=float(x[0]),
+        end=float(x[-1]),
+        change=slope * span,
+        se=math.sqrt(variance / spread) * span,
+        evaluations=count,
+    )
 
 
 def read_run(run_dir: Path) -> RunCurve:
@@ -341,28 +466,34 @@ def markdown_table(
     lines = [
         f"Plateau: where each seed settled for good, at that level: its last {window} "
         f"evaluations within {eps:g} of their mean, from the first evaluation after which "
-        "every one stays within it (a flat stretch before a rise is not a plateau).",
+        "every one stays within it (a flat stretch before a rise is not a plateau). Trend: "
+        "the rise of the least-squares line through the evaluations of each seed's last "
+        f"third of steps (at least {TREND_MIN_EVALUATIONS}), ± its standard error; rising "
+        "when over that times Student's t (97.5 %, the fit's degrees of freedom).",
         "",
         "| scene, n, algorithm | metric | seeds | final (mean ± sd, min-max) | best | "
-        "plateau per seed | steps | wall time (s) | levels |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "plateau per seed | trend per seed | steps | wall time (s) | levels |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for key, runs in groups.items():
         finals = [run.series()[1][-1] for run in runs]
         bests = [float(run.series()[1].max()) for run in runs]
-        plateaus = []
+        plateaus, ends = [], []
         for run in runs:
             found = final_plateau(*run.series(), window, eps)
             reached = (
                 "not flat at the end" if found is None else f"{found.step:,.0f} ({found.level:.2f})"
             )
             plateaus.append(f"s{run.seed}: {reached}")
+            fitted = trend(*run.series())
+            ends.append(f"s{run.seed}: {'-' if fitted is None else fitted.text()}")
         steps = max(run.rows[-1]["timesteps"] for run in runs)
         wall = max(run.rows[-1]["wall_s"] for run in runs)
         marks = ", ".join(f"{name} {value:.2f}" for name, value in levels.get(key, {}).items())
         lines.append(
             f"| {_group_label(key)} | {runs[0].metric} | {len(runs)} | {_rate_text(finals)} | "
-            f"{_rate_text(bests)} | {'; '.join(plateaus)} | {steps:,.0f} | {wall:,.0f} | "
+            f"{_rate_text(bests)} | {'; '.join(plateaus)} | {'; '.join(ends)} | "
+            f"{steps:,.0f} | {wall:,.0f} | "
             f"{marks or '-'} |"
         )
     return "\n".join(lines) + "\n"

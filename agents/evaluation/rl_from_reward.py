@@ -13,8 +13,13 @@ validation and test seeds), with the scene's headline rate (safe on Reverse, suc
 on the goal scenes). The validation curve gives where the run settled on its final
 plateau (:func:`agents.evaluation.learning_curves.final_plateau`: its last five
 evaluations within 0.05 of their mean, and every evaluation since the settling point
-too), or that its end is not flat. Runs of one (scene, n, algorithm) over
-training seeds are summarised as mean ± sd.
+too), or that its end is not flat, and whether its end still climbs
+(:func:`~agents.evaluation.learning_curves.trend`: the rise of the least-squares line
+through the evaluations of its last third of steps, ± its standard error: the plateau
+rule seldom passes
+a flat curve near 0.8 measured on 50 episodes, while the trend asks only whether the end
+still climbs). Runs of one (scene, n, algorithm) over training seeds are summarised as
+mean ± sd.
 
 Writes ``rl_from_reward.md`` (one table per (scene, n), one row per run and per
 group) and ``rl_from_reward.json`` (every figure), atomically; existing files are
@@ -22,6 +27,8 @@ replaced only with ``--overwrite``. ``--update`` adds the RUNs to the table alre
 ``--out`` instead: its rows of other runs are kept as they were scored (run folders are
 not kept forever), a RUN of the same scene, n, recipe and training seed as a row is
 re-scored in that row's place (whatever its folder's name); the fresh seeds must match.
+A kept row's trend is computed again from its kept curve (below), when there is one,
+so rows scored before the trend column existed get theirs.
 
 ``--export agents/models/NAME.zip`` (all RUNs of one scene, n and algorithm) commits
 the runs as the project commits a learned agent: each run's kept model goes to
@@ -43,7 +50,7 @@ import re
 import statistics
 import sys
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 from agents.artifacts import files
@@ -56,7 +63,15 @@ from agents.artifacts.run_folder import (
     export_model,
 )
 from agents.artifacts.shipped import SEEDS_DIR
-from agents.evaluation.learning_curves import counts_text, final_plateau, group_runs, read_run
+from agents.evaluation.learning_curves import (
+    TREND_MIN_EVALUATIONS,
+    counts_text,
+    final_plateau,
+    group_runs,
+    read_run,
+    rise_text,
+    trend,
+)
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.registry import load_policy
 from agents.seeds import SELECTION_SEED, TEST_SEED
@@ -92,6 +107,17 @@ class RunScore:
     kept_fresh: float
     final_test: float
     final_fresh: float
+    #: The end's trend (:func:`~agents.evaluation.learning_curves.trend`); None: fewer
+    #: evaluations than its window, or a row scored before it and without a kept curve.
+    trend_change: float | None = None
+    trend_se: float | None = None
+    trend_evaluations: int | None = None
+
+    def trend_text(self) -> str:
+        """The trend column: "+0.02 ± 0.03", ", rising" when it is; "-" without one."""
+        if self.trend_change is None or self.trend_se is None or not self.trend_evaluations:
+            return "-"
+        return rise_text(self.trend_change, self.trend_se, self.trend_evaluations)
 
 
 def _rate(model: Path, env_id: str, n: int, seed: int, episodes: int, metric: str) -> float:
@@ -119,6 +145,13 @@ def keep_curve(run_dir: Path, destination: Path) -> None:
         files.atomic_write_bytes(destination / name, (run_dir / name).read_bytes())
 
 
+def _kept_at(card: dict) -> int:
+    """The step the kept model was selected at (0 is a step: a fine-tuning run whose
+    starting model stayed the best), else the card's step count."""
+    selected = card.get("selected_at_timesteps")
+    return int(selected if selected is not None else card.get("timesteps") or 0)
+
+
 def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
     """Score one run folder (see the module docstring)."""
     curve = read_run(run_dir)
@@ -133,6 +166,7 @@ def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
         )
     best, final = run_dir / BEST_MODEL, run_dir / FINAL_MODEL
     card = read_card(best)
+    end = trend(steps, values)
     return RunScore(
         run=run_dir.name,
         env_id=env_id,
@@ -146,11 +180,14 @@ def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
         plateau_level=None if flat is None else flat.level,
         final_validation=float(values[-1]),
         best_validation=float(max(values)),
-        kept_at=int(card.get("selected_at_timesteps") or card.get("timesteps") or 0),
+        kept_at=_kept_at(card),
         kept_test=_rate(best, env_id, n, TEST_SEED, TEST_EPISODES, metric),
         kept_fresh=_rate(best, env_id, n, fresh_seed, fresh_episodes, metric),
         final_test=_rate(final, env_id, n, TEST_SEED, TEST_EPISODES, metric),
         final_fresh=_rate(final, env_id, n, fresh_seed, fresh_episodes, metric),
+        trend_change=None if end is None else end.change,
+        trend_se=None if end is None else end.se,
+        trend_evaluations=None if end is None else end.evaluations,
     )
 
 
@@ -201,9 +238,9 @@ def markdown(scores: Sequence[RunScore], fresh_seed: int, fresh_episodes: int) -
         lines += [
             f"#### {env_id.split('/')[-1]}, n = {n}",
             "",
-            f"| run | budget | wall time | plateau from (level) | kept at | {metric} % test"
-            f" kept / final | {metric} % fresh kept / final |",
-            "|---|---|---|---|---|---|---|",
+            "| run | budget | wall time | plateau from (level) | trend (last third) "
+            f"| kept at | {metric} % test kept / final | {metric} % fresh kept / final |",
+            "|---|---|---|---|---|---|---|---|",
         ]
         by_algo: dict[str, list[RunScore]] = {}
         for score in sorted(group, key=lambda s: (s.algo, s.seed)):
@@ -215,7 +252,8 @@ def markdown(scores: Sequence[RunScore], fresh_seed: int, fresh_episodes: int) -
             )
             lines.append(
                 f"| {score.algo} seed {score.seed} | {score.budget / 1e6:.1f}M | "
-                f"{score.wall_s / 60:.1f} min | {flat} | {score.kept_at / 1e6:.1f}M | "
+                f"{score.wall_s / 60:.1f} min | {flat} | {score.trend_text()} | "
+                f"{score.kept_at / 1e6:.1f}M | "
                 f"{_pct(score.kept_test)} / {_pct(score.final_test)} | "
                 f"{_pct(score.kept_fresh)} / {_pct(score.final_fresh)} |"
             )
@@ -224,7 +262,7 @@ def markdown(scores: Sequence[RunScore], fresh_seed: int, fresh_episodes: int) -
                 continue
             lines.append(
                 f"| **{algo} mean ± sd ({len(runs)} seeds)** | | "
-                f"{_mean_sd([r.wall_s for r in runs], 1 / 60)} min | | | "
+                f"{_mean_sd([r.wall_s for r in runs], 1 / 60)} min | | | | "
                 f"{_mean_sd([r.kept_test for r in runs])} / "
                 f"{_mean_sd([r.final_test for r in runs])} | "
                 f"{_mean_sd([r.kept_fresh for r in runs])} / "
@@ -237,7 +275,10 @@ def markdown(scores: Sequence[RunScore], fresh_seed: int, fresh_episodes: int) -
         "evaluation (its --eval-episodes from seed 50,000); final: its last model. Plateau: the "
         f"run's last {PLATEAU_WINDOW} validation evaluations lie within {PLATEAU_EPS} of "
         "their mean (the level); it is reached at the first evaluation from which every "
-        "later one stays within that band. Wall time: the run's own clock."
+        "later one stays within that band. Trend: the rise of the least-squares line "
+        "through the validation evaluations of the run's last third of steps (at least "
+        f"{TREND_MIN_EVALUATIONS}), ± its standard error; rising when over that times "
+        "Student's t (97.5 %, the fit's degrees of freedom). Wall time: the run's own clock."
     )
     return "\n".join(lines) + "\n"
 
@@ -270,8 +311,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _with_trend(score: RunScore, out: Path) -> RunScore:
+    """``score`` with its trend taken from its kept curve in ``out`` (as it was scored
+    when there is none)."""
+    kept = curve_folder(out, score)
+    if not (kept / CURVE_FILE).is_file():
+        return score
+    end = trend(*read_run(kept).series("timesteps"))
+    if end is None:
+        return score
+    return replace(
+        score, trend_change=end.change, trend_se=end.se, trend_evaluations=end.evaluations
+    )
+
+
 def _kept_scores(document: Path, fresh_seed: int, fresh_episodes: int) -> list[RunScore]:
-    """The rows of an earlier table (``--update``).
+    """The rows of an earlier table (``--update``), each with its trend (:func:`_with_trend`).
 
     Raises:
         ValueError: If it is unreadable or was scored on other fresh episodes.
@@ -287,7 +342,7 @@ def _kept_scores(document: Path, fresh_seed: int, fresh_episodes: int) -> list[R
             f"{document} was scored on {scored_on[1]} fresh episodes from seed {scored_on[0]}, "
             f"not {fresh_episodes} from {fresh_seed}"
         )
-    return scores
+    return [_with_trend(score, document.parent) for score in scores]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -305,6 +305,45 @@ class CriticWarmup(BaseCallback):
         self.frozen = []
 
 
+class StartCurriculum(BaseCallback):
+    """Grow the training starts to the scene's own: a start curriculum.
+
+    Before each rollout the training environment's starting perturbation is set to
+    ``low + (1 - low) min(1, t / steps)`` times the scene's size, ``t`` the run's step
+    count (``set_start_scale`` of :class:`trailer_env.sb3.ConvoySB3VecEnv`), so a resumed
+    run picks up the schedule where it was. Episodes running when the scale changes keep
+    their start; the evaluation environment is not touched, so the learning curve scores
+    the scene's own starts throughout.
+    """
+
+    def __init__(self, low: float, steps: int) -> None:
+        super().__init__(0)
+        self.low, self.steps = float(low), int(steps)
+        #: The scale the training starts were last drawn at (None before training).
+        self.scale: float | None = None
+
+    def scale_at(self, timesteps: int) -> float:
+        """The perturbation's scale after ``timesteps`` steps."""
+        return self.low + (1.0 - self.low) * min(1.0, timesteps / self.steps)
+
+    def apply(self, venv: Any, timesteps: int) -> None:
+        """Set ``venv``'s (or the environment it wraps) start scale for ``timesteps``.
+
+        Call it before ``learn()`` too: SB3 resets the environment before any callback
+        runs, and those first episodes should start at the schedule's scale.
+        """
+        scale = self.scale_at(timesteps)
+        if scale != self.scale:
+            venv.unwrapped.set_start_scale(scale)
+            self.scale = scale
+
+    def _on_rollout_start(self) -> None:
+        self.apply(self.model.get_env(), self.num_timesteps)
+
+    def _on_step(self) -> bool:
+        return True
+
+
 class ProgressCallback(BaseCallback):
     """Training progress (:class:`agents.progress.Progress`) that ends at the real total.
 

@@ -461,6 +461,11 @@ class TrainConfig:
             function alone (:class:`agents.training.callbacks.CriticWarmup`).
         randomize: A preset of :data:`trailer_env.randomize.PRESETS` over the file's
             ``env_kwargs`` (None: the file's).
+        start_curriculum: ``(low, steps)``: the training starts' perturbation grows
+            linearly from ``low`` times the scene's size to its own over the first
+            ``steps`` steps (:class:`agents.training.callbacks.StartCurriculum`; scenes
+            whose core is ``start_scalable``); the evaluations keep the scene's starts.
+            None: the scene's starts throughout.
     """
 
     env_id: str
@@ -475,10 +480,18 @@ class TrainConfig:
     init_from: str | None = None
     critic_warmup: int = 0
     randomize: str | None = None
+    start_curriculum: tuple[float, int] | None = None
 
     def __post_init__(self) -> None:
         if self.backend not in ("sb3", "rllib"):
             raise ValueError(f"backend must be 'sb3' or 'rllib', got {self.backend!r}")
+        if self.start_curriculum is not None:
+            low, steps = self.start_curriculum
+            if not 0.0 < low < 1.0 or steps < 1 or self.backend != "sb3":
+                raise ValueError(
+                    "start_curriculum must be (low, steps) with 0 < low < 1 and steps >= 1, "
+                    f"on the sb3 backend; got {self.start_curriculum} on {self.backend}"
+                )
         if self.budget < 1 or self.n_envs < 1:
             raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
         if self.critic_warmup < 0 or (self.critic_warmup and self.init_from is None):
@@ -520,6 +533,7 @@ class TrainConfig:
         init_from: str | None = None,
         critic_warmup: int = 0,
         randomize: str | None = None,
+        start_curriculum: tuple[float, int] | None = None,
     ) -> TrainConfig:
         """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's."""
         return cls(
@@ -535,6 +549,7 @@ class TrainConfig:
             init_from=init_from,
             critic_warmup=critic_warmup,
             randomize=randomize,
+            start_curriculum=start_curriculum,
         )
 
     @property
@@ -577,6 +592,9 @@ class TrainConfig:
                 record["shaping"] = dict(self.hyperparams.shaping)
             if self.init_from is not None:
                 record.update({"init_from": self.init_from, "critic_warmup": self.critic_warmup})
+            if self.start_curriculum is not None:
+                low, steps = self.start_curriculum
+                record["start_curriculum"] = {"from": low, "steps": steps}
         else:
             record["backend"] = self.backend
         return record

@@ -75,6 +75,7 @@ def train(
         PlateauStop,
         ProgressCallback,
         SafetyEvalCallback,
+        StartCurriculum,
         StatsCheckpointCallback,
     )
     from trailer_env.sb3 import PotentialShapingVecEnv
@@ -179,6 +180,10 @@ def train(
     callbacks: list[Any] = [evaluator, checkpoints]
     if config.critic_warmup:
         callbacks.append(CriticWarmup(config.critic_warmup))
+    if config.start_curriculum is not None:
+        curriculum = StartCurriculum(*config.start_curriculum)
+        curriculum.apply(venv, start_steps)
+        callbacks.append(curriculum)
     if progress_bar:
         callbacks.append(ProgressCallback(f"training {algo} on {config.env_id}"))
     model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=resume is None)

@@ -89,3 +89,71 @@ def test_zero_action_folds_every_episode() -> None:
         if not running.any():
             break
     assert folded.all()
+
+
+def _starts(scale: float | None) -> np.ndarray:
+    """The starting states of 64 SB3 rows (n = 2) seeded 0..63, drawn after
+    ``set_start_scale(scale)`` (None: not called)."""
+    from trailer_env.sb3 import ConvoySB3VecEnv
+
+    venv = ConvoySB3VecEnv(V1, num_envs=64, n_trailers=2)
+    venv.seed(0)
+    if scale is not None:
+        venv.set_start_scale(scale)
+    venv.reset()
+    return venv.core.z.copy()
+
+
+def test_start_scale_multiplies_the_perturbation_only() -> None:
+    nominal = _starts(None)
+    np.testing.assert_array_equal(_starts(1.0), nominal)  # scale 1: the scene's, to the bit
+    half = _starts(0.5)
+    np.testing.assert_array_equal(half[:, 0], nominal[:, 0])  # the speed: same draw
+    np.testing.assert_allclose(half[:, 1:], 0.5 * nominal[:, 1:], rtol=1e-15, atol=0)
+    radius = np.linalg.norm(half[:, 1:4], axis=1)
+    np.testing.assert_allclose(radius, 0.5 * PERTURBATION_RADII[2], rtol=1e-12)
+
+
+def test_start_scale_reaches_every_count_of_a_mixed_batch() -> None:
+    from trailer_env.sb3 import ConvoySB3VecEnv
+
+    venv = ConvoySB3VecEnv(V1, num_envs=8, n_trailers=[1, 3])
+    venv.set_start_scale(0.25)
+    assert [core.start_scale for core in venv.core.cores.values()] == [0.25, 0.25, 0.25]
+    assert venv.core.start_scale == 0.25
+    venv.seed(0)
+    venv.reset()
+    for n, core in venv.core.cores.items():
+        rows = np.flatnonzero(venv.core.trailers == n)
+        radius = np.linalg.norm(core.z[rows, 1 : 2 + n], axis=1)
+        np.testing.assert_allclose(radius, 0.25 * PERTURBATION_RADII[n], rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("scale", "error", "words"),
+    [
+        (0.0, ValueError, r"start_scale must be in \(0, 2\]"),
+        (-0.5, ValueError, "start_scale"),
+        (2.5, ValueError, "start_scale"),
+        (float("nan"), ValueError, "start_scale"),
+        ("0.5", TypeError, "start_scale"),
+    ],
+)
+def test_a_refused_start_scale_changes_nothing(scale: object, error: type, words: str) -> None:
+    from trailer_env.sb3 import ConvoySB3VecEnv
+
+    venv = ConvoySB3VecEnv(V1, num_envs=4, n_trailers=2)
+    venv.set_start_scale(0.5)
+    with pytest.raises(error, match=words):
+        venv.set_start_scale(scale)  # type: ignore[arg-type]
+    assert venv.core.start_scale == 0.5
+
+
+def test_scenes_without_a_start_size_refuse_a_start_scale() -> None:
+    from trailer_env.sb3 import ConvoySB3VecEnv
+
+    for env_id in ("trailer_env/Reverse-v0", "trailer_env/Dock-v0", "trailer_env/Coast-v0"):
+        venv = ConvoySB3VecEnv(env_id, num_envs=2, n_trailers=1)
+        with pytest.raises(ValueError, match="no perturbation size to scale"):
+            venv.set_start_scale(0.5)
+        assert venv.core.start_scale == 1.0

@@ -83,10 +83,11 @@ class ReverseV1Core(ReverseCore):
         return float(radii[last] * (last / n) ** PERTURBATION_EXPONENT)
 
     start_kernel = staticmethod(reverse_v1_starts)
+    start_scalable = True
 
     def _start_arguments(self) -> tuple:
         low, high = self.speed_range
-        radius = self.perturbation_radius(self.n)
+        radius = self.perturbation_radius(self.n) * self.start_scale
         return ReverseV1Start(speed_low=float(low), speed_high=float(high), radius=radius, n=self.n)
 
 
@@ -132,7 +133,9 @@ class ReverseV1Env(ReverseEnv):
     0.80, 0.80, 0.80, 0.80); for n > 6 the radius continues as `0.00151 (6 / n)^1.1`
     (not sized, not certified: continued the same way from n = 3, it left 11, 99
     and 158 of the 200 tuning starts at n = 4, 5, 6 beyond the stroke); the mass at
-    rest at the rail's centre.
+    rest at the rail's centre. `core.set_start_scale(s)` multiplies the radius by `s` in
+    (0, 2] for the starts drawn after it (a start curriculum, `agents.train
+    --start-curriculum`; such starts are not the scene's and carry no certificate).
     A fixed size in a random direction, rather than a box, makes the starts about
     equally hard (a box's corners set its size while its typical start is easy),
     which is what leaves a saturation-unaware controller room to fail: the LQR

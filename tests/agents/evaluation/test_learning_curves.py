@@ -16,9 +16,13 @@ from agents.evaluation.learning_curves import (
     Plateau,
     bands_overlap,
     group_runs,
+    is_rising,
     plateau,
     read_run,
+    rise_text,
     seed_band,
+    student_t,
+    trend,
     write_learning_curves,
 )
 
@@ -51,6 +55,50 @@ def test_plateau_is_the_first_flat_window() -> None:
 def test_plateau_refuses_bad_input(args: tuple, error: type, message: str) -> None:  # type: ignore[type-arg]
     with pytest.raises(error, match=message):
         plateau(*args)
+
+
+def test_the_trend_fits_the_last_third_of_the_curve() -> None:
+    steps = np.arange(12) * 25_000.0
+    # A line: its rise over the fitted end, exactly, with no error. The last third
+    # (from 183,333 steps) holds 4 evaluations, so the last 5 are fitted.
+    line = trend(steps, 0.5 + 0.02 * np.arange(12))
+    assert line is not None and (line.start, line.end, line.evaluations) == (175_000, 275_000, 5)
+    assert line.change == pytest.approx(0.08, abs=1e-12) and line.se == pytest.approx(0, abs=1e-12)
+    assert line.rising and line.text() == "+0.08 ± 0.00, rising"
+    # Alternating noise after a climb: the last third (x >= 10 of 0..15) is six
+    # evaluations 0.8, 0.9, ...: slope 0.15 / 17.5 per evaluation, rise 3 / 70 over the
+    # window, residual variance (0.015 - 0.15**2 / 17.5) / 4: no rise.
+    flat = trend(np.arange(16.0), [0.0, 0.3, 0.5, 0.6] + [0.8, 0.9] * 6)
+    assert flat is not None and flat.evaluations == 6 and not flat.rising
+    assert flat.change == pytest.approx(3 / 70, rel=1e-12)
+    assert flat.se == pytest.approx(5 * np.sqrt((0.015 - 0.15**2 / 17.5) / 4 / 17.5), rel=1e-12)
+    assert flat.text() == "+0.04 ± 0.07"
+    # A run evaluated seldom that rose and then sat: its end is flat (ten evaluations
+    # back would span the rise and call it rising).
+    risen = [0.0, 0.0, 0.0, 0.5, 0.9, 0.96, 0.95, 0.96, 0.96, 0.95, 0.96]
+    end = trend(np.arange(11) * 200_000.0, risen)
+    assert end is not None and end.start == 1_200_000 and not end.rising
+    # Five points that happen to line up: 2.4 standard errors is a climb by the normal
+    # quantile, not by Student's t on 3 degrees of freedom (3.18).
+    assert not is_rising(0.024, 0.01, 5) and is_rising(0.024, 0.01, 30)
+    assert rise_text(0.024, 0.01, 5) == "+0.02 ± 0.01"
+    assert trend(steps[:4], np.zeros(4)) is None  # fewer evaluations than the minimum
+    with pytest.raises(ValueError, match="minimum must be >= 3"):
+        trend(steps, np.zeros(12), minimum=2)
+    with pytest.raises(ValueError, match=r"fraction must be in \(0, 1\]"):
+        trend(steps, np.zeros(12), fraction=0.0)
+    with pytest.raises(TypeError, match="minimum must be an integer"):
+        trend(steps, np.zeros(12), minimum=3.0)  # type: ignore[arg-type]
+
+
+def test_student_t_matches_its_table_and_tends_to_the_normal() -> None:
+    assert (student_t(1), student_t(3), student_t(30)) == (12.706, 3.182, 2.042)
+    # Tabulated t(40) = 2.021, t(60) = 2.000, t(120) = 1.980 (three decimals).
+    for dof, tabulated in ((40, 2.021), (60, 2.000), (120, 1.980)):
+        assert student_t(dof) == pytest.approx(tabulated, abs=5e-4)
+    assert student_t(10**9) == pytest.approx(1.959964, abs=1e-6)
+    with pytest.raises(ValueError, match="dof must be >= 1"):
+        student_t(0)
 
 
 def make_run(
@@ -155,8 +203,9 @@ def test_chart_and_table_are_written_and_not_overwritten(tmp_path: Path) -> None
     )
     assert lines[-1] == (
         "| Reverse-v1, n = 2, ppo | safe_rate | 2 | 0.80 ± 0.10 (0.70-0.90) | "
-        "0.81 ± 0.09 (0.72-0.90) | s0: 200 (0.71); s1: not flat at the end | 500 | 50 | "
-        "lqr 0.62, ceiling 0.98 |"
+        "0.81 ± 0.09 (0.72-0.90) | s0: 200 (0.71); s1: not flat at the end | "
+        "s0: +0.16 ± 0.10; s1: +0.12 ± 0.21 | "
+        "500 | 50 | lqr 0.62, ceiling 0.98 |"
     )
     before = table.read_text()
     with pytest.raises(ValueError, match=r"learning_curves\.png exists; pass --overwrite"):

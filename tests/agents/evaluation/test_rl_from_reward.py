@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -54,10 +56,36 @@ def _score(seed: int, kept: float, final: float, flat: float | None) -> RunScore
 def test_the_table_has_a_row_per_run_and_the_seed_mean() -> None:
     text = markdown([_score(0, 0.96, 0.98, 4e6), _score(1, 0.98, 1.0, None)], 7000, 200)
     assert "#### Reverse-v1, n = 2" in text
-    assert "| ppo seed 0 | 10.0M | 10.0 min | 4.0M (0.97) | 6.5M | 96 / 98 | 96 / 98 |" in text
-    assert "| ppo seed 1 | 10.0M | 10.0 min | not flat at the end | 6.5M | 98 / 100 |" in text
-    assert "| **ppo mean ± sd (2 seeds)** | | 10 ± 0 min | | | 97 ± 1 / 99 ± 1 |" in text
+    assert "| ppo seed 0 | 10.0M | 10.0 min | 4.0M (0.97) | - | 6.5M | 96 / 98 | 96 / 98 |" in text
+    assert "| ppo seed 1 | 10.0M | 10.0 min | not flat at the end | - | 6.5M | 98 / 100 |" in text
+    assert "| **ppo mean ± sd (2 seeds)** | | 10 ± 0 min | | | | 97 ± 1 / 99 ± 1 |" in text
+    rising = replace(
+        _score(2, 0.9, 0.9, None), trend_change=0.12, trend_se=0.04, trend_evaluations=8
+    )
+    assert "| not flat at the end | +0.12 ± 0.04, rising | 6.5M |" in markdown([rising], 7000, 200)
     assert "fresh: seeds 7000..7199" in text
+
+
+def test_a_kept_rows_trend_comes_from_its_kept_curve(tmp_path: Path) -> None:
+    from agents.artifacts.curves import CURVE_COLUMNS, write_curve
+    from agents.evaluation.rl_from_reward import _with_trend, curve_folder
+
+    old = _score(0, 0.96, 0.98, None)
+    assert _with_trend(old, tmp_path) == old  # no kept curve: left as it was
+    kept = curve_folder(tmp_path, old)
+    kept.mkdir(parents=True)
+    config = {"env_id": old.env_id, "algo": "ppo", "env_kwargs": {"n_trailers": 2}, "seed": 0}
+    (kept / "config.json").write_text(json.dumps(config))
+    rows = [
+        {**dict.fromkeys(CURVE_COLUMNS, 0.0), "timesteps": 1e6 * i, "safe_rate": 0.5 + 0.01 * i}
+        for i in range(12)
+    ]
+    write_curve(kept / "evaluations.csv", rows, CURVE_COLUMNS)
+    filled = _with_trend(old, tmp_path)  # the last third of 0..11M: 8M to 11M, then 7M
+    assert filled.trend_change == pytest.approx(0.04, abs=1e-12)
+    assert filled.trend_se == pytest.approx(0.0, abs=1e-12)
+    assert filled.trend_text() == "+0.04 ± 0.00, rising"
+    assert _with_trend(filled, tmp_path) == filled
 
 
 def test_refusals_write_nothing(tmp_path: Path) -> None:

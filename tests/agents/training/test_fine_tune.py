@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 import torch
 
+from agents.algorithms import recipe_name
 from agents.artifacts.curves import read_curve
 from agents.artifacts.stats import read_stats
 from agents.policies.sb3 import load_model
@@ -58,6 +59,8 @@ def test_warm_up_trains_the_value_function_alone_then_the_policy(
     assert len({(row["mean_return"], row["safe_rate"]) for row in curve[:3]}) == 1
     card = json.loads((run / "final_model.json").read_text())
     assert card["init_from"] == str(source) and card["critic_warmup"] == 2048
+    # A recipe of its own in the tables and charts, named by its starting model.
+    assert recipe_name(card) == "ppo (32x32) from final_model"
     # The third update, past the warm-up, moves the policy.
     moved, _ = _policy_and_value(run / "final_model.zip")
     assert any(not torch.equal(w, moved[k]) for k, w in source_policy.items())
