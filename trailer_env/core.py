@@ -82,7 +82,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
@@ -126,6 +126,15 @@ class NonFiniteStateError(ValueError):
 #: target positions in metres, headings in radians. Beyond it the observation's
 #: distances lose their meaning (1e308 gave a -inf observation).
 MAX_TASK_MAGNITUDE = 1e6
+
+
+class StartRecord(NamedTuple):
+    """Starts of some rows (:meth:`ConvoyCore.start_records`): their state rows ``z``,
+    mass rows ``act`` and task values (key of :attr:`ConvoyCore.task_keys` -> rows)."""
+
+    z: np.ndarray
+    act: np.ndarray
+    task: dict[str, np.ndarray]
 
 
 class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
@@ -591,6 +600,42 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         self.act[i, XI] = self._b
         self.act[i, ETA] = s
         self.act[i, ETA_DOT] = s_dot
+        self._begin_episodes(rows)
+
+    def start_records(self, rows: np.ndarray) -> StartRecord:
+        """Copies of ``rows``' state, mass and task values, taken just after their reset:
+        starts that :meth:`restart` puts back (:mod:`trailer_env.start_replay`).
+
+        Raises:
+            ValueError: If the batch draws its physics (``randomize``): the drawn
+                parameters belong to the start and are not recorded.
+        """
+        if self.randomization is not None:
+            raise ValueError(
+                "start records do not carry drawn physics; build the batch without randomize"
+            )
+        task = {key: np.array(getattr(self, key)[rows], dtype=np.float64) for key in self.task_keys}
+        return StartRecord(self.z[rows].copy(), self.act[rows].copy(), task)
+
+    def restart(self, rows: np.ndarray, record: StartRecord) -> None:
+        """Start new episodes in ``rows`` from ``record`` (one entry per row, as
+        :meth:`start_records` returns them): each replays the recorded start to the bit.
+
+        Raises:
+            ValueError: If the record's shapes do not fit ``rows`` or this batch.
+        """
+        size = len(rows)
+        task_shapes = {key: (size, *getattr(self, key).shape[1:]) for key in self.task_keys}
+        if (
+            record.z.shape != (size, self.z.shape[1])
+            or record.act.shape != (size, self.act.shape[1])
+            or {key: value.shape for key, value in record.task.items()} != task_shapes
+        ):
+            raise ValueError(f"the start record does not fit {size} rows of this batch")
+        self.z[rows] = record.z
+        self.act[rows] = record.act
+        for key, values in record.task.items():
+            getattr(self, key)[rows] = values
         self._begin_episodes(rows)
 
     def render_markers(self, i: int) -> tuple[Any, ...]:

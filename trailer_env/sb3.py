@@ -47,6 +47,7 @@ from trailer_env.generators import GeneratorBank
 from trailer_env.mixed import MixedCore, build_core, observation_view
 from trailer_env.registry import core_class_of
 from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
+from trailer_env.start_replay import StartReplay
 from trailer_env.vector import MAX_NUM_ENVS, as_action_batch, as_bank, seed_generators
 
 
@@ -94,12 +95,16 @@ class ConvoySB3VecEnv(VecEnv):
         self._episode_returns = np.zeros(self.num_envs)
         self._episode_lengths = np.zeros(self.num_envs, dtype=np.int64)
         self._start_time = time.time()
+        #: The start replay (:meth:`set_start_replay`), None: the scene's starts only.
+        self.start_replay: StartReplay | None = None
 
     def reset(self) -> np.ndarray:
         """Reset every environment (with the seeds set by :meth:`seed`, if any)."""
         seeds = self._seeds if any(seed is not None for seed in self._seeds) else None
         self._generators = as_bank(seed_generators(seeds, self.num_envs, self._generators))
         self.core.reset_rows_from(self._all_rows, self._generators)
+        if self.start_replay is not None:
+            self.start_replay.starts_drawn(self.core, self._all_rows)
         self.elapsed_steps[:] = 0
         self._episode_returns[:] = 0.0
         self._episode_lengths[:] = 0
@@ -145,7 +150,12 @@ class ConvoySB3VecEnv(VecEnv):
                     "episode": {"r": returns[j], "l": lengths[j], "t": elapsed},
                 }
             infos = BatchInfos(core.info_batch(), extras, self.num_envs)
+            replay = self.start_replay
+            if replay is not None:
+                replay.episodes_ended(rows, core.success[rows])
             core.reset_rows_from(rows, self._generators)
+            if replay is not None:
+                replay.starts_drawn(core, rows)
             self.elapsed_steps[rows] = 0
             self._episode_returns[rows] = 0.0
             self._episode_lengths[rows] = 0
@@ -158,6 +168,22 @@ class ConvoySB3VecEnv(VecEnv):
         size times ``scale`` (:meth:`trailer_env.core.ConvoyCore.set_start_scale`; raises
         as it does)."""
         self.core.set_start_scale(scale)
+
+    def set_start_replay(self, replay: StartReplay | None) -> None:
+        """Begin a share of the episodes that start from now on from starts that failed
+        (:class:`trailer_env.start_replay.StartReplay`); None: the scene's starts only.
+
+        Raises:
+            TypeError: If ``replay`` is neither a StartReplay nor None.
+            ValueError: If the batch mixes counts of trailers or draws its physics;
+                nothing changes.
+        """
+        if replay is not None:
+            if not isinstance(replay, StartReplay):
+                shown = type(replay).__name__
+                raise TypeError(f"replay must be a StartReplay or None, got {shown}")
+            replay.check_core(self.core)
+        self.start_replay = replay
 
     def close(self) -> None:
         """Nothing to release."""

@@ -127,10 +127,12 @@ def _net_width(hyperparams: object) -> str | None:
 def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     """A run's recipe from its configuration or model card: "ppo", "ppo (gSDE)",
     "ppo (gSDE, 256x256)", "ppo (gSDE) + lqr shaping", "ppo (gSDE) + start curriculum",
+    "ppo (gSDE, 256x256) + start replay 0.25",
     "ppo from dagger_reverse_v1_n4" (the algorithm's name upper-cased when ``upper``).
 
     State-dependent exploration, a network other than :data:`DEFAULT_NET_ARCH`, reward
-    shaping, a start curriculum (``start_curriculum``), a fine-tuning run's starting
+    shaping, a start curriculum (``start_curriculum``), a start replay (``start_replay``,
+    by its share), a fine-tuning run's starting
     model (``init_from``, by its stem), randomised physics
     (``env_kwargs["randomize"]``: "ppo (mismatch20)") and counts fixed by the batch row
     (``trailer_draw="row"``: "n by row") are recipes of their own: runs are grouped,
@@ -159,6 +161,9 @@ def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
         name += f" + {shaping.get('potential')} shaping"
     if isinstance(record.get("start_curriculum"), Mapping):
         name += " + start curriculum"
+    replay = record.get("start_replay")
+    if isinstance(replay, Mapping):
+        name += f" + start replay {replay.get('fraction')}"
     init_from = record.get("init_from")
     if isinstance(init_from, str):
         name += f" from {PurePath(init_from).stem}"

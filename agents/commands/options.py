@@ -315,3 +315,14 @@ def add_torch_threads(parser: argparse.ArgumentParser) -> None:
         default=1,
         help=f"torch CPU threads (default 1, at most {top}: 4 per CPU)",
     )
+
+
+def open_share(text: str) -> float:
+    """A number strictly between 0 and 1 (a share, e.g. ``--start-replay``'s)."""
+    try:
+        share = float(text)
+    except ValueError:
+        share = float("nan")
+    if not 0.0 < share < 1.0:
+        raise argparse.ArgumentTypeError(f"expected a number in (0, 1), got {text[:40]!r}")
+    return share

@@ -213,6 +213,15 @@ def build_parser() -> argparse.ArgumentParser:
         "the scene's size to its own over the first STEPS steps (Reverse-v1; sb3 only); "
         "evaluations use the scene's starts",
     )
+    parser.add_argument(
+        "--start-replay",
+        type=cli.open_share,
+        default=None,
+        metavar="SHARE",
+        help="begin this share (in (0, 1)) of the training episodes from starts whose "
+        "episodes failed before (trailer_env.start_replay; sb3, one count of trailers, no "
+        "--randomize); evaluations use the scene's starts",
+    )
     cli.add_overwrite(
         parser, "start afresh in a run folder that already holds a run; replace --export's files"
     )
@@ -304,6 +313,17 @@ def _check_resumed_run(parser: argparse.ArgumentParser, args: argparse.Namespace
         parser.error(
             f"argument --resume: {own_run} was trained with {shown}; resume it with the same"
         )
+    saved_replay = saved.get("start_replay")
+    wanted_replay = None if args.start_replay is None else {"fraction": args.start_replay}
+    if saved_replay != wanted_replay:
+        shown = (
+            "no --start-replay"
+            if saved_replay is None
+            else (f"--start-replay {saved_replay['fraction']}")
+        )
+        parser.error(
+            f"argument --resume: {own_run} was trained with {shown}; resume it with the same"
+        )
     saved_from, saved_warmup = saved.get("init_from"), saved.get("critic_warmup", 0)
     same_source = (saved_from is None) == (args.init_from is None) and (
         saved_from is None or Path(str(saved_from)).resolve() == args.init_from.resolve()
@@ -372,6 +392,7 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
             ("--shaping", args.shaping not in (None, "none")),
             ("--init-from", args.init_from is not None),
             ("--start-curriculum", args.start_curriculum is not None),
+            ("--start-replay", args.start_replay is not None),
         ):
             if unsupported:
                 parser.error(f"argument {name}: not supported with --backend rllib")
@@ -440,11 +461,14 @@ def config_from_args(
             critic_warmup=args.critic_warmup,
             randomize=args.randomize,
             start_curriculum=args.start_curriculum,
+            start_replay=args.start_replay,
         )
     except ValueError as error:
         flags = "--timesteps, --n-envs or --seed (or the file's)"
         if "critic_warmup" in str(error):
             flags = "--critic-warmup"
+        elif "start_replay" in str(error):
+            flags = "--start-replay"
         parser.error(f"argument {flags}: {error}")
     try:
         settings_by_count(config.env_kwargs)

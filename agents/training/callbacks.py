@@ -344,6 +344,26 @@ class StartCurriculum(BaseCallback):
         return True
 
 
+class StartReplayStats(BaseCallback):
+    """Log the training environment's start replay after each rollout
+    (:class:`trailer_env.start_replay.StartReplay`): ``start_replay/buffer`` (failed
+    starts kept), ``start_replay/episodes`` (episodes begun from the buffer so far) and
+    ``start_replay/success_rate`` (the share of those that succeeded)."""
+
+    def _on_rollout_end(self) -> None:
+        venv: Any = self.model.get_env()
+        replay = venv.unwrapped.start_replay
+        self.logger.record("start_replay/buffer", replay.size)
+        self.logger.record("start_replay/episodes", replay.replayed)
+        if replay.replayed:
+            self.logger.record(
+                "start_replay/success_rate", replay.replayed_successes / replay.replayed
+            )
+
+    def _on_step(self) -> bool:
+        return True
+
+
 class ProgressCallback(BaseCallback):
     """Training progress (:class:`agents.progress.Progress`) that ends at the real total.
 

@@ -466,6 +466,10 @@ class TrainConfig:
             ``steps`` steps (:class:`agents.training.callbacks.StartCurriculum`; scenes
             whose core is ``start_scalable``); the evaluations keep the scene's starts.
             None: the scene's starts throughout.
+        start_replay: Share in (0, 1) of the training episodes begun from starts that
+            failed before (:class:`trailer_env.start_replay.StartReplay`, seeded with
+            ``seed``; sb3, one count of trailers, nominal physics); the evaluations keep
+            the scene's starts. None: no replay.
     """
 
     env_id: str
@@ -481,6 +485,7 @@ class TrainConfig:
     critic_warmup: int = 0
     randomize: str | None = None
     start_curriculum: tuple[float, int] | None = None
+    start_replay: float | None = None
 
     def __post_init__(self) -> None:
         if self.backend not in ("sb3", "rllib"):
@@ -492,6 +497,16 @@ class TrainConfig:
                     "start_curriculum must be (low, steps) with 0 < low < 1 and steps >= 1, "
                     f"on the sb3 backend; got {self.start_curriculum} on {self.backend}"
                 )
+        if self.start_replay is not None and (
+            not 0.0 < self.start_replay < 1.0
+            or self.backend != "sb3"
+            or isinstance(self.n_trailers, tuple)
+            or self.env_kwargs.get("randomize") is not None
+        ):
+            raise ValueError(
+                "start_replay must be a share in (0, 1), on the sb3 backend, with one count "
+                f"of trailers and no randomize; got {self.start_replay} on {self.backend}"
+            )
         if self.budget < 1 or self.n_envs < 1:
             raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
         if self.critic_warmup < 0 or (self.critic_warmup and self.init_from is None):
@@ -534,6 +549,7 @@ class TrainConfig:
         critic_warmup: int = 0,
         randomize: str | None = None,
         start_curriculum: tuple[float, int] | None = None,
+        start_replay: float | None = None,
     ) -> TrainConfig:
         """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's."""
         return cls(
@@ -550,6 +566,7 @@ class TrainConfig:
             critic_warmup=critic_warmup,
             randomize=randomize,
             start_curriculum=start_curriculum,
+            start_replay=start_replay,
         )
 
     @property
@@ -595,6 +612,8 @@ class TrainConfig:
             if self.start_curriculum is not None:
                 low, steps = self.start_curriculum
                 record["start_curriculum"] = {"from": low, "steps": steps}
+            if self.start_replay is not None:
+                record["start_replay"] = {"fraction": self.start_replay}
         else:
             record["backend"] = self.backend
         return record

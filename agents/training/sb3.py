@@ -76,9 +76,11 @@ def train(
         ProgressCallback,
         SafetyEvalCallback,
         StartCurriculum,
+        StartReplayStats,
         StatsCheckpointCallback,
     )
     from trailer_env.sb3 import PotentialShapingVecEnv
+    from trailer_env.start_replay import StartReplay
 
     hp = config.hyperparams
     algo, seed, budget, batch = config.algo, config.seed, config.budget, config.n_envs
@@ -96,6 +98,9 @@ def train(
     run_dir.mkdir(parents=True, exist_ok=True)
     start_steps = 0
     venv = make_sb3_env(config.env_id, batch, env_kwargs, seed=seed)
+    if config.start_replay is not None:
+        # Its buffer is not checkpointed: a resumed run starts with an empty one.
+        venv.set_start_replay(StartReplay(config.start_replay, seed=seed))
     if hp.shaping is not None:
         # Under the normalisation, so its statistics (and the policy) see the scene's states.
         venv = PotentialShapingVecEnv(venv, gamma=hp.algo_kwargs.get("gamma", 0.99), **hp.shaping)
@@ -184,6 +189,8 @@ def train(
         curriculum = StartCurriculum(*config.start_curriculum)
         curriculum.apply(venv, start_steps)
         callbacks.append(curriculum)
+    if config.start_replay is not None:
+        callbacks.append(StartReplayStats())
     if progress_bar:
         callbacks.append(ProgressCallback(f"training {algo} on {config.env_id}"))
     model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=resume is None)

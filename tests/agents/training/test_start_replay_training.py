@@ -1,0 +1,77 @@
+"""`agents.train --start-replay`: the training env replays failed starts, the evaluations
+do not, the record and recipe name it, and refusals touch nothing."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from agents.algorithms import recipe_name
+from agents.artifacts.curves import read_curve
+from agents.training.config import TrainConfig, load_hyperparams
+from agents.training.sb3 import train
+from tests.agents.training.test_start_curriculum import V1, _folder, _main
+
+
+def test_a_run_with_start_replay_replays_and_records_it(tmp_path: Path) -> None:
+    hp = load_hyperparams("ppo", V1, _folder(tmp_path, normalize=False))
+    runs = {}
+    for name, share in (("plain", None), ("replayed", 0.5)):
+        config = TrainConfig.resolve(V1, "ppo", 1, 0, hp, timesteps=2048, start_replay=share)
+        runs[name] = train(
+            config, tmp_path / name, eval_freq=2048, eval_episodes=8, progress_bar=False,
+            verbose=0,
+        )  # fmt: skip
+    replay = runs["replayed"].get_env().unwrapped.start_replay  # type: ignore[attr-defined]
+    assert replay.fraction == 0.5 and replay.seed == 0
+    assert replay.replayed > 0  # a random policy folds: failed starts came back
+    assert runs["plain"].get_env().unwrapped.start_replay is None  # type: ignore[attr-defined]
+    # The step-0 evaluation (same seed, same initial policy) is the scene's, unchanged.
+    first = [read_curve(tmp_path / name / "evaluations.csv")[0] for name in runs]
+    assert first[0] == {**first[1], "wall_s": first[0]["wall_s"]}
+    card = json.loads((tmp_path / "replayed" / "final_model.json").read_text())
+    assert card["start_replay"] == {"fraction": 0.5}
+    assert recipe_name(card) == "ppo (32x32) + start replay 0.5"
+    progress = (tmp_path / "replayed" / "logs" / "from_0" / "progress.csv").read_text()
+    assert "start_replay/buffer" in progress.splitlines()[0]
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--start-replay", "0"], "expected a number in (0, 1)"),
+        (["--start-replay", "1"], "expected a number in (0, 1)"),
+        (["--start-replay", "half"], "expected a number in (0, 1)"),
+        (["--start-replay", "0.5", "--backend", "rllib"], "not supported"),
+        (["--start-replay", "0.5", "--randomize", "mismatch20"], "start_replay must be"),
+    ],
+)
+def test_refusals_touch_nothing(
+    tmp_path: Path, extra: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "refused"
+    with pytest.raises(SystemExit) as refused:
+        _main(tmp_path, "--timesteps", "2048", "--run-dir", str(run), *extra)
+    assert refused.value.code == 2
+    assert message in capsys.readouterr().err
+    assert not run.exists()
+
+
+def test_a_resume_keeps_the_runs_start_replay(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "run"
+    args = ["--timesteps", "2048", "--checkpoint-freq", "1024", "--run-dir", str(run)]
+    assert _main(tmp_path, *args, "--start-replay", "0.25") == 0
+    checkpoint = run / "checkpoints" / "ppo_1024_steps.zip"
+    before = {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
+    for other in ([], ["--start-replay", "0.5"]):
+        with pytest.raises(SystemExit):
+            _main(tmp_path, "--resume", str(checkpoint), "--timesteps", "3072", *other)
+        assert "trained with --start-replay 0.25; resume it" in capsys.readouterr().err
+    assert before == {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
+    resumed = ["--resume", str(checkpoint), "--timesteps", "3072", "--start-replay", "0.25"]
+    assert _main(tmp_path, *resumed) == 0
+    assert read_curve(run / "evaluations.csv")[-1]["timesteps"] == 3072

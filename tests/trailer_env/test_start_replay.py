@@ -1,0 +1,134 @@
+"""Start replay (trailer_env.start_replay): recorded starts replay to the bit, failed
+starts come back, successful ones do not, the scene's draws are unchanged, and refusals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from trailer_env.sb3 import ConvoySB3VecEnv
+from trailer_env.start_replay import StartReplay
+
+DOCK = "trailer_env/Dock-v0"
+V1 = "trailer_env/Reverse-v1"
+
+
+def _actions(count: int, size: int) -> np.ndarray:
+    return np.random.default_rng(5).uniform(-1, 1, (count, size, 1)).astype(np.float32)
+
+
+def _rollout(venv: ConvoySB3VecEnv, actions: np.ndarray) -> np.ndarray:
+    return np.stack([venv.step(batch)[0] for batch in actions])
+
+
+@pytest.mark.parametrize("env_id", [DOCK, V1])
+def test_a_restarted_start_replays_its_episode_to_the_bit(env_id: str) -> None:
+    venv = ConvoySB3VecEnv(env_id, num_envs=4, n_trailers=2, max_episode_steps=1000)
+    venv.seed(3)
+    first = venv.reset().copy()
+    rows = np.array([0, 2])
+    record = venv.core.start_records(rows)
+    actions = _actions(12, 4)
+    before = _rollout(venv, actions)
+    venv.core.restart(rows, record)
+    np.testing.assert_array_equal(venv.core.obs[rows], first[rows])
+    after = _rollout(venv, actions)
+    np.testing.assert_array_equal(after[:, rows], before[:, rows])
+    assert not np.array_equal(after[:, 1], before[:, 1])  # the others went on
+
+
+def test_restart_refuses_a_record_that_does_not_fit() -> None:
+    venv = ConvoySB3VecEnv(DOCK, num_envs=4, n_trailers=2)
+    venv.reset()
+    record = venv.core.start_records(np.array([0, 1]))
+    z = venv.core.z.copy()
+    with pytest.raises(ValueError, match="does not fit 3 rows"):
+        venv.core.restart(np.array([0, 1, 2]), record)
+    np.testing.assert_array_equal(venv.core.z, z)
+
+
+def test_every_episode_that_fails_is_kept_and_replayed_ones_come_from_it() -> None:
+    venv = ConvoySB3VecEnv(V1, num_envs=64, n_trailers=2)
+    plain = ConvoySB3VecEnv(V1, num_envs=64, n_trailers=2)
+    replay = StartReplay(0.5, capacity=1000, seed=1)
+    venv.set_start_replay(replay)
+    for env in (venv, plain):
+        env.seed(0)
+    first = venv.reset().copy()
+    np.testing.assert_array_equal(first, plain.reset())
+    seen = list(first)  # every start begun so far
+    zero = np.zeros((64, 1), dtype=np.float32)
+    diverged = np.zeros(64, dtype=bool)  # rows that replayed: their episodes differ since
+    failures = replayed = 0
+    for _ in range(150):  # the zero action folds every episode (test_reverse_v1)
+        obs, _, dones, _ = venv.step(zero)
+        plain_obs, _, plain_dones, _ = plain.step(zero)
+        np.testing.assert_array_equal(dones[~diverged], plain_dones[~diverged])
+        for i in np.flatnonzero(dones).tolist():
+            failures += 1
+            if not diverged[i] and np.array_equal(obs[i], plain_obs[i]):
+                seen.append(obs[i].copy())  # the scene's own next start, as without replay
+                continue
+            if any(np.array_equal(obs[i], start) for start in seen):
+                replayed += 1  # a start an episode began from before
+                diverged[i] = True
+            else:
+                assert diverged[i]  # a diverged row's own draw
+                seen.append(obs[i].copy())
+    # Every failure went into the buffer; each replay took one out.
+    assert replay.size == failures - replayed
+    assert 0.3 < replayed / failures < 0.6
+
+
+def test_successes_are_not_kept_and_the_buffer_stays_within_capacity() -> None:
+    # Reverse-v1's episodes that outlast the time limit are successes.
+    venv = ConvoySB3VecEnv(V1, num_envs=8, n_trailers=1, max_episode_steps=3)
+    replay = StartReplay(0.5, capacity=3, seed=0)
+    venv.set_start_replay(replay)
+    venv.seed(0)
+    venv.reset()
+    for _ in range(9):
+        venv.step(np.zeros((8, 1), dtype=np.float32))
+    assert replay.size == 0 and replay.replayed == 0
+    folding = ConvoySB3VecEnv(V1, num_envs=8, n_trailers=1)
+    small = StartReplay(0.5, capacity=3, seed=0)
+    folding.set_start_replay(small)
+    folding.seed(0)
+    folding.reset()
+    for _ in range(400):
+        folding.step(np.full((8, 1), 1.0, dtype=np.float32))
+        assert small.size <= 3
+    assert small.replayed > 0 and small.replayed_successes == 0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "words"),
+    [
+        ({"fraction": 0.0}, ValueError, "fraction"),
+        ({"fraction": 1.0}, ValueError, "fraction"),
+        ({"fraction": "half"}, TypeError, "fraction"),
+        ({"fraction": 0.5, "capacity": 0}, ValueError, "capacity"),
+        ({"fraction": 0.5, "seed": -1}, ValueError, "seed"),
+    ],
+)
+def test_bad_replay_settings_are_refused(kwargs: dict, error: type, words: str) -> None:
+    with pytest.raises(error, match=words):
+        StartReplay(**kwargs)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "error", "words"),
+    [
+        ({"n_trailers": [1, 2]}, ValueError, "one count of trailers"),
+        ({"n_trailers": 2, "randomize": "mismatch20"}, ValueError, "randomize"),
+    ],
+)
+def test_batches_whose_starts_cannot_be_recorded_refuse_a_replay(
+    kwargs: dict, error: type, words: str
+) -> None:
+    venv = ConvoySB3VecEnv(V1, num_envs=4, **kwargs)
+    with pytest.raises(error, match=words):
+        venv.set_start_replay(StartReplay(0.5))
+    assert venv.start_replay is None
+    with pytest.raises(TypeError, match="StartReplay or None"):
+        ConvoySB3VecEnv(V1, num_envs=4).set_start_replay(0.5)  # type: ignore[arg-type]

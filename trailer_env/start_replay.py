@@ -1,0 +1,148 @@
+"""Start replay: train more often on the starts the policy has failed from.
+
+A scene draws its starts from a fixed distribution, so a start that only a precise policy
+saves (Reverse-v1's hardest need most of the rail's stroke) comes up a few times in a
+hundred episodes, and a policy that already saves the others learns little more from
+reward. :class:`StartReplay` keeps the starts of the training episodes that ended
+without success and begins a share of the new episodes from them, as Prioritized Level
+Replay (Jiang, Grefenstette and Rocktaeschel, 2021) replays the levels with the most to
+learn, here with the episode's failure as the score::
+
+    from trailer_env.sb3 import ConvoySB3VecEnv
+    from trailer_env.start_replay import StartReplay
+
+    venv = ConvoySB3VecEnv("trailer_env/Dock-v0", num_envs=64, n_trailers=2)
+    venv.set_start_replay(StartReplay(0.25, seed=0))
+
+The scene draws every start as before (each row's generator advances exactly as without
+replay); a replayed row then has its drawn start replaced by a recorded one, taken out
+of the buffer, and put back if that episode fails again. Replayed starts are the
+scene's own (drawn earlier), so the training distribution leans towards the hard ones
+without leaving the scene's support; evaluation environments are not touched.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dynamics.params import bounded_integer, bounded_real
+from trailer_env.core import ConvoyCore, StartRecord
+
+#: Starts kept by default: about a hundred rollouts' failures of a 64-env batch.
+DEFAULT_CAPACITY = 4096
+
+
+class StartReplay:
+    """A buffer of failed starts and the share of new episodes begun from them.
+
+    Args:
+        fraction: Chance in (0, 1) that an episode starting while the buffer holds a
+            start begins from one of them (drawn uniformly) rather than the scene's draw.
+        capacity: Most starts kept, an integer >= 1; once full, a new failure replaces
+            a stored start drawn uniformly.
+        seed: Seed of the replay's own generator (which rows replay, which start).
+
+    Raises:
+        TypeError, ValueError: On a bad argument, naming it.
+    """
+
+    def __init__(self, fraction: float, capacity: int = DEFAULT_CAPACITY, seed: int = 0) -> None:
+        self.fraction = bounded_real("fraction", fraction, 0.0, 1.0, low_open=True, high_open=True)
+        self.capacity = bounded_integer("capacity", capacity, 1, 2**24)
+        self.seed = bounded_integer("seed", seed, 0, 2**63 - 1)
+        self._rng = np.random.default_rng(self.seed)
+        self._stored: StartRecord | None = None  # capacity rows, the first `size` in use
+        self.size = 0
+        self._current: StartRecord | None = None  # every row's running episode's start
+        self._replaying = np.zeros(0, dtype=bool)
+        self._known = np.zeros(0, dtype=bool)
+        #: Episodes begun from the buffer, and those of them that succeeded.
+        self.replayed = 0
+        self.replayed_successes = 0
+
+    def check_core(self, core: object) -> None:
+        """Refuse a batch whose starts cannot be recorded (mixed counts of trailers,
+        drawn physics), changing nothing.
+
+        Raises:
+            ValueError: Naming the reason.
+        """
+        if not isinstance(core, ConvoyCore):
+            raise ValueError("start replay needs one count of trailers, not a mix")
+        if core.randomization is not None:
+            raise ValueError("start replay does not record drawn physics (randomize)")
+
+    def episodes_ended(self, rows: np.ndarray, succeeded: np.ndarray) -> None:
+        """Keep the starts of the episodes of ``rows`` that ended without success
+        (``succeeded``: one bool per row); call it before the rows are reset. Episodes
+        that began before the replay was attached are not kept (their start is unknown)."""
+        if self._current is None:
+            return  # no episode has begun under the replay: no start known
+        replayed = self._replaying[rows]
+        self.replayed += int(np.count_nonzero(replayed))
+        self.replayed_successes += int(np.count_nonzero(replayed & succeeded))
+        failed = rows[~succeeded & self._known[rows]]
+        if failed.size:
+            self._store(_take(self._current, failed))
+
+    def starts_drawn(self, core: ConvoyCore, rows: np.ndarray) -> None:
+        """After the scene drew the starts of ``rows``: begin a share of them from the
+        buffer instead, and record every row's start."""
+        if self._current is None:
+            self._current = core.start_records(np.arange(core.batch_size))
+            self._replaying = np.zeros(core.batch_size, dtype=bool)
+            self._known = np.zeros(core.batch_size, dtype=bool)
+        chosen = self._rng.random(rows.size) < self.fraction
+        replay = rows[chosen][: self.size]
+        self._replaying[rows] = False
+        if replay.size:
+            picks = self._rng.choice(self.size, size=replay.size, replace=False)
+            assert self._stored is not None
+            core.restart(replay, _take(self._stored, picks))
+            self._remove(picks)
+            self._replaying[replay] = True
+        started = core.start_records(rows)
+        self._known[rows] = True
+        self._current.z[rows] = started.z
+        self._current.act[rows] = started.act
+        for key, values in started.task.items():
+            self._current.task[key][rows] = values
+
+    def _store(self, record: StartRecord) -> None:
+        count = record.z.shape[0]
+        if self._stored is None:
+            self._stored = StartRecord(
+                np.zeros((self.capacity, *record.z.shape[1:])),
+                np.zeros((self.capacity, *record.act.shape[1:])),
+                {key: np.zeros((self.capacity, *v.shape[1:])) for key, v in record.task.items()},
+            )
+        free = min(self.capacity - self.size, count)
+        slots = np.concatenate(
+            [
+                np.arange(self.size, self.size + free),
+                self._rng.integers(0, self.capacity, count - free),
+            ]
+        )
+        self.size += free
+        self._stored.z[slots] = record.z
+        self._stored.act[slots] = record.act
+        for key, values in record.task.items():
+            self._stored.task[key][slots] = values
+
+    def _remove(self, picks: np.ndarray) -> None:
+        """Take ``picks`` out of the buffer (the others keep their order)."""
+        assert self._stored is not None
+        keep = np.ones(self.size, dtype=bool)
+        keep[picks] = False
+        kept = np.flatnonzero(keep)
+        self.size = kept.size
+        for array in (self._stored.z, self._stored.act, *self._stored.task.values()):
+            array[: self.size] = array[kept]
+
+
+def _take(record: StartRecord, index: np.ndarray) -> StartRecord:
+    return StartRecord(
+        record.z[index],
+        record.act[index],
+        {key: values[index] for key, values in record.task.items()},
+    )
