@@ -41,19 +41,34 @@ class StartReplay:
         capacity: Most starts kept, an integer >= 1; once full, a new failure replaces
             a stored start drawn uniformly.
         seed: Seed of the replay's own generator (which rows replay, which start).
+        max_replays: A start leaves the buffer for good once this many of its replays
+            have failed (an integer >= 1), so that starts the policy never saves, a
+            scene's infeasible ones among them, do not fill the buffer; None: a start
+            returns after every failure.
 
     Raises:
         TypeError, ValueError: On a bad argument, naming it.
     """
 
-    def __init__(self, fraction: float, capacity: int = DEFAULT_CAPACITY, seed: int = 0) -> None:
+    def __init__(
+        self,
+        fraction: float,
+        capacity: int = DEFAULT_CAPACITY,
+        seed: int = 0,
+        max_replays: int | None = None,
+    ) -> None:
         self.fraction = bounded_real("fraction", fraction, 0.0, 1.0, low_open=True, high_open=True)
         self.capacity = bounded_integer("capacity", capacity, 1, 2**24)
         self.seed = bounded_integer("seed", seed, 0, 2**63 - 1)
+        self.max_replays = (
+            None if max_replays is None else bounded_integer("max_replays", max_replays, 1, 2**31)
+        )
         self._rng = np.random.default_rng(self.seed)
         self._stored: StartRecord | None = None  # capacity rows, the first `size` in use
         self.size = 0
+        self._stored_replays = np.zeros(self.capacity, dtype=np.int64)  # failed replays so far
         self._current: StartRecord | None = None  # every row's running episode's start
+        self._current_replays = np.zeros(0, dtype=np.int64)
         self._replaying = np.zeros(0, dtype=bool)
         self._known = np.zeros(0, dtype=bool)
         #: Episodes begun from the buffer, and those of them that succeeded.
@@ -81,9 +96,12 @@ class StartReplay:
         replayed = self._replaying[rows]
         self.replayed += int(np.count_nonzero(replayed))
         self.replayed_successes += int(np.count_nonzero(replayed & succeeded))
-        failed = rows[~succeeded & self._known[rows]]
+        keep = ~succeeded & self._known[rows]
+        if self.max_replays is not None:
+            keep &= self._current_replays[rows] < self.max_replays
+        failed = rows[keep]
         if failed.size:
-            self._store(_take(self._current, failed))
+            self._store(_take(self._current, failed), self._current_replays[failed])
 
     def starts_drawn(self, core: ConvoyCore, rows: np.ndarray) -> None:
         """After the scene drew the starts of ``rows``: begin a share of them from the
@@ -92,13 +110,16 @@ class StartReplay:
             self._current = core.start_records(np.arange(core.batch_size))
             self._replaying = np.zeros(core.batch_size, dtype=bool)
             self._known = np.zeros(core.batch_size, dtype=bool)
+            self._current_replays = np.zeros(core.batch_size, dtype=np.int64)
         chosen = self._rng.random(rows.size) < self.fraction
         replay = rows[chosen][: self.size]
         self._replaying[rows] = False
+        self._current_replays[rows] = 0
         if replay.size:
             picks = self._rng.choice(self.size, size=replay.size, replace=False)
             assert self._stored is not None
             core.restart(replay, _take(self._stored, picks))
+            self._current_replays[replay] = self._stored_replays[picks] + 1
             self._remove(picks)
             self._replaying[replay] = True
         started = core.start_records(rows)
@@ -108,7 +129,7 @@ class StartReplay:
         for key, values in started.task.items():
             self._current.task[key][rows] = values
 
-    def _store(self, record: StartRecord) -> None:
+    def _store(self, record: StartRecord, replays: np.ndarray) -> None:
         count = record.z.shape[0]
         if self._stored is None:
             self._stored = StartRecord(
@@ -126,6 +147,7 @@ class StartReplay:
         self.size += free
         self._stored.z[slots] = record.z
         self._stored.act[slots] = record.act
+        self._stored_replays[slots] = replays
         for key, values in record.task.items():
             self._stored.task[key][slots] = values
 
@@ -136,7 +158,8 @@ class StartReplay:
         keep[picks] = False
         kept = np.flatnonzero(keep)
         self.size = kept.size
-        for array in (self._stored.z, self._stored.act, *self._stored.task.values()):
+        stored = self._stored
+        for array in (stored.z, stored.act, self._stored_replays, *stored.task.values()):
             array[: self.size] = array[kept]
 
 

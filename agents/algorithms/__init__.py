@@ -164,6 +164,8 @@ def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     replay = record.get("start_replay")
     if isinstance(replay, Mapping):
         name += f" + start replay {replay.get('fraction')}"
+        if "max_replays" in replay:
+            name += f" (max {replay['max_replays']})"
     init_from = record.get("init_from")
     if isinstance(init_from, str):
         name += f" from {PurePath(init_from).stem}"

@@ -222,6 +222,14 @@ def build_parser() -> argparse.ArgumentParser:
         "episodes failed before (trailer_env.start_replay; sb3, one count of trailers, no "
         "--randomize); evaluations use the scene's starts",
     )
+    parser.add_argument(
+        "--start-replay-max",
+        type=cli.bounded(1, 2**31),
+        default=None,
+        metavar="K",
+        help="with --start-replay: a start leaves the buffer once K of its replays failed "
+        "(default: it returns after every failure)",
+    )
     cli.add_overwrite(
         parser, "start afresh in a run folder that already holds a run; replace --export's files"
     )
@@ -314,13 +322,17 @@ def _check_resumed_run(parser: argparse.ArgumentParser, args: argparse.Namespace
             f"argument --resume: {own_run} was trained with {shown}; resume it with the same"
         )
     saved_replay = saved.get("start_replay")
-    wanted_replay = None if args.start_replay is None else {"fraction": args.start_replay}
+    wanted_replay: dict[str, object] | None = None
+    if args.start_replay is not None:
+        wanted_replay = {"fraction": args.start_replay}
+        if args.start_replay_max is not None:
+            wanted_replay["max_replays"] = args.start_replay_max
     if saved_replay != wanted_replay:
-        shown = (
-            "no --start-replay"
-            if saved_replay is None
-            else (f"--start-replay {saved_replay['fraction']}")
-        )
+        shown = "no --start-replay"
+        if isinstance(saved_replay, dict):
+            shown = f"--start-replay {saved_replay.get('fraction')}"
+            if "max_replays" in saved_replay:
+                shown += f" --start-replay-max {saved_replay['max_replays']}"
         parser.error(
             f"argument --resume: {own_run} was trained with {shown}; resume it with the same"
         )
@@ -462,11 +474,14 @@ def config_from_args(
             randomize=args.randomize,
             start_curriculum=args.start_curriculum,
             start_replay=args.start_replay,
+            start_replay_max=args.start_replay_max,
         )
     except ValueError as error:
         flags = "--timesteps, --n-envs or --seed (or the file's)"
         if "critic_warmup" in str(error):
             flags = "--critic-warmup"
+        elif "start_replay_max" in str(error):
+            flags = "--start-replay-max"
         elif "start_replay" in str(error):
             flags = "--start-replay"
         parser.error(f"argument {flags}: {error}")

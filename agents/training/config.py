@@ -470,6 +470,8 @@ class TrainConfig:
             failed before (:class:`trailer_env.start_replay.StartReplay`, seeded with
             ``seed``; sb3, one count of trailers, nominal physics); the evaluations keep
             the scene's starts. None: no replay.
+        start_replay_max: With ``start_replay``, the failed replays after which a start
+            leaves the buffer (``StartReplay``'s ``max_replays``); None: no limit.
     """
 
     env_id: str
@@ -486,6 +488,7 @@ class TrainConfig:
     randomize: str | None = None
     start_curriculum: tuple[float, int] | None = None
     start_replay: float | None = None
+    start_replay_max: int | None = None
 
     def __post_init__(self) -> None:
         if self.backend not in ("sb3", "rllib"):
@@ -506,6 +509,12 @@ class TrainConfig:
             raise ValueError(
                 "start_replay must be a share in (0, 1), on the sb3 backend, with one count "
                 f"of trailers and no randomize; got {self.start_replay} on {self.backend}"
+            )
+        if self.start_replay_max is not None and (
+            self.start_replay is None or self.start_replay_max < 1
+        ):
+            raise ValueError(
+                f"start_replay_max must be >= 1 and needs start_replay, got {self.start_replay_max}"
             )
         if self.budget < 1 or self.n_envs < 1:
             raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
@@ -550,6 +559,7 @@ class TrainConfig:
         randomize: str | None = None,
         start_curriculum: tuple[float, int] | None = None,
         start_replay: float | None = None,
+        start_replay_max: int | None = None,
     ) -> TrainConfig:
         """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's."""
         return cls(
@@ -567,6 +577,7 @@ class TrainConfig:
             randomize=randomize,
             start_curriculum=start_curriculum,
             start_replay=start_replay,
+            start_replay_max=start_replay_max,
         )
 
     @property
@@ -613,7 +624,10 @@ class TrainConfig:
                 low, steps = self.start_curriculum
                 record["start_curriculum"] = {"from": low, "steps": steps}
             if self.start_replay is not None:
-                record["start_replay"] = {"fraction": self.start_replay}
+                replay: JSONObject = {"fraction": self.start_replay}
+                if self.start_replay_max is not None:
+                    replay["max_replays"] = self.start_replay_max
+                record["start_replay"] = replay
         else:
             record["backend"] = self.backend
         return record

@@ -100,7 +100,8 @@ def train(
     venv = make_sb3_env(config.env_id, batch, env_kwargs, seed=seed)
     if config.start_replay is not None:
         # Its buffer is not checkpointed: a resumed run starts with an empty one.
-        venv.set_start_replay(StartReplay(config.start_replay, seed=seed))
+        replay = StartReplay(config.start_replay, seed=seed, max_replays=config.start_replay_max)
+        venv.set_start_replay(replay)
     if hp.shaping is not None:
         # Under the normalisation, so its statistics (and the policy) see the scene's states.
         venv = PotentialShapingVecEnv(venv, gamma=hp.algo_kwargs.get("gamma", 0.99), **hp.shaping)

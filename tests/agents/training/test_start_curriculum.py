@@ -90,6 +90,17 @@ def _main(tmp_path: Path, *extra: str, env: str = V1) -> int:
 def test_refusals_touch_nothing(
     tmp_path: Path, extra: list[str], env: str, message: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
+    assert_refused(tmp_path, extra, message, capsys, env)
+
+
+def assert_refused(
+    tmp_path: Path,
+    extra: list[str],
+    message: str,
+    capsys: pytest.CaptureFixture[str],
+    env: str = V1,
+) -> None:
+    """``agents.train`` with ``extra`` exits with 2, says ``message`` and writes nothing."""
     run = tmp_path / "refused"
     with pytest.raises(SystemExit) as refused:
         _main(tmp_path, "--timesteps", "2048", "--run-dir", str(run), *extra, env=env)
@@ -98,19 +109,34 @@ def test_refusals_touch_nothing(
     assert not run.exists()
 
 
+def assert_resume_keeps(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    option: list[str],
+    others: list[list[str]],
+    message: str,
+) -> Path:
+    """A run trained with ``option`` refuses a --resume with any of ``others`` (saying
+    ``message``, touching nothing) and goes on with ``option``; returns the run folder."""
+    run = tmp_path / "run"
+    args = ["--timesteps", "2048", "--checkpoint-freq", "1024", "--run-dir", str(run)]
+    assert _main(tmp_path, *args, *option) == 0
+    checkpoint = run / "checkpoints" / "ppo_1024_steps.zip"
+    before = {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
+    for other in others:
+        with pytest.raises(SystemExit):
+            _main(tmp_path, "--resume", str(checkpoint), "--timesteps", "3072", *other)
+        assert message in capsys.readouterr().err
+    assert before == {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
+    assert _main(tmp_path, "--resume", str(checkpoint), "--timesteps", "3072", *option) == 0
+    assert read_curve(run / "evaluations.csv")[-1]["timesteps"] == 3072
+    return run
+
+
 def test_a_resume_keeps_the_runs_curriculum(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    run = tmp_path / "run"
     schedule = ["--start-curriculum", "0.5,4096"]
-    args = ["--timesteps", "2048", "--checkpoint-freq", "1024", "--run-dir", str(run)]
-    assert _main(tmp_path, *args, *schedule) == 0
-    checkpoint = run / "checkpoints" / "ppo_1024_steps.zip"
-    before = {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
-    for other in ([], ["--start-curriculum", "0.5,8192"]):
-        with pytest.raises(SystemExit):
-            _main(tmp_path, "--resume", str(checkpoint), "--timesteps", "3072", *other)
-        assert "trained with --start-curriculum 0.5,4096; resume it" in capsys.readouterr().err
-    assert before == {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
-    assert _main(tmp_path, "--resume", str(checkpoint), "--timesteps", "3072", *schedule) == 0
-    assert read_curve(run / "evaluations.csv")[-1]["timesteps"] == 3072
+    others = [[], ["--start-curriculum", "0.5,8192"]]
+    words = "trained with --start-curriculum 0.5,4096; resume it"
+    assert_resume_keeps(tmp_path, capsys, schedule, others, words)

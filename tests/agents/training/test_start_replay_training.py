@@ -12,7 +12,12 @@ from agents.algorithms import recipe_name
 from agents.artifacts.curves import read_curve
 from agents.training.config import TrainConfig, load_hyperparams
 from agents.training.sb3 import train
-from tests.agents.training.test_start_curriculum import V1, _folder, _main
+from tests.agents.training.test_start_curriculum import (
+    V1,
+    _folder,
+    assert_refused,
+    assert_resume_keeps,
+)
 
 
 def test_a_run_with_start_replay_replays_and_records_it(tmp_path: Path) -> None:
@@ -51,27 +56,12 @@ def test_a_run_with_start_replay_replays_and_records_it(tmp_path: Path) -> None:
 def test_refusals_touch_nothing(
     tmp_path: Path, extra: list[str], message: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    run = tmp_path / "refused"
-    with pytest.raises(SystemExit) as refused:
-        _main(tmp_path, "--timesteps", "2048", "--run-dir", str(run), *extra)
-    assert refused.value.code == 2
-    assert message in capsys.readouterr().err
-    assert not run.exists()
+    assert_refused(tmp_path, extra, message, capsys)
 
 
 def test_a_resume_keeps_the_runs_start_replay(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    run = tmp_path / "run"
-    args = ["--timesteps", "2048", "--checkpoint-freq", "1024", "--run-dir", str(run)]
-    assert _main(tmp_path, *args, "--start-replay", "0.25") == 0
-    checkpoint = run / "checkpoints" / "ppo_1024_steps.zip"
-    before = {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
-    for other in ([], ["--start-replay", "0.5"]):
-        with pytest.raises(SystemExit):
-            _main(tmp_path, "--resume", str(checkpoint), "--timesteps", "3072", *other)
-        assert "trained with --start-replay 0.25; resume it" in capsys.readouterr().err
-    assert before == {p: p.stat().st_mtime_ns for p in run.rglob("*") if p.is_file()}
-    resumed = ["--resume", str(checkpoint), "--timesteps", "3072", "--start-replay", "0.25"]
-    assert _main(tmp_path, *resumed) == 0
-    assert read_curve(run / "evaluations.csv")[-1]["timesteps"] == 3072
+    others = [[], ["--start-replay", "0.5"]]
+    words = "trained with --start-replay 0.25; resume it"
+    assert_resume_keeps(tmp_path, capsys, ["--start-replay", "0.25"], others, words)
