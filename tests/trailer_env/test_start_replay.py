@@ -109,6 +109,7 @@ def test_successes_are_not_kept_and_the_buffer_stays_within_capacity() -> None:
         ({"fraction": "half"}, TypeError, "fraction"),
         ({"fraction": 0.5, "capacity": 0}, ValueError, "capacity"),
         ({"fraction": 0.5, "seed": -1}, ValueError, "seed"),
+        ({"fraction": 0.5, "max_replays": 0}, ValueError, "max_replays"),
     ],
 )
 def test_bad_replay_settings_are_refused(kwargs: dict, error: type, words: str) -> None:
@@ -132,3 +133,27 @@ def test_batches_whose_starts_cannot_be_recorded_refuse_a_replay(
     assert venv.start_replay is None
     with pytest.raises(TypeError, match="StartReplay or None"):
         ConvoySB3VecEnv(V1, num_envs=4).set_start_replay(0.5)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("max_replays", [None, 1, 2])
+def test_a_start_leaves_the_buffer_after_max_replays_failed(max_replays: int | None) -> None:
+    venv = ConvoySB3VecEnv(V1, num_envs=32, n_trailers=1)
+    replay = StartReplay(0.5, seed=0, max_replays=max_replays)
+    venv.set_start_replay(replay)
+    venv.seed(0)
+    venv.reset()
+    zero = np.zeros((32, 1), dtype=np.float32)
+    fresh_failures = 0
+    for _ in range(600):  # the zero action folds every episode
+        replaying = replay._replaying.copy()  # the running episodes' (after a step: the next)
+        dones = venv.step(zero)[2]
+        fresh_failures += int(np.count_nonzero(dones & ~replaying))
+    counts = replay._stored_replays[: replay.size]
+    assert replay.replayed > 0 and replay.replayed_successes == 0
+    if max_replays is None:
+        assert counts.max() >= 2  # failed starts keep coming back
+    else:
+        # Each start is stored with the replays it has failed, never max_replays of them,
+        # so a fresh failure is replayed at most max_replays times.
+        assert counts.max() < max_replays
+        assert replay.replayed <= fresh_failures * max_replays

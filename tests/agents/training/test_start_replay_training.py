@@ -51,6 +51,8 @@ def test_a_run_with_start_replay_replays_and_records_it(tmp_path: Path) -> None:
         (["--start-replay", "half"], "expected a number in (0, 1)"),
         (["--start-replay", "0.5", "--backend", "rllib"], "not supported"),
         (["--start-replay", "0.5", "--randomize", "mismatch20"], "start_replay must be"),
+        (["--start-replay-max", "2"], "needs start_replay"),
+        (["--start-replay", "0.5", "--start-replay-max", "0"], "must be >= 1"),
     ],
 )
 def test_refusals_touch_nothing(
@@ -62,6 +64,10 @@ def test_refusals_touch_nothing(
 def test_a_resume_keeps_the_runs_start_replay(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    others = [[], ["--start-replay", "0.5"]]
-    words = "trained with --start-replay 0.25; resume it"
-    assert_resume_keeps(tmp_path, capsys, ["--start-replay", "0.25"], others, words)
+    option = ["--start-replay", "0.25", "--start-replay-max", "2"]
+    others = [[], ["--start-replay", "0.5"], ["--start-replay", "0.25"]]
+    words = "trained with --start-replay 0.25 --start-replay-max 2; resume it"
+    run = assert_resume_keeps(tmp_path, capsys, option, others, words)
+    card = json.loads((run / "final_model.json").read_text())
+    assert card["start_replay"] == {"fraction": 0.25, "max_replays": 2}
+    assert recipe_name(card) == "ppo (32x32) + start replay 0.25 (max 2)"
