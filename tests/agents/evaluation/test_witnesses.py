@@ -42,7 +42,7 @@ V1 = "trailer_env/Reverse-v1"
 HARD = [1077, 1098]
 #: Every certified (scene, n) and its counts after the witness pass (docs/agents.md).
 COMMITTED = {(V1, 1): 100, (V1, 2): 100, (V1, 3): 100, (V1, 4): 96, (DOCK, 1): 100,
-             (DOCK, 2): 99, (COAST, 1): 100, (COAST, 2): 99}  # fmt: skip
+             (DOCK, 2): 100, (COAST, 1): 100, (COAST, 2): 99}  # fmt: skip
 
 
 def _open_certificate(env_id: str, n: int, seeds: list[int], planner: str) -> dict[str, Any]:
@@ -225,7 +225,7 @@ def test_warm_start_passes_accumulate_and_read_the_old_single_block() -> None:
 
 def test_a_sampled_draw_of_a_model_is_a_witness_and_replays() -> None:
     # ppo_dock_n2 fails 1065 acting on its mean and docks it in 35 of 64 sampled draws;
-    # 1083 stays open (no draw of 256 docks it).
+    # 1083 fails its 8 draws here.
     certificate = _open_certificate(DOCK, 2, [1065, 1083], "ilqr")
     upgraded = add_witnesses(certificate, ["lqr", "ppo_dock_n2"], samples=8)
     assert (upgraded["feasible"], upgraded["open"]) == (1, 1)
