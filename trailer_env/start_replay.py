@@ -69,11 +69,15 @@ class StartReplay:
         self._stored_replays = np.zeros(self.capacity, dtype=np.int64)  # failed replays so far
         self._current: StartRecord | None = None  # every row's running episode's start
         self._current_replays = np.zeros(0, dtype=np.int64)
-        self._replaying = np.zeros(0, dtype=bool)
         self._known = np.zeros(0, dtype=bool)
         #: Episodes begun from the buffer, and those of them that succeeded.
         self.replayed = 0
         self.replayed_successes = 0
+
+    @property
+    def replaying(self) -> np.ndarray:
+        """Bool per row of the batch: its running episode began from the buffer."""
+        return self._current_replays > 0
 
     def check_core(self, core: object) -> None:
         """Refuse a batch whose starts cannot be recorded (mixed counts of trailers,
@@ -93,7 +97,7 @@ class StartReplay:
         that began before the replay was attached are not kept (their start is unknown)."""
         if self._current is None:
             return  # no episode has begun under the replay: no start known
-        replayed = self._replaying[rows]
+        replayed = self._current_replays[rows] > 0
         self.replayed += int(np.count_nonzero(replayed))
         self.replayed_successes += int(np.count_nonzero(replayed & succeeded))
         keep = ~succeeded & self._known[rows]
@@ -108,12 +112,10 @@ class StartReplay:
         buffer instead, and record every row's start."""
         if self._current is None:
             self._current = core.start_records(np.arange(core.batch_size))
-            self._replaying = np.zeros(core.batch_size, dtype=bool)
             self._known = np.zeros(core.batch_size, dtype=bool)
             self._current_replays = np.zeros(core.batch_size, dtype=np.int64)
         chosen = self._rng.random(rows.size) < self.fraction
         replay = rows[chosen][: self.size]
-        self._replaying[rows] = False
         self._current_replays[rows] = 0
         if replay.size:
             picks = self._rng.choice(self.size, size=replay.size, replace=False)
@@ -121,13 +123,9 @@ class StartReplay:
             core.restart(replay, _take(self._stored, picks))
             self._current_replays[replay] = self._stored_replays[picks] + 1
             self._remove(picks)
-            self._replaying[replay] = True
         started = core.start_records(rows)
         self._known[rows] = True
-        self._current.z[rows] = started.z
-        self._current.act[rows] = started.act
-        for key, values in started.task.items():
-            self._current.task[key][rows] = values
+        _put(self._current, rows, started)
 
     def _store(self, record: StartRecord, replays: np.ndarray) -> None:
         count = record.z.shape[0]
@@ -145,11 +143,8 @@ class StartReplay:
             ]
         )
         self.size += free
-        self._stored.z[slots] = record.z
-        self._stored.act[slots] = record.act
+        _put(self._stored, slots, record)
         self._stored_replays[slots] = replays
-        for key, values in record.task.items():
-            self._stored.task[key][slots] = values
 
     def _remove(self, picks: np.ndarray) -> None:
         """Take ``picks`` out of the buffer (the others keep their order)."""
@@ -161,6 +156,14 @@ class StartReplay:
         stored = self._stored
         for array in (stored.z, stored.act, self._stored_replays, *stored.task.values()):
             array[: self.size] = array[kept]
+
+
+def _put(target: StartRecord, index: np.ndarray, record: StartRecord) -> None:
+    """Write ``record``'s entries into ``target`` at ``index``."""
+    target.z[index] = record.z
+    target.act[index] = record.act
+    for key, values in record.task.items():
+        target.task[key][index] = values
 
 
 def _take(record: StartRecord, index: np.ndarray) -> StartRecord:

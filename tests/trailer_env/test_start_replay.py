@@ -145,7 +145,7 @@ def test_a_start_leaves_the_buffer_after_max_replays_failed(max_replays: int | N
     zero = np.zeros((32, 1), dtype=np.float32)
     fresh_failures = 0
     for _ in range(600):  # the zero action folds every episode
-        replaying = replay._replaying.copy()  # the running episodes' (after a step: the next)
+        replaying = replay.replaying  # the running episodes' (a new array each read)
         dones = venv.step(zero)[2]
         fresh_failures += int(np.count_nonzero(dones & ~replaying))
     counts = replay._stored_replays[: replay.size]
