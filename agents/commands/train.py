@@ -296,10 +296,26 @@ def _check_resume(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
         parser.error(f"argument --resume: {error}")
 
 
-def _check_resumed_run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+def _start_flags(key: str, value: object) -> str:
+    """The flags that give a run's recorded start setting (``start_curriculum`` or
+    ``start_replay`` of ``config.json``), for a refusal message."""
+    if not isinstance(value, dict):
+        return f"no --{key.replace('_', '-')}"
+    if key == "start_curriculum":
+        return f"--start-curriculum {value.get('from')},{value.get('steps')}"
+    flags = f"--start-replay {value.get('fraction')}"
+    if "max_replays" in value:
+        flags += f" --start-replay-max {value['max_replays']}"
+    return flags
+
+
+def _check_resumed_run(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, config: TrainConfig
+) -> None:
     """Refuse a --resume of a fine-tuning run without its --init-from and --critic-warmup
     (or of a plain run with them): the frozen statistics and the warm-up depend on them;
-    and one without the run's --start-curriculum (or with another): its schedule goes on."""
+    and one without the run's --start-curriculum or --start-replay (or with others): the
+    schedule and the buffer's rules go on."""
     own_run = run_dir_of_checkpoint(args.resume)
     if own_run is None:
         return
@@ -309,33 +325,13 @@ def _check_resumed_run(parser: argparse.ArgumentParser, args: argparse.Namespace
         parser.error(f"argument --resume: unreadable {own_run / CONFIG_FILE}: {error}")
     if not isinstance(saved, dict):
         parser.error(f"argument --resume: {own_run / CONFIG_FILE} is not a JSON object")
-    saved_curriculum = saved.get("start_curriculum")
-    asked = args.start_curriculum
-    wanted = None if asked is None else {"from": asked[0], "steps": asked[1]}
-    if saved_curriculum != wanted:
-        shown = (
-            "no --start-curriculum"
-            if saved_curriculum is None
-            else f"--start-curriculum {saved_curriculum['from']},{saved_curriculum['steps']}"
-        )
-        parser.error(
-            f"argument --resume: {own_run} was trained with {shown}; resume it with the same"
-        )
-    saved_replay = saved.get("start_replay")
-    wanted_replay: dict[str, object] | None = None
-    if args.start_replay is not None:
-        wanted_replay = {"fraction": args.start_replay}
-        if args.start_replay_max is not None:
-            wanted_replay["max_replays"] = args.start_replay_max
-    if saved_replay != wanted_replay:
-        shown = "no --start-replay"
-        if isinstance(saved_replay, dict):
-            shown = f"--start-replay {saved_replay.get('fraction')}"
-            if "max_replays" in saved_replay:
-                shown += f" --start-replay-max {saved_replay['max_replays']}"
-        parser.error(
-            f"argument --resume: {own_run} was trained with {shown}; resume it with the same"
-        )
+    wanted = config.document()
+    for key in ("start_curriculum", "start_replay"):
+        if saved.get(key) != wanted.get(key):
+            parser.error(
+                f"argument --resume: {own_run} was trained with "
+                f"{_start_flags(key, saved.get(key))}; resume it with the same"
+            )
     saved_from, saved_warmup = saved.get("init_from"), saved.get("critic_warmup", 0)
     same_source = (saved_from is None) == (args.init_from is None) and (
         saved_from is None or Path(str(saved_from)).resolve() == args.init_from.resolve()
@@ -521,10 +517,11 @@ def main(argv: list[str] | None = None) -> int:
     _check_start_curriculum(parser, args)
     if args.resume is not None:
         _check_resume(parser, args)
-        _check_resumed_run(parser, args)
     _check_init_from(parser, args)
     command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
     config = config_from_args(parser, args, command)
+    if args.resume is not None:
+        _check_resumed_run(parser, args, config)
     default = default_run_dir(args.env, args.algo, args.n_trailers, args.seed)
     target = args.run_dir or (args.resume and run_dir_of_checkpoint(args.resume)) or default
     if args.init_from is not None and args.init_from.resolve().is_relative_to(target.resolve()):

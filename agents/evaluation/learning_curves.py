@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import io
 import math
+import textwrap
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -543,7 +544,8 @@ def _chart_png(
             ax.set_xlabel(label)
             ax.set_ylabel(f"validation {runs[0].metric.replace('_', ' ')}")
             ax.set_ylim(-0.02, 1.02)
-            ax.set_title(_group_label(key))
+            # A long recipe name (start replay, shaping) would run into the next panel.
+            ax.set_title(textwrap.fill(_group_label(key), 52), fontsize=10)
             ax.legend(loc="lower right", fontsize=8)
     fig.tight_layout()
     buffer = io.BytesIO()

@@ -224,24 +224,24 @@ def test_warm_start_passes_accumulate_and_read_the_old_single_block() -> None:
 
 
 def test_a_sampled_draw_of_a_model_is_a_witness_and_replays() -> None:
-    # ppo_dock_n2 fails 1065 acting on its mean and docks it in 35 of 64 sampled draws;
-    # 1083 fails its 8 draws here.
-    certificate = _open_certificate(DOCK, 2, [1065, 1083], "ilqr")
+    # ppo_dock_n2 fails 1032 acting on its mean and docks it in 22 of 64 sampled draws;
+    # 1021 fails its 8 draws here (the draws are seeded per batch, so they depend on its rows).
+    certificate = _open_certificate(DOCK, 2, [1021, 1032], "ilqr")
     upgraded = add_witnesses(certificate, ["lqr", "ppo_dock_n2"], samples=8)
     assert (upgraded["feasible"], upgraded["open"]) == (1, 1)
     assert upgraded["sources"] == {"ppo_dock_n2 (sampled)": 1}
     assert upgraded["witnesses"]["runs"][2:] == [
         {"source": "ppo_dock_n2 (sampled)", "tried": 2, "solved": 1, "draws": 8, "sample_seed": 0}
     ]  # a baseline is not sampled
-    start = upgraded["starts"][0]
-    record = upgraded["actions"][1065]
-    # Which draw docks it is a float outcome of the host's compiled kernels (draw 2 here).
+    start = upgraded["starts"][1]
+    record = upgraded["actions"][1032]
+    # Which draw docks it is a float outcome of the host's compiled kernels (draw 0 here).
     assert start["witness_draw"] in range(8) and start["witness_closed_loop_success"] is True
-    assert replay_goal(DOCK, {"n_trailers": 2}, 1065, record) == (True, start["witness_length"])
+    assert replay_goal(DOCK, {"n_trailers": 2}, 1032, record) == (True, start["witness_length"])
     again = add_witnesses(certificate, ["ppo_dock_n2"], samples=8, closed_loop=False)
-    assert np.array_equal(again["actions"][1065], record)  # the draws are seeded
+    assert np.array_equal(again["actions"][1032], record)  # the draws are seeded
     other = add_witnesses(certificate, ["ppo_dock_n2"], samples=8, sample_seed=1, closed_loop=False)
-    assert not np.array_equal(other["actions"][1065], record)
+    assert not np.array_equal(other["actions"].get(1032, np.empty(0)), record)  # other draws
     with pytest.raises(ValueError, match=r"samples must be in 0 \.\. 1024"):
         add_witnesses(certificate, ["ppo_dock_n2"], samples=1025)
 
