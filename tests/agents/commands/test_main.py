@@ -71,7 +71,10 @@ def test_report_writes_tables_and_pictures(tmp_path: Path) -> None:
         == 0
     )
     tables = (tmp_path / "tables.md").read_text()
-    assert tables.count("#### ") == len(report.SCENARIOS) + 1
+    # One section per scenario, then the actuator sweep and the time to the ceiling.
+    assert tables.count("#### ") == len(report.SCENARIOS) + 2
+    assert "#### LQR on Reverse-v0 as the actuator gets stronger" in tables
+    assert "#### Time to the ceiling" in tables
     for name in (
         "agents_curves.png",
         "agents_margins_reverse_v1_n2.png",
