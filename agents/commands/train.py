@@ -47,8 +47,10 @@ evaluations, and so the learning curve and the kept model, use the scene's start
 ``--stop-on-plateau WINDOW,EPS`` ends the run early once its validation headline rate
 (safe for Reverse, success otherwise) is flat: its last WINDOW evaluations within EPS
 of their mean (:mod:`agents.evaluation.learning_curves`), once that level is more than
-EPS from the first evaluation's (a run that has not started learning goes on); the
-cards record the step (``stopped_on_plateau_at``).
+EPS from the first evaluation's (a run that has not started learning goes on) and the
+end of the curve no longer rises by the trend test that the curve tables apply (the
+line through the last third of the steps); the cards record the step
+(``stopped_on_plateau_at``).
 
 ``--export PATH`` copies the best model, its card, statistics and learning curve to
 PATH (e.g. ``agents/models/``); existing files there are refused unless ``--overwrite``
@@ -249,7 +251,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         metavar="WINDOW,EPS",
         help="stop once the validation headline rate is flat: its last WINDOW evaluations "
-        "within EPS of their mean (e.g. 5,0.05; sb3 only)",
+        "within EPS of their mean, and its last third no longer rising (e.g. 5,0.05; sb3 only)",
     )
     parser.add_argument(
         "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"

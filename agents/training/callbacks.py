@@ -27,7 +27,7 @@ from agents.artifacts.run_folder import BEST_MODEL, CURVE_FILE
 from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import save_stats
 from agents.envs import headline_metric
-from agents.evaluation.learning_curves import is_flat
+from agents.evaluation.learning_curves import is_flat, trend
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.sb3 import ModelPolicy
 from agents.progress import Progress
@@ -46,29 +46,46 @@ class PlateauStop:
 
     A window whose mean is within ``eps`` of the run's first evaluation is not a plateau:
     a run that has not left its starting level (PPO on Reverse sits at 0 for its first
-    1.5-4M steps) has not started learning, and stops only at its budget.
+    1.5-4M steps) has not started learning, and stops only at its budget. Nor is a window
+    whose curve still rises by :func:`~agents.evaluation.learning_curves.trend` (the line
+    through the last third of the steps climbs by more than its error times Student's t):
+    five noisy evaluations within 0.05 of each other at 0.9 can sit on a climb, and a run
+    stopped there would be flagged "rising" by the tables that report it.
 
     Args:
         metric: The rate (a key of the summaries), e.g. "safe_rate".
         window, eps: The rule.
-        previous: The rates of the evaluations before this session (a resumed run).
+        previous: The (steps, rate) of the evaluations before this session (a resumed run).
     """
 
     def __init__(
-        self, metric: str, window: int, eps: float, previous: Sequence[float] = ()
+        self,
+        metric: str,
+        window: int,
+        eps: float,
+        previous: Sequence[tuple[float, float]] = (),
     ) -> None:
         self.metric, self.window, self.eps = metric, window, eps
-        self.values = [float(value) for value in previous]
+        self.steps = [int(steps) for steps, _ in previous]
+        self.values = [float(value) for _, value in previous]
         #: The step at which the plateau was detected, once it was.
         self.stopped_at: int | None = None
 
     def __call__(self, steps: int, summary: Mapping[str, Any]) -> bool:
+        self.steps.append(int(steps))
         self.values.append(float(summary[self.metric]))
-        if self.stopped_at is None and is_flat(self.values, self.window, self.eps):
-            level = sum(self.values[-self.window :]) / self.window
-            if abs(level - self.values[0]) > self.eps:
-                self.stopped_at = steps
+        if self.stopped_at is None and self._settled():
+            self.stopped_at = steps
         return self.stopped_at is not None
+
+    def _settled(self) -> bool:
+        if not is_flat(self.values, self.window, self.eps):
+            return False
+        level = sum(self.values[-self.window :]) / self.window
+        if abs(level - self.values[0]) <= self.eps:
+            return False
+        end = trend(self.steps, self.values)
+        return end is None or not end.rising
 
 
 def score(summary: Mapping[str, Any]) -> tuple[float, float, float]:

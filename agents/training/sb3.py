@@ -56,8 +56,9 @@ def train(
             replay buffer, legacy statistics); otherwise they are replaced or refused
             (:mod:`agents.artifacts`).
         stop_on_plateau: (window, eps): stop once the validation headline rate is flat
-            for ``window`` evaluations (:class:`agents.training.callbacks.PlateauStop`);
-            the cards then record ``stopped_on_plateau_at`` (the step).
+            for ``window`` evaluations and its end no longer rises
+            (:class:`agents.training.callbacks.PlateauStop`); the cards then record
+            ``stopped_on_plateau_at`` (the step).
         hooks: More :data:`~agents.training.callbacks.EvaluationHook` s (e.g. a tuner's
             pruner): each evaluation is passed on; one returning True stops the run.
 
@@ -174,7 +175,7 @@ def train(
     )
     plateau = None
     if stop_on_plateau is not None:
-        previous = [row[evaluator.metric] for row in evaluator.previous_rows]
+        previous = [(row["timesteps"], row[evaluator.metric]) for row in evaluator.previous_rows]
         plateau = PlateauStop(evaluator.metric, *stop_on_plateau, previous=previous)
         evaluator.hooks.append(plateau)
     checkpoints = StatsCheckpointCallback(
@@ -202,7 +203,8 @@ def train(
         if verbose:
             print(
                 f"the validation {plateau.metric} is flat ({plateau.window} evaluations "
-                f"within {plateau.eps:g}): stopped at {plateau.stopped_at} steps"
+                f"within {plateau.eps:g}, its last third not rising): stopped at "
+                f"{plateau.stopped_at} steps"
             )
     final = run_dir / FINAL_MODEL
     stats = model.get_vec_normalize_env()
