@@ -1,4 +1,5 @@
-"""``python -m agents.imitate``: DAgger from the planner (:mod:`agents.training.imitate`).
+"""``python -m agents.imitate``: DAgger from a planner or trained specialists
+(:mod:`agents.training.imitate`).
 
 Limits (checked before anything is built or written; :mod:`agents.artifacts.limits`):
 
@@ -8,11 +9,13 @@ argument                   bound
 ``--episodes``             1 .. 4,096 convoys (one batch)
 ``--iterations``           1 .. 1,000
 ``--epochs``               1 .. 10,000
-``--expert``               an expert of :data:`agents.oracles.experts.EXPERTS`
+``--expert``               an expert of :data:`agents.policies.teachers.DAGGER_EXPERTS`
                            that fits the scene (and the n, and ``--randomize``)
 ``--planner-samples``      2 .. 1,024 (``mpc`` only)
 ``--planner-iterations``   1 .. 100 (CEM or iLQR iterations)
 ``--planner-horizon``      1 .. 200 (``ilqr`` only)
+``--teacher``              policy specs with ``{n}``, ``COUNTS=`` before all but one
+                           (``specialists`` only)
 ``--net-arch``             10,000,000 parameters, 64 layers
 ``--seed``                 training seeds below 2**32
 ``--n-trailers``           one count N, or a range LOW-HIGH (a generalist)
@@ -25,8 +28,11 @@ The expert (``--expert``): ``mpc`` (the sampling planner; the default on Reverse
 ``ilqr`` (the deterministic iLQR planner; the default on Dock and Coast, which ``mpc``
 does not fit). A refused combination (``mpc`` on Dock, ``ilqr`` with a range of n or
 randomised parameters, a planner option the expert does not take) exits with status 2
-before anything is written. A run with another expert than the scene's default gets
-the expert's name at the end of its default run folder (``..._dagger_s0_ilqr``).
+before anything is written. ``specialists`` (any scene, any range of n): trained
+policies, one per n (``--teacher``, default ``dagger_reverse_v1_n{n}``), label each row
+by its own n: policy distillation (:mod:`agents.policies.teachers`). A run with another
+expert than the scene's default gets the expert's name at the end of its default run
+folder (``..._dagger_s0_ilqr``).
 
 A generalist (``--n-trailers 1-3 --randomize mismatch20``, ``mpc`` only): the env
 draws each episode's n and physics; the expert (one planner per n) plans with the
@@ -56,8 +62,9 @@ from agents.artifacts.run_folder import (
 )
 from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID
-from agents.oracles.experts import EXPERTS, default_expert
+from agents.oracles.experts import default_expert
 from agents.policies.sb3 import limit_torch_threads
+from agents.policies.teachers import DAGGER_EXPERTS
 from agents.training.imitate import CHECKPOINT_FILE, CheckpointError, ImitationConfig, imitate
 from dynamics.params import MAX_TRAILERS
 from trailer_env.observation import OBSERVATIONS
@@ -95,10 +102,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--expert",
-        choices=list(EXPERTS),
+        choices=list(DAGGER_EXPERTS),
         default=None,
-        help="the planner that labels: "
-        + "; ".join(f"{name}: {expert.summary}" for name, expert in EXPERTS.items())
+        help="the expert that labels: "
+        + "; ".join(f"{name}: {expert.summary}" for name, expert in DAGGER_EXPERTS.items())
         + " (default: the scene's first that fits)",
     )
     parser.add_argument(
@@ -118,6 +125,14 @@ def build_parser() -> argparse.ArgumentParser:
         type=cli.at_least(1, MAX_ILQR_HORIZON),
         default=None,
         help="ilqr's planned steps (default the scene's: 60, Dock 100)",
+    )
+    parser.add_argument(
+        "--teacher",
+        default=None,
+        metavar="SPEC",
+        help="the specialists of --expert specialists: a policy spec with {n} where the "
+        "count goes (default dagger_reverse_v1_n{n}), or several, comma-separated, each "
+        "but one after its counts: 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}",
     )
     parser.add_argument(
         "--observation",
@@ -161,7 +176,7 @@ def main(argv: list[str] | None = None) -> int:
         if problem is not None:
             parser.error(f"argument --net-arch: {problem}")
     try:
-        expert = EXPERTS[args.expert or default_expert(args.env)]
+        expert = DAGGER_EXPERTS[args.expert or default_expert(args.env)]
         problem = expert.problem(args.env, args.n_trailers, args.randomize)
         if problem is not None:
             raise ValueError(problem)
@@ -169,6 +184,7 @@ def main(argv: list[str] | None = None) -> int:
             samples=args.planner_samples,
             iterations=args.planner_iterations,
             horizon=args.planner_horizon,
+            policy=args.teacher,
         )
     except (TypeError, ValueError) as error:
         parser.error(f"argument --expert: {error}")

@@ -9,12 +9,13 @@ Usage::
 
 Each ``--policy`` is evaluated on every n it accepts (a model padded to three trailers
 refuses four: its cell says so), ``--specialist`` names one model per n (``{n}`` in the
-spec), evaluated on its own n where it exists, and the ceiling is the committed
-certificate's share of the same starts (:func:`agents.oracles.certify.ceiling_fraction`).
-Every cell is the same episodes (``--episodes`` from ``--seed``, the test seeds by
-default). Writes ``across_n.md`` (the table), ``across_n.json`` (every figure) and
-``across_n.png`` (the chart) into ``--out``, atomically; existing files are replaced only
-with ``--overwrite``.
+spec, or a list as ``agents.imitate --teacher`` takes:
+:class:`agents.policies.teachers.TeacherConfig`), evaluated on its own n where it exists,
+and the ceiling is the committed certificate's share of the same starts
+(:func:`agents.oracles.certify.ceiling_fraction`). Every cell is the same episodes
+(``--episodes`` from ``--seed``, the test seeds by default). Writes ``across_n.md`` (the
+table), ``across_n.json`` (every figure) and ``across_n.png`` (the chart) into ``--out``,
+atomically; existing files are replaced only with ``--overwrite``.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from agents.artifacts.shipped import resolve_model
 from agents.envs import ENV_IDS, HEADLINE_ENV_ID, headline_metric, scene_title
 from agents.evaluation.results import evaluate_policies, policy_label
 from agents.oracles.certify import ceiling_fraction
+from agents.policies.teachers import TeacherConfig
 from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
 
@@ -73,7 +75,11 @@ def rates_across_n(
             for spec in policies:
                 lines[policy_label(spec)][n] = _rate(spec, env_id, kwargs, episodes, seed, metric)
             if specialist is not None:
-                spec = specialist.format(n=n)
+                try:
+                    spec = TeacherConfig(specialist).spec(n)
+                except ValueError:
+                    lines[SPECIALIST][n] = f"no specialist of n = {n} in {specialist}"
+                    continue
                 exists = resolve_model(spec) != spec or Path(spec).is_file()
                 lines[SPECIALIST][n] = (
                     _rate(spec, env_id, kwargs, episodes, seed, metric)
@@ -152,7 +158,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--n", type=_counts, default=_counts("1-6"), help="counts, e.g. 1-6")
     parser.add_argument("--policy", nargs="+", default=["lqr", "lqr-adaptive"], metavar="SPEC")
     parser.add_argument(
-        "--specialist", default=None, metavar="SPEC", help="one model per n: {n} in the spec"
+        "--specialist",
+        default=None,
+        metavar="SPEC",
+        help="one model per n: {n} in the spec, or several comma-separated, each but one "
+        "after its counts (1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n})",
     )
     parser.add_argument("--episodes", type=int, default=100, help="episodes per cell")
     parser.add_argument("--seed", type=int, default=TEST_SEED, help="first episode's seed")
@@ -165,8 +175,15 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; bad arguments exit with 2 before any episode runs."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.specialist is not None and "{n}" not in args.specialist:
-        parser.error("argument --specialist: the spec must hold {n}, e.g. dagger_reverse_v1_n{n}")
+    if args.specialist is not None:
+        try:
+            one_policy = TeacherConfig(args.specialist).is_one_policy()
+        except ValueError as error:
+            parser.error(f"argument --specialist: {error}")
+        if one_policy:
+            parser.error(
+                "argument --specialist: the spec must hold {n}, e.g. dagger_reverse_v1_n{n}"
+            )
     if not 1 <= args.episodes <= limits.MAX_EPISODES:
         parser.error(f"argument --episodes: must lie in 1..{limits.MAX_EPISODES}")
     problem = limits.seed_problem(args.seed, args.episodes) or files.writable_problem(

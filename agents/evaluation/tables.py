@@ -46,8 +46,12 @@ def training_note(card: dict[str, Any], label: str = "") -> str:
     if card.get("recipe") == "dagger":
         iteration = card.get("selected_at_iteration")
         kept = f" (kept iteration {iteration})" if iteration is not None else ""
+        expert = str(card.get("expert", "mpc"))
+        teachers = card.get("planner", {}).get("policy")
+        if teachers is not None:  # distilled: the specialists' specs say which
+            expert = f"{expert} {teachers}"
         return (
-            f"{algo} policy by DAgger from {card.get('expert', 'mpc')}, "
+            f"{algo} policy by DAgger from {expert}, "
             f"seed {card.get('seed')}, {_steps_text(steps)} labels{kept}{wall_text}"
         )
     recipe = recipe_name(card, upper=True)

@@ -240,21 +240,25 @@ class Expert:
         options: The ``--planner-*`` options of ``agents.imitate`` it takes (the
             :class:`ExpertConfig` fields they set).
         complete: The fields the given options imply (mpc: the elites follow the samples).
+        any_scene: Whether it fits every scene (trained policies,
+            :mod:`agents.policies.teachers`), not only those with a cost for it.
     """
 
     name: str
     summary: str
-    config_class: type[PlannerConfig] | type[ILQRConfig]
-    default_config: Callable[[], ExpertConfig]
-    build: Callable[[type[ConvoyCore], dict[int, EnvSettings], int, ExpertConfig, int], Labeller]
+    config_class: type[Any]
+    default_config: Callable[[], Any]
+    build: Callable[[type[ConvoyCore], dict[int, EnvSettings], int, Any, int], Labeller]
     counts_range: bool
     per_row_parameters: bool
     options: tuple[str, ...]
-    complete: Callable[[dict[str, int]], dict[str, int]] = dict
+    complete: Callable[[dict[str, Any]], dict[str, Any]] = dict
+    any_scene: bool = False
 
     def fits(self, env_id: str) -> bool:
-        """Whether the scene of ``env_id`` has a cost for this planner."""
-        return self.name in scene_oracle(env_id).planners
+        """Whether the scene of ``env_id`` has a cost for this planner (an expert that is
+        not a planner, ``any_scene``, fits every scene)."""
+        return self.any_scene or self.name in scene_oracle(env_id).planners
 
     def problem(
         self,
@@ -280,7 +284,7 @@ class Expert:
             )
         return None
 
-    def configure(self, **options: int | None) -> ExpertConfig:
+    def configure(self, **options: int | str | None) -> Any:
         """The default settings with the given ``--planner-*`` options (None: not given).
 
         Raises:
@@ -298,7 +302,7 @@ class Expert:
         return dataclasses.replace(config, **self.complete(given))
 
 
-def _mpc_fields(given: dict[str, int]) -> dict[str, int]:
+def _mpc_fields(given: dict[str, Any]) -> dict[str, Any]:
     """A quarter of the candidates are the elites, as in the default (4 of 16)."""
     if "samples" not in given:
         return dict(given)

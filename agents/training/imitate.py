@@ -6,10 +6,11 @@ Usage::
         [--expert {mpc,ilqr}] [--iterations 6] [--episodes 256] [--run-dir DIR] \
         [--export PATH] [--overwrite]
 
-The expert is a record of :data:`agents.oracles.experts.EXPERTS`: ``mpc``, the sampling
-planner (the Reverse scenes' default), or ``ilqr``, the deterministic iLQR planner
+The expert is a record of :data:`agents.policies.teachers.DAGGER_EXPERTS`: ``mpc``, the
+sampling planner (the Reverse scenes' default), ``ilqr``, the deterministic iLQR planner
 (Reverse, and the default on Dock and Coast; one n, nominal physics), which labels a
-state with the same action whatever was labelled before.
+state with the same action whatever was labelled before, or ``specialists``, trained
+policies, one per n, each labelling the rows of its own count (policy distillation).
 
 A generalist: ``--n-trailers 1-3 --randomize mismatch20`` (the env draws each
 episode's n and physics; the expert, :class:`agents.oracles.experts.PrivilegedExpert`,
@@ -83,11 +84,12 @@ from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import read_stats, restore_stats, save_stats
 from agents.envs import check_env_id, make_sb3_env, settings_by_count
 from agents.evaluation.metrics import rollout, summarize
-from agents.oracles.experts import EXPERTS, ExpertConfig, Labeller, default_expert
+from agents.oracles.experts import ExpertConfig, Labeller, default_expert
 from agents.oracles.planner import SamplingPlanner
 from agents.policies.extractors import feature_extractor
 from agents.policies.mirror import MirroredPolicy
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy
+from agents.policies.teachers import DAGGER_EXPERTS, TeacherConfig
 from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
@@ -143,8 +145,8 @@ class ImitationConfig:
     """What :func:`imitate` trains.
 
     Attributes:
-        env_id: The scene (one that an expert of :data:`agents.oracles.experts.EXPERTS`
-            fits).
+        env_id: The scene (one that an expert of
+            :data:`agents.policies.teachers.DAGGER_EXPERTS` fits).
         n_trailers: Trailers: one count, or a range ``(low, high)`` (a generalist: the
             env draws each episode's n, the student sees the padded observation and
             its mask, :mod:`trailer_env.mixed`).
@@ -158,11 +160,12 @@ class ImitationConfig:
         learning_rate: Adam's step size.
         net_arch: Hidden layers of the policy (None: the hyperparameter file's).
         validation_episodes: Episodes of each validation.
-        expert: The expert's name in :data:`agents.oracles.experts.EXPERTS`; None: the
+        expert: The expert's name in :data:`agents.policies.teachers.DAGGER_EXPERTS`; None: the
             scene's default (:func:`agents.oracles.experts.default_expert`: ``mpc`` on
             Reverse, ``ilqr`` on Dock and Coast).
         planner: The expert's settings, of its ``config_class`` (``PlannerConfig`` for
-            ``mpc``, whose seed is replaced by ``seed``; ``ILQRConfig`` for ``ilqr``);
+            ``mpc``, whose seed is replaced by ``seed``; ``ILQRConfig`` for ``ilqr``;
+            :class:`~agents.policies.teachers.TeacherConfig` for ``specialists``);
             None: its default. More samples make ``mpc``'s labels less noisy: two
             default planners label the same states with a mean squared difference of
             about 0.02; ``ilqr``'s default (``reuse=False``) labels a state the same.
@@ -191,7 +194,7 @@ class ImitationConfig:
     learning_rate: float = 1e-3
     net_arch: tuple[int, ...] | None = None
     validation_episodes: int = 100
-    planner: ExpertConfig | None = None
+    planner: ExpertConfig | TeacherConfig | None = None
     randomize: str | JSONObject | None = None
     expert: str | None = None
     observation: str = "flat"
@@ -240,9 +243,9 @@ class ImitationConfig:
             object.__setattr__(self, "expert", default_expert(self.env_id))
         elif not isinstance(self.expert, str):
             raise TypeError(f"expert must be a str, got {type(self.expert).__name__}")
-        elif self.expert not in EXPERTS:
-            raise ValueError(f"expert: unknown {self.expert!r}; experts: {sorted(EXPERTS)}")
-        expert = EXPERTS[str(self.expert)]
+        elif self.expert not in DAGGER_EXPERTS:
+            raise ValueError(f"expert: unknown {self.expert!r}; experts: {sorted(DAGGER_EXPERTS)}")
+        expert = DAGGER_EXPERTS[str(self.expert)]
         problem = expert.problem(self.env_id, self.n_trailers, self.randomize)
         if problem is not None:
             raise ValueError(problem)
@@ -253,9 +256,13 @@ class ImitationConfig:
                 f"planner: the {expert.name} expert takes {expert.config_class.__name__}, "
                 f"got {type(self.planner).__name__}"
             )
+        if isinstance(self.planner, TeacherConfig):  # the specialists load, before a run
+            problem = self.planner.problem(self.env_id, sorted(self.settings_by_count()))
+            if problem is not None:
+                raise ValueError(problem)
 
     @property
-    def expert_config(self) -> ExpertConfig:
+    def expert_config(self) -> ExpertConfig | TeacherConfig:
         """The expert's settings (resolved: never None after construction)."""
         if self.planner is None:  # pragma: no cover - __post_init__ sets it
             raise RuntimeError("ImitationConfig was not validated")
@@ -581,7 +588,7 @@ def imitate(
         policy = config.student(model, stats)
         return policy if signs is None else MirroredPolicy(policy, *signs)
 
-    expert = EXPERTS[str(config.expert)]
+    expert = DAGGER_EXPERTS[str(config.expert)]
     planner = expert.build(core_class, settings, config.episodes, config.expert_config, config.seed)
     rng = np.random.default_rng(config.seed)
     record: JSONObject = {
@@ -637,9 +644,14 @@ def imitate(
     for iteration in range(done.iterations, config.iterations):
         seed = TRAINING_SEED + config.seed * 10_000 + iteration * config.episodes
         driver = None if iteration == 0 else student()
+        cost = (
+            f"{planner.steps_per_label:,} simulated steps each"
+            if planner.steps_per_label
+            else "a network call each"
+        )
         label = (
             f"imitate: iteration {iteration + 1}/{config.iterations}, {config.episodes} convoys, "
-            f"{expert.name} labels ({planner.steps_per_label:,} simulated steps each)"
+            f"{expert.name} labels ({cost})"
         )
         with Progress(envs.max_episode_steps, label, quiet=not verbose) as bar:
             obs, labels = collect(envs, planner, driver, seed, bar)

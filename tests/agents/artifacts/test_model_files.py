@@ -81,10 +81,13 @@ def test_damaged_statistics_are_refused(tmp_path: Path) -> None:
 def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     zips = sorted(MODELS_DIR.glob("*.zip"))
     seeds = sorted((MODELS_DIR / "seeds").glob("*.zip"))
-    # With the generalist and the three sequence generalists (ConvoyEncoder: n = 1-3, n = 1-6
-    # and n = 1-6 trained with the mirror).
-    assert len(zips) == 26 and not list(MODELS_DIR.glob("**/*.pkl"))
-    assert len(seeds) == 33  # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model
+    # With the generalist, the three sequence generalists from the planner (ConvoyEncoder:
+    # n = 1-3, n = 1-6 and n = 1-6 trained with the mirror) and the two distilled from the
+    # specialists (n = 1-3, n = 1-6).
+    assert len(zips) == 28 and not list(MODELS_DIR.glob("**/*.pkl"))
+    # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model and of the
+    # distilled n = 1-6 policy.
+    assert len(seeds) == 36
     for model in zips + seeds:
         card = read_card(model)
         sequence = card["env_kwargs"].get("observation") == "trailers"

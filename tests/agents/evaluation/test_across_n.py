@@ -8,7 +8,14 @@ from pathlib import Path
 
 import pytest
 
-from agents.evaluation.across_n import CEILING, SPECIALIST, _counts, main, markdown
+from agents.evaluation.across_n import (
+    CEILING,
+    SPECIALIST,
+    _counts,
+    main,
+    markdown,
+    rates_across_n,
+)
 
 
 def test_counts_and_the_table_of_empty_cells() -> None:
@@ -53,3 +60,25 @@ def test_the_command_writes_table_json_and_chart(
     with pytest.raises(SystemExit) as refused:
         main([*args[:4], "--specialist", "dagger_reverse_v1_n2", "--out", str(tmp_path / "b")])
     assert refused.value.code == 2 and not (tmp_path / "b").exists()
+    with pytest.raises(SystemExit) as refused:
+        main([*args[:4], "--specialist", "a{n},b{n}", "--out", str(tmp_path / "c")])
+    assert refused.value.code == 2 and not (tmp_path / "c").exists()
+    assert "more than one item without counts" in capsys.readouterr().err
+
+
+def test_a_list_of_specialists_takes_each_counts_own() -> None:
+    lines = rates_across_n(
+        "trailer_env/Reverse-v1",
+        [1, 2, 3],
+        ["zero"],
+        "1=ppo_reverse_v1_n{n},2=dagger_reverse_v1_n{n}",
+        2,
+        1000,
+    )
+    direct = rates_across_n("trailer_env/Reverse-v1", [1], ["ppo_reverse_v1_n1"], None, 2, 1000)
+    assert lines[SPECIALIST][1] == direct["ppo_reverse_v1_n1"][1]
+    assert isinstance(lines[SPECIALIST][2], float)
+    assert (
+        lines[SPECIALIST][3]
+        == "no specialist of n = 3 in 1=ppo_reverse_v1_n{n},2=dagger_reverse_v1_n{n}"
+    )

@@ -75,6 +75,20 @@ def test_training_labels_are_short_and_the_notes_go_under_the_table() -> None:
         "(kept iteration 3), 500 s"
     )
     assert training_footnote(_evaluations()[:1]) == ""
+    distilled = {
+        "algo": "ppo",
+        "recipe": "dagger",
+        "expert": "specialists",
+        "planner": {"policy": "1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}"},
+        "seed": 0,
+        "timesteps": 614_400,
+        "selected_at_iteration": 5,
+        "wall_time_s": 1812.8,
+    }
+    assert training_note(distilled) == (
+        "PPO policy by DAgger from specialists 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}, "
+        "seed 0, 0.614M labels (kept iteration 5), 1813 s"
+    )
 
 
 def test_training_labels_name_the_exploration_and_the_shaping() -> None:

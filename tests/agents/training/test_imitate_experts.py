@@ -130,6 +130,44 @@ def test_refused_combinations(kwargs: dict, error: type[Exception], match: str) 
             ["--env", "trailer_env/Heading-v0"],
             "argument --expert: trailer_env/Heading-v0 has no planner to imitate",
         ),
+        (
+            ["--expert", "mpc", "--teacher", "ppo_dock_n{n}"],
+            "argument --expert: the mpc expert takes no planner option 'policy'",
+        ),
+        (
+            ["--expert", "specialists", "--n-trailers", "1-2", "--planner-samples", "4"],
+            "argument --expert: the specialists expert takes no planner option 'samples'",
+        ),
+        (
+            ["--expert", "specialists", "--teacher", "x{m}"],
+            "the only field a teacher spec may hold is {n}",
+        ),
+        (
+            ["--expert", "specialists", "--n-trailers", "1-2", "--teacher", "ppo_dock_n2"],
+            "names one policy for counts [1, 2]",
+        ),
+        (
+            [
+                "--expert",
+                "specialists",
+                "--n-trailers",
+                "1-3",
+                "--teacher",
+                "1-2=dagger_reverse_v1_n{n}",
+            ],
+            "teacher of n = 3: teacher '1-2=dagger_reverse_v1_n{n}' names no policy for n = 3",
+        ),
+        (
+            [
+                "--expert",
+                "specialists",
+                "--n-trailers",
+                "1-2",
+                "--teacher",
+                "dagger_reverse_v1_n2,1=dagger_reverse_v1_n2",
+            ],
+            "with n_trailers = 2, not trailer_env/Reverse-v1 with n_trailers = 1",
+        ),
     ],
 )
 def test_refused_options_exit_before_anything_is_written(

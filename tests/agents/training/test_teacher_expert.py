@@ -1,0 +1,148 @@
+"""``--expert specialists``: trained policies as DAgger's expert (policy distillation).
+
+Each row of a mixed-n batch is labelled by the specialist of its own n, from the
+observation that count's env shows; the label is a function of that observation; the
+options refused are refused before anything is written (with the other experts' in
+test_imitate_experts.py)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from agents.commands import imitate as imitate_command
+from agents.envs import env_settings
+from agents.oracles.experts import EXPERTS
+from agents.policies.registry import load_policy
+from agents.policies.teachers import DAGGER_EXPERTS, SPECIALISTS, TeacherConfig, TeacherExpert
+from agents.training.imitate import DATASET_FILE, ImitationConfig
+from trailer_env.registry import core_class_of
+from trailer_env.scenes.reverse_v1 import ReverseV1Core
+from trailer_env.vector import ConvoyVectorEnv
+
+V1 = "trailer_env/Reverse-v1"
+DOCK = "trailer_env/Dock-v0"
+
+
+def test_the_table_holds_the_planners_then_the_specialists() -> None:
+    assert list(DAGGER_EXPERTS) == [*EXPERTS, "specialists"] == ["mpc", "ilqr", "specialists"]
+    assert SPECIALISTS.fits(V1) and SPECIALISTS.fits("trailer_env/Heading-v0")
+    assert SPECIALISTS.problem(V1, (1, 6), None) is None
+    assert "cannot label randomised" in str(SPECIALISTS.problem(V1, (1, 3), "mismatch20"))
+    assert SPECIALISTS.configure(policy="ppo_dock_n{n}") == TeacherConfig("ppo_dock_n{n}")
+    assert SPECIALISTS.configure(policy=None) == TeacherConfig("dagger_reverse_v1_n{n}")
+    with pytest.raises(TypeError, match="takes no planner option 'samples'"):
+        SPECIALISTS.configure(samples=4)
+    with pytest.raises(TypeError, match="takes no planner option 'policy'"):
+        EXPERTS["mpc"].configure(policy="dagger_reverse_v1_n{n}")
+    config = ImitationConfig(V1, (1, 2), expert="specialists")
+    assert config.expert_config == TeacherConfig()
+
+
+@pytest.mark.parametrize(
+    ("policy", "error", "match"),
+    [
+        (3, TypeError, "policy must be a str, got int"),
+        ("dagger_reverse_v1_n{m}", ValueError, r"the only field a teacher spec may hold is \{n\}"),
+        ("dagger_{}", ValueError, r"the only field a teacher spec may hold is \{n\}"),
+    ],
+)
+def test_a_bad_teacher_spec_is_refused(policy: object, error: type[Exception], match: str) -> None:
+    with pytest.raises(error, match=match):
+        TeacherConfig(policy)  # type: ignore[arg-type]
+
+
+def test_a_range_needs_the_count_in_the_spec() -> None:
+    settings = {n: env_settings({"n_trailers": n}) for n in (1, 2)}
+    with pytest.raises(ValueError, match=r"names one policy for counts \[1, 2\]"):
+        TeacherExpert(ReverseV1Core, settings, 4, TeacherConfig("dagger_reverse_v1_n1"))
+
+
+def test_each_row_is_labelled_by_its_own_counts_specialist() -> None:
+    envs = ConvoyVectorEnv(ReverseV1Core, 8, autoreset_mode="same_step", n_trailers=(1, 2))
+    envs.reset(seed=5)
+    settings = {n: env_settings({"n_trailers": n}) for n in (1, 2)}
+    expert = TeacherExpert(ReverseV1Core, settings, 8)
+    core = envs.core
+    for _ in range(3):  # a few steps, so the labels are not only the starts'
+        labels = expert.label(core)
+        assert labels.shape == (8, 1) and np.all(np.abs(labels) <= 1.0)
+        counts = core.trailers
+        assert set(counts.tolist()) == {1, 2}
+        for n in (1, 2):
+            rows = np.flatnonzero(counts == n)
+            own = load_policy(f"dagger_reverse_v1_n{n}", V1, {"n_trailers": n})
+            np.testing.assert_array_equal(labels[rows], own(core.cores[n].obs[rows]))
+        np.testing.assert_array_equal(expert.label(core), labels)  # no state kept
+        envs.step(labels.astype(np.float32))
+    assert expert.simulated_steps == 0 and expert.random_streams() == []
+
+
+def test_one_count_reads_the_scene_core() -> None:
+    envs = ConvoyVectorEnv(core_class_of(DOCK), 4, autoreset_mode="same_step", n_trailers=2)
+    envs.reset(seed=9)
+    expert = TeacherExpert(
+        core_class_of(DOCK), {2: env_settings({"n_trailers": 2})}, 4, TeacherConfig("ppo_dock_n2")
+    )
+    own = load_policy("ppo_dock_n2", DOCK, {"n_trailers": 2})
+    np.testing.assert_array_equal(expert.label(envs.core)[:, 0], own(envs.core.obs)[:, 0])
+
+
+def test_a_specialist_of_another_n_is_refused() -> None:
+    settings = {3: env_settings({"n_trailers": 3})}
+    with pytest.raises(ValueError, match="n_trailers"):
+        TeacherExpert(ReverseV1Core, settings, 2, TeacherConfig("dagger_reverse_v1_n2"))
+
+
+def test_a_tiny_distillation_labels_the_same_states_the_same_twice(tmp_path: Path) -> None:
+    tiny = [
+        "--n-trailers", "1-2", "--expert", "specialists", "--observation", "trailers",
+        "--iterations", "2", "--episodes", "2", "--epochs", "1", "--seed", "4",
+    ]  # fmt: skip
+    datasets = []
+    for run in ("a", "b"):
+        run_dir = tmp_path / run
+        assert imitate_command.main([*tiny, "--run-dir", str(run_dir)]) == 0
+        with np.load(run_dir / DATASET_FILE) as data:
+            datasets.append((data["observations"], data["labels"]))
+        card = json.loads((run_dir / "best_model.json").read_text())
+        assert card["expert"] == "specialists"
+        assert card["planner"] == {"policy": "dagger_reverse_v1_n{n}"}
+        assert card["simulated_steps"] == 0 and card["timesteps"] == 2 * 2 * 400
+    (obs_a, labels_a), (obs_b, labels_b) = datasets
+    assert labels_a.shape == (1600, 1)
+    np.testing.assert_array_equal(obs_a, obs_b)
+    np.testing.assert_array_equal(labels_a, labels_b)
+    assert np.unique(labels_a).size > 100
+
+
+def test_counts_pick_their_specialists() -> None:
+    config = TeacherConfig("1-3=ppo_reverse_v1_n{n}, 5=my_n5.zip ,dagger_reverse_v1_n{n}")
+    assert [config.spec(n) for n in (1, 3, 4, 5, 6)] == [
+        "ppo_reverse_v1_n1",
+        "ppo_reverse_v1_n3",
+        "dagger_reverse_v1_n4",
+        "my_n5.zip",
+        "dagger_reverse_v1_n6",
+    ]
+    assert not config.is_one_policy() and TeacherConfig("ppo_dock_n2").is_one_policy()
+    with pytest.raises(ValueError, match="names no policy for n = 4"):
+        TeacherConfig("1-3=ppo_reverse_v1_n{n}").spec(4)
+
+
+@pytest.mark.parametrize(
+    ("policy", "match"),
+    [
+        ("a{n},b{n}", "more than one item without counts"),
+        ("0-2=a{n},b{n}", r"counts '0-2' are not N or LOW-HIGH in 1\.\.256"),
+        ("3-2=a{n}", r"counts '3-2' are not N or LOW-HIGH"),
+        ("x=a{n}", r"counts 'x' are not N or LOW-HIGH"),
+        ("1-2=,b{n}", "an item names no policy"),
+    ],
+)
+def test_a_bad_list_of_teachers_is_refused(policy: str, match: str) -> None:
+    with pytest.raises(ValueError, match=match):
+        TeacherConfig(policy)
