@@ -3,7 +3,7 @@
 Usage::
 
     python -m agents.imitate --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \
-        [--expert {mpc,ilqr}] [--iterations 6] [--episodes 256] [--run-dir DIR] \
+        [--expert {mpc,ilqr,specialists}] [--iterations 6] [--episodes 256] [--run-dir DIR] \
         [--export PATH] [--overwrite]
 
 The expert is a record of :data:`agents.policies.teachers.DAGGER_EXPERTS`: ``mpc``, the
