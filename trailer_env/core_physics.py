@@ -67,7 +67,13 @@ class PhysicsMixin:
         )
         if self.n_param_features:
             offset = self.param_offset
-            self.obs[indices, offset:] = np.log(self.factors[indices, : len(PARAMETERS)])
+            self.obs[indices, offset:] = self.parameter_features(indices)
+
+    def parameter_features(self, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
+        """The ``observe_params`` features of ``rows`` (len(rows), 7): ``log(value /
+        nominal)`` of each episode's parameters, columns :data:`PARAMETERS`, whether or not
+        this core observes them (a privileged policy reads them here)."""
+        return np.log(self.factors[rows, : len(PARAMETERS)])
 
     def set_row_params(self, rows: np.ndarray, values: np.ndarray) -> None:
         """Give ``rows`` (int array) the parameters ``values`` (len(rows), 7), columns

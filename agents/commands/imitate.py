@@ -63,6 +63,7 @@ from agents.artifacts.run_folder import (
 from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID
 from agents.oracles.experts import default_expert
+from agents.policies.extractors import CONVOY_DIRECTIONS
 from agents.policies.sb3 import limit_torch_threads
 from agents.policies.teachers import DAGGER_EXPERTS
 from agents.training.imitate import CHECKPOINT_FILE, CheckpointError, ImitationConfig, imitate
@@ -148,6 +149,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="trailer slots of --observation trailers (default 8)",
     )
     parser.add_argument(
+        "--convoy-direction",
+        choices=list(CONVOY_DIRECTIONS),
+        default=CONVOY_DIRECTIONS[0],
+        help="the order in which ConvoyEncoder reads the trailers (--observation trailers): "
+        "from the cart, from the last trailer, or both passes",
+    )
+    parser.add_argument(
         "--mirror",
         action="store_true",
         help="train with the convoy's mirror image: mirrored copies of every "
@@ -203,6 +211,7 @@ def main(argv: list[str] | None = None) -> int:
             observation=args.observation,
             max_trailers=args.max_trailers,
             mirror=args.mirror,
+            convoy_direction=args.convoy_direction,
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))
@@ -219,6 +228,8 @@ def main(argv: list[str] | None = None) -> int:
         default = default.with_name(f"{default.name}_{config.observation}")
     if config.mirror:
         default = default.with_name(f"{default.name}_mirror")
+    if config.convoy_direction != CONVOY_DIRECTIONS[0]:
+        default = default.with_name(f"{default.name}_{config.convoy_direction}")
     checkpoint = None
     if args.resume:
         checkpoint = (args.run_dir or default) / CHECKPOINT_FILE

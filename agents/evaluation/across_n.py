@@ -40,7 +40,7 @@ SPECIALIST = "specialist (own n)"
 CEILING = "ceiling (certified)"
 
 
-def _counts(text: str) -> list[int]:
+def parse_counts(text: str) -> list[int]:
     """``"1-6"`` or ``"1,2,4"`` as a sorted list of counts of trailers (1 .. 16)."""
     try:
         if "-" in text:
@@ -53,6 +53,17 @@ def _counts(text: str) -> list[int]:
     if not counts or counts[0] < 1 or counts[-1] > 16:
         raise argparse.ArgumentTypeError(f"counts of trailers must lie in 1..16; got {text!r}")
     return counts
+
+
+def specialist_problem(specialist: str | None) -> str | None:
+    """Why ``--specialist`` cannot name one model per n (None: it can, or is not given)."""
+    if specialist is None:
+        return None
+    try:
+        one_policy = TeacherConfig(specialist).is_one_policy()
+    except ValueError as error:
+        return str(error)
+    return "the spec must hold {n}, e.g. dagger_reverse_v1_n{n}" if one_policy else None
 
 
 def rates_across_n(
@@ -155,7 +166,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="The headline rate against the number of trailers (table, JSON, chart)",
     )
     parser.add_argument("--env", default=HEADLINE_ENV_ID, choices=ENV_IDS, metavar="ENV_ID")
-    parser.add_argument("--n", type=_counts, default=_counts("1-6"), help="counts, e.g. 1-6")
+    parser.add_argument("--n", type=parse_counts, default=parse_counts("1-6"), help="e.g. 1-6")
     parser.add_argument("--policy", nargs="+", default=["lqr", "lqr-adaptive"], metavar="SPEC")
     parser.add_argument(
         "--specialist",
@@ -175,15 +186,9 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; bad arguments exit with 2 before any episode runs."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if args.specialist is not None:
-        try:
-            one_policy = TeacherConfig(args.specialist).is_one_policy()
-        except ValueError as error:
-            parser.error(f"argument --specialist: {error}")
-        if one_policy:
-            parser.error(
-                "argument --specialist: the spec must hold {n}, e.g. dagger_reverse_v1_n{n}"
-            )
+    problem = specialist_problem(args.specialist)
+    if problem is not None:
+        parser.error(f"argument --specialist: {problem}")
     if not 1 <= args.episodes <= limits.MAX_EPISODES:
         parser.error(f"argument --episodes: must lie in 1..{limits.MAX_EPISODES}")
     problem = limits.seed_problem(args.seed, args.episodes) or files.writable_problem(

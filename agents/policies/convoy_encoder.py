@@ -29,8 +29,13 @@ from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
+from agents.policies.extractors import CONVOY_DIRECTIONS
+
 #: The factor on the centred trailer features (see :class:`ConvoyEncoder`).
 DEFAULT_TRAILER_SCALE = 10.0
+
+#: The values of :class:`ConvoyEncoder`'s ``direction`` (kept where no torch is imported).
+DIRECTIONS = CONVOY_DIRECTIONS
 
 
 class ConvoyEncoder(BaseFeaturesExtractor):
@@ -47,12 +52,21 @@ class ConvoyEncoder(BaseFeaturesExtractor):
     its initial state is a layer of the body, so each trailer is read in the context of
     the cart's speed and turning rate.
 
+    ``direction="tail_first"`` reads the chain the other way, from the last trailer to
+    the one behind the cart (the order of a backstepping design for reversing, where each
+    body's wanted angle follows from the one behind it): both ends of the pass are then
+    the same bodies at every n (it starts at the last trailer and ends next to the cart,
+    where the actuator is), and a longer convoy adds steps in the middle. ``"both"`` runs
+    the two passes with separate cells and concatenates their last states.
+
     Forward, for a batch: ``h_0 = tanh(W_0 body + b_0)``; for each slot k,
     ``h_k = GRUCell(x_k, h_(k-1))`` where ``mask_k = 1`` and ``h_k = h_(k-1)`` where it is
     0, with ``x_k = trailer_scale * (sin alpha_k, cos alpha_k - 1)``; the features are
     ``[h_M, tanh(W_b body + b_b)]`` (``hidden + body_hidden`` values). Masked slots are
     skipped exactly (``torch.where``), so what a padded slot holds changes nothing, and
-    n = 0 gives ``h_0``.
+    n = 0 gives ``h_0``. ``"tail_first"`` runs the slots from M down to 1 with its own
+    ``W_0`` and cell; ``"both"`` gives ``[h_M, h'_1, body layer]``
+    (``2 hidden + body_hidden`` values).
 
     Inputs: the trailer features are centred on the straight convoy and scaled by
     ``trailer_scale`` (default 10) because the hitch angles of a nearly straight
@@ -68,10 +82,13 @@ class ConvoyEncoder(BaseFeaturesExtractor):
         hidden: Size of the GRU's state.
         body_hidden: Width of the body's layer.
         trailer_scale: Factor on the centred trailer features (> 0).
+        direction: One of :data:`DIRECTIONS` (default ``"cart_first"``, the order of every
+            model saved before the option).
 
     Raises:
-        TypeError: If ``observation_space`` is not that Dict space.
-        ValueError: If a size is not a positive integer or the scale not a positive number.
+        TypeError: If ``observation_space`` is not that Dict space, or ``direction`` not a str.
+        ValueError: If a size is not a positive integer, the scale not a positive number
+            or ``direction`` not one of :data:`DIRECTIONS`.
     """
 
     def __init__(
@@ -80,6 +97,7 @@ class ConvoyEncoder(BaseFeaturesExtractor):
         hidden: int = 64,
         body_hidden: int = 64,
         trailer_scale: float = DEFAULT_TRAILER_SCALE,
+        direction: str = "cart_first",
     ) -> None:
         if not isinstance(observation_space, spaces.Dict) or set(observation_space.spaces) != {
             "body",
@@ -99,15 +117,29 @@ class ConvoyEncoder(BaseFeaturesExtractor):
             or not 0.0 < trailer_scale < float("inf")
         ):
             raise ValueError(f"trailer_scale must be a positive number, got {trailer_scale!r}")
-        super().__init__(observation_space, features_dim=hidden + body_hidden)
+        if not isinstance(direction, str):
+            raise TypeError(f"direction must be a str, got {type(direction).__name__}")
+        if direction not in DIRECTIONS:
+            raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
+        passes = 2 if direction == "both" else 1
+        super().__init__(observation_space, features_dim=passes * hidden + body_hidden)
         body_space = observation_space["body"]
         trailer_space = observation_space["trailers"]
         assert body_space.shape is not None and trailer_space.shape is not None
         body_dim = int(body_space.shape[0])
         self.trailer_scale = float(trailer_scale)
-        self.start = nn.Sequential(nn.Linear(body_dim, hidden), nn.Tanh())
+        self.direction = direction
+        features = int(trailer_space.shape[1])
+        # "cart_first" keeps the names and the order of creation (so the initial weights
+        # drawn from a seed) of the models saved before the option.
+        if direction != "tail_first":
+            self.start = nn.Sequential(nn.Linear(body_dim, hidden), nn.Tanh())
         self.body = nn.Sequential(nn.Linear(body_dim, body_hidden), nn.Tanh())
-        self.cell = nn.GRUCell(int(trailer_space.shape[1]), hidden)
+        if direction != "tail_first":
+            self.cell = nn.GRUCell(features, hidden)
+        if direction != "cart_first":
+            self.tail_start = nn.Sequential(nn.Linear(body_dim, hidden), nn.Tanh())
+            self.tail_cell = nn.GRUCell(features, hidden)
         # cos(alpha) - 1: the straight convoy at the origin of every input.
         self.centre: torch.Tensor
         self.register_buffer("centre", torch.tensor([0.0, 1.0]), persistent=False)
@@ -116,11 +148,21 @@ class ConvoyEncoder(BaseFeaturesExtractor):
         body = observations["body"]
         present = observations["mask"] > 0.5
         inputs = (observations["trailers"] - self.centre) * self.trailer_scale
-        state = self.start(body)
         # Slots past the batch's longest convoy are skipped: they would leave every state
         # as it is.
         filled = torch.nonzero(present.any(dim=0))
         slots = int(filled.max()) + 1 if filled.numel() else 0
-        for k in range(slots):
-            state = torch.where(present[:, k : k + 1], self.cell(inputs[:, k], state), state)
-        return torch.cat([state, self.body(body)], dim=1)
+        states = []
+        if self.direction != "tail_first":
+            state = self.start(body)
+            for k in range(slots):
+                state = torch.where(present[:, k : k + 1], self.cell(inputs[:, k], state), state)
+            states.append(state)
+        if self.direction != "cart_first":
+            state = self.tail_start(body)
+            for k in reversed(range(slots)):
+                state = torch.where(
+                    present[:, k : k + 1], self.tail_cell(inputs[:, k], state), state
+                )
+            states.append(state)
+        return torch.cat([*states, self.body(body)], dim=1)

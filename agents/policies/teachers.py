@@ -11,6 +11,14 @@ learns from six teachers at once (policy distillation; Rusu et al., 2016, with D
 states, as in Ross et al., 2011). The student learns what its teachers do, their faults
 included: it is no more robust than they are to physics they were not trained on.
 
+A teacher trained with ``observe_params=True`` (its card says so) is privileged: under
+randomised physics (``agents.imitate --randomize``) it labels each row from the row's
+observation with the row's parameter features appended
+(:meth:`trailer_env.core.ConvoyCore.parameter_features`), what it saw in training, while
+the student reads the observation alone: teacher-student distillation of a policy that
+knows each episode's parameters into one that must act without them (Chen et al., 2019,
+"Learning by cheating"; Lee et al., 2020).
+
 :data:`DAGGER_EXPERTS` is the table ``agents.imitate --expert`` reads: the planners of
 :data:`agents.oracles.experts.EXPERTS`, then ``specialists``.
 """
@@ -18,14 +26,18 @@ included: it is no more robust than they are to physics they were not trained on
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
+from agents.artifacts.cards import read_card
+from agents.artifacts.shipped import resolve_model
 from agents.oracles.experts import EXPERTS, Expert, ExpertConfig, Labeller
 from agents.policies.baselines import Policy
-from agents.policies.registry import load_policy
+from agents.policies.registry import is_model_spec, load_policy
 from dynamics.params import MAX_TRAILERS
 from trailer_env.core import ConvoyCore
+from trailer_env.json_types import JSONObject
 from trailer_env.mixed import MixedCore
 from trailer_env.registry import ENVIRONMENTS
 from trailer_env.settings import EnvSettings
@@ -98,7 +110,7 @@ class TeacherConfig:
             )
         for n in counts:
             try:
-                load_policy(self.spec(n), env_id, {"n_trailers": n})
+                load_teacher(self.spec(n), env_id, n)
             except (ValueError, FileNotFoundError) as error:
                 return f"teacher of n = {n}: {error}"
         return None
@@ -107,6 +119,19 @@ class TeacherConfig:
         """Whether every count gets the same policy (one item, no ``{n}``)."""
         items = self.specs()
         return len(items) == 1 and COUNT_FIELD not in items[0][1]
+
+
+def load_teacher(spec: str, env_id: str, n: int) -> tuple[Policy, bool]:
+    """The specialist ``spec`` of ``n`` trailers and whether it reads the episode's
+    parameter features (a model whose card's ``env_kwargs`` hold ``observe_params=True``).
+
+    Raises:
+        ValueError, FileNotFoundError: As :func:`load_policy`.
+    """
+    card = read_card(Path(resolve_model(spec))) if is_model_spec(spec) else {}
+    privileged = bool(card.get("env_kwargs", {}).get("observe_params", False))
+    kwargs: JSONObject = {"n_trailers": n, **({"observe_params": True} if privileged else {})}
+    return load_policy(spec, env_id, kwargs), privileged
 
 
 def _counts(text: str, policy: str) -> tuple[int, int]:
@@ -157,9 +182,10 @@ class TeacherExpert:
         problem = self.config.problem(env_id, sorted(settings))
         if problem is not None:
             raise ValueError(problem)
-        self.teachers: dict[int, Policy] = {
-            n: load_policy(self.config.spec(n), env_id, {"n_trailers": n}) for n in sorted(settings)
-        }
+        loaded = {n: load_teacher(self.config.spec(n), env_id, n) for n in sorted(settings)}
+        self.teachers: dict[int, Policy] = {n: policy for n, (policy, _) in loaded.items()}
+        #: The counts whose teacher reads the row's parameter features.
+        self.privileged = {n for n, (_, privileged) in loaded.items() if privileged}
         self.batch_size = batch_size
 
     @property
@@ -187,8 +213,9 @@ class TeacherExpert:
                 f"core has {core.batch_size} rows, the expert labels {self.batch_size}"
             )
         if not isinstance(core, MixedCore):
-            (teacher,) = self.teachers.values()
-            return np.asarray(teacher(core.obs), dtype=np.float64).reshape(-1, 1)
+            ((n, teacher),) = self.teachers.items()
+            rows = np.arange(core.batch_size)
+            return np.asarray(teacher(self._seen(n, core, rows)), dtype=np.float64).reshape(-1, 1)
         cores = core.cores
         if sorted(cores) != sorted(self.teachers):
             raise ValueError("the teachers' counts differ from the core's")
@@ -196,8 +223,17 @@ class TeacherExpert:
         for n, teacher in self.teachers.items():
             rows = np.flatnonzero(core.trailers == n)
             if rows.size:
-                labels[rows] = np.asarray(teacher(cores[n].obs[rows]), dtype=np.float64)
+                seen = self._seen(n, cores[n], rows)
+                labels[rows] = np.asarray(teacher(seen), dtype=np.float64)
         return labels
+
+    def _seen(self, n: int, core: ConvoyCore, rows: np.ndarray) -> np.ndarray:
+        """What the teacher of ``n`` reads of ``rows``: the observations, then (a
+        privileged teacher) their parameter features, in the observation's precision."""
+        obs = core.obs[rows]
+        if n not in self.privileged:
+            return obs
+        return np.hstack([obs, core.parameter_features(rows).astype(obs.dtype)])
 
 
 def _build_teachers(
@@ -217,12 +253,15 @@ def _build_teachers(
 SPECIALISTS = Expert(
     name="specialists",
     summary="trained policies, one per n (--teacher SPEC, default dagger_reverse_v1_n{n}): "
-    "policy distillation, a network call per label (every scene; ranges of n)",
+    "policy distillation, a network call per label (every scene; ranges of n; randomised "
+    "physics, a teacher trained with observe_params reading each row's parameters)",
     config_class=TeacherConfig,
     default_config=TeacherConfig,
     build=_build_teachers,
     counts_range=True,
-    per_row_parameters=False,
+    # A policy acts on what it reads, so it labels any physics (a privileged one reads
+    # each row's parameters).
+    per_row_parameters=True,
     options=("policy",),
     any_scene=True,
 )
@@ -231,4 +270,4 @@ SPECIALISTS = Expert(
 DAGGER_EXPERTS: dict[str, Expert] = {**EXPERTS, SPECIALISTS.name: SPECIALISTS}
 
 
-__all__ = ["DAGGER_EXPERTS", "SPECIALISTS", "TeacherConfig", "TeacherExpert"]
+__all__ = ["DAGGER_EXPERTS", "SPECIALISTS", "TeacherConfig", "TeacherExpert", "load_teacher"]

@@ -86,7 +86,7 @@ from agents.envs import check_env_id, make_sb3_env, settings_by_count
 from agents.evaluation.metrics import rollout, summarize
 from agents.oracles.experts import ExpertConfig, Labeller, default_expert
 from agents.oracles.planner import SamplingPlanner
-from agents.policies.extractors import feature_extractor
+from agents.policies.extractors import CONVOY_DIRECTIONS, feature_extractor
 from agents.policies.mirror import MirroredPolicy
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy
 from agents.policies.teachers import DAGGER_EXPERTS, TeacherConfig
@@ -182,6 +182,9 @@ class ImitationConfig:
             validated made odd under it (:class:`agents.policies.mirror.MirroredPolicy`);
             its card says so, and :func:`agents.policies.registry.load_policy` wraps it
             the same way.
+        convoy_direction: The order in which the "trailers" student's encoder reads the
+            convoy, one of :data:`agents.policies.extractors.CONVOY_DIRECTIONS` (default
+            ``"cart_first"``; another needs ``observation="trailers"``).
     """
 
     env_id: str
@@ -200,6 +203,7 @@ class ImitationConfig:
     observation: str = "flat"
     max_trailers: int | None = None
     mirror: bool = False
+    convoy_direction: str = "cart_first"
 
     def __post_init__(self) -> None:
         check_env_id(self.env_id)
@@ -236,6 +240,20 @@ class ImitationConfig:
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
         if not isinstance(self.mirror, bool):
             raise TypeError(f"mirror must be a bool, got {type(self.mirror).__name__}")
+        if not isinstance(self.convoy_direction, str):
+            raise TypeError(
+                f"convoy_direction must be a str, got {type(self.convoy_direction).__name__}"
+            )
+        if self.convoy_direction not in CONVOY_DIRECTIONS:
+            raise ValueError(
+                f"convoy_direction must be one of {CONVOY_DIRECTIONS}, "
+                f"got {self.convoy_direction!r}"
+            )
+        if self.convoy_direction != CONVOY_DIRECTIONS[0] and self.observation != "trailers":
+            raise ValueError(
+                f"convoy_direction={self.convoy_direction!r} needs observation='trailers' "
+                "(the flat student has no convoy encoder)"
+            )
         self.settings_by_count()  # a bad number of trailers fails here, named
         slots = checked_observation(self.observation, self.max_trailers, self.top_trailers)
         object.__setattr__(self, "max_trailers", slots)
@@ -414,6 +432,11 @@ def _build_model(config: ImitationConfig) -> tuple[Any, Any, JSONObject]:
     algo_kwargs = {**hp.algo_kwargs, "policy_kwargs": policy_kwargs}
     if config.observation == "trailers":
         policy_kwargs["features_extractor_class"] = feature_extractor("ConvoyEncoder")
+        if config.convoy_direction != CONVOY_DIRECTIONS[0]:  # default runs keep their saved kwargs
+            policy_kwargs["features_extractor_kwargs"] = {
+                **policy_kwargs.get("features_extractor_kwargs", {}),
+                "direction": config.convoy_direction,
+            }
         venv = make_sb3_env(config.env_id, hp.n_envs, config.student_kwargs, seed=config.seed)
         model = PPO(
             "MultiInputPolicy", venv, seed=config.seed, device="cpu", verbose=0, **algo_kwargs

@@ -11,18 +11,18 @@ import pytest
 from agents.evaluation.across_n import (
     CEILING,
     SPECIALIST,
-    _counts,
     main,
     markdown,
+    parse_counts,
     rates_across_n,
 )
 
 
 def test_counts_and_the_table_of_empty_cells() -> None:
-    assert _counts("1-6") == [1, 2, 3, 4, 5, 6] and _counts("4,2,2") == [2, 4]
+    assert parse_counts("1-6") == [1, 2, 3, 4, 5, 6] and parse_counts("4,2,2") == [2, 4]
     for bad in ("0-3", "1-17", "a", ""):
         with pytest.raises(argparse.ArgumentTypeError):
-            _counts(bad)
+            parse_counts(bad)
     lines = {"lqr": {1: 0.91, 4: 0.5}, SPECIALIST: {1: 1.0, 4: "no model x_n4"}}
     assert markdown(lines, [1, 4]).splitlines()[2:] == [
         "| lqr | 91 | 50 |",

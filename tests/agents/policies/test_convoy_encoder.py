@@ -158,6 +158,83 @@ class _Touch:
         return (Path.write_text, (self.marker, "ran"))
 
 
+def _encoder(direction: str, seed: int = 0) -> ConvoyEncoder:
+    space = ConvoySB3VecEnv(REVERSE, num_envs=1, observation="trailers").observation_space
+    torch.manual_seed(seed)
+    return ConvoyEncoder(space, hidden=8, body_hidden=4, direction=direction)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize("direction", ["tail_first", "both"])
+def test_the_reversed_pass_is_the_recurrence_from_the_last_trailer(direction: str) -> None:
+    encoder = _encoder(direction)
+    assert encoder.features_dim == {"tail_first": 12, "both": 20}[direction]
+    rows = [{key: value[:1] for key, value in _observations(n).items()} for n in (1, 3, 6)]
+    mixed = {key: torch.as_tensor(np.concatenate([row[key] for row in rows])) for key in rows[0]}
+    with torch.no_grad():
+        features = encoder(mixed)
+        for i, n in enumerate((1, 3, 6)):
+            body = mixed["body"][i : i + 1]
+            state = encoder.tail_start(body)
+            for k in reversed(range(n)):  # the last trailer first, the cart's neighbour last
+                inputs = (mixed["trailers"][i : i + 1, k] - encoder.centre) * 10.0
+                state = encoder.tail_cell(inputs, state)
+            expected = [state, encoder.body(body)]
+            if direction == "both":
+                forward = encoder.start(body)
+                for k in range(n):
+                    inputs = (mixed["trailers"][i : i + 1, k] - encoder.centre) * 10.0
+                    forward = encoder.cell(inputs, forward)
+                expected.insert(0, forward)
+            torch.testing.assert_close(
+                features[i : i + 1], torch.cat(expected, dim=1), rtol=1e-6, atol=1e-7
+            )
+
+
+def test_the_default_direction_keeps_the_saved_models_weights() -> None:
+    # cart_first draws the same initial weights, with the same names, as before the option.
+    encoder = _encoder("cart_first", seed=3)
+    assert [name for name, _ in encoder.named_parameters()] == [
+        "start.0.weight",
+        "start.0.bias",
+        "body.0.weight",
+        "body.0.bias",
+        "cell.weight_ih",
+        "cell.weight_hh",
+        "cell.bias_ih",
+        "cell.bias_hh",
+    ]
+    torch.manual_seed(3)
+    first = torch.nn.Linear(encoder.start[0].in_features, 8)
+    torch.testing.assert_close(encoder.start[0].weight, first.weight, rtol=0, atol=0)
+    assert encoder.features_dim == 12
+
+
+def test_a_reversed_encoder_saves_and_loads_its_direction(tmp_path: Path) -> None:
+    venv = ConvoySB3VecEnv(REVERSE, num_envs=4, n_trailers=(1, 3), observation="trailers")
+    kwargs = {
+        **KWARGS,
+        "features_extractor_kwargs": dict(hidden=16, body_hidden=16, direction="tail_first"),
+    }
+    model = PPO(
+        "MultiInputPolicy",
+        venv,
+        n_steps=64,
+        batch_size=64,
+        policy_kwargs=kwargs,
+        seed=0,
+        device="cpu",
+    )
+    path = save_model(model, tmp_path / "tail.zip")
+    loaded = load_sb3(
+        path, "ppo", model.observation_space, model.action_space, extractors=feature_extractors()
+    )
+    assert loaded.policy.features_extractor.direction == "tail_first"
+    obs = _observations(5)  # an n the model never saw
+    np.testing.assert_array_equal(
+        loaded.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
+    )
+
+
 def test_policy_kwargs_strings_name_the_encoder() -> None:
     parsed = parse_policy_kwargs(
         "dict(features_extractor_class=ConvoyEncoder, features_extractor_kwargs=dict(hidden=8))"
@@ -181,6 +258,10 @@ def test_the_encoder_refuses_other_spaces_and_sizes() -> None:
         ConvoyEncoder(space, hidden=0)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="trailer_scale must be a positive number"):
         ConvoyEncoder(space, trailer_scale=float("nan"))  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"direction must be one of \('cart_first', 'tail_f"):
+        ConvoyEncoder(space, direction="backwards")  # type: ignore[arg-type]
+    with pytest.raises(TypeError, match="direction must be a str, got int"):
+        ConvoyEncoder(space, direction=1)  # type: ignore[arg-type]
 
 
 def test_agents_train_refuses_the_dict_observation_before_writing(tmp_path: Path) -> None:

@@ -96,6 +96,17 @@ def test_the_table_and_the_scene_defaults() -> None:
             TypeError,
             "the ilqr expert takes ILQRConfig, got PlannerConfig",
         ),
+        (
+            {"convoy_direction": "tail_first"},
+            ValueError,
+            "convoy_direction='tail_first' needs observation='trailers'",
+        ),
+        (
+            {"convoy_direction": "up", "observation": "trailers"},
+            ValueError,
+            "convoy_direction must be one of \\('cart_first', 'tail_first', 'both'\\), got 'up'",
+        ),
+        ({"convoy_direction": None}, TypeError, "convoy_direction must be a str, got NoneType"),
     ],
 )
 def test_refused_combinations(kwargs: dict, error: type[Exception], match: str) -> None:

@@ -31,7 +31,7 @@ def test_the_table_holds_the_planners_then_the_specialists() -> None:
     assert list(DAGGER_EXPERTS) == [*EXPERTS, "specialists"] == ["mpc", "ilqr", "specialists"]
     assert SPECIALISTS.fits(V1) and SPECIALISTS.fits("trailer_env/Heading-v0")
     assert SPECIALISTS.problem(V1, (1, 6), None) is None
-    assert "cannot label randomised" in str(SPECIALISTS.problem(V1, (1, 3), "mismatch20"))
+    assert SPECIALISTS.problem(V1, (1, 3), "mismatch20") is None  # a policy acts on what it reads
     assert SPECIALISTS.configure(policy="ppo_dock_n{n}") == TeacherConfig("ppo_dock_n{n}")
     assert SPECIALISTS.configure(policy=None) == TeacherConfig("dagger_reverse_v1_n{n}")
     with pytest.raises(TypeError, match="takes no planner option 'samples'"):
@@ -146,3 +146,59 @@ def test_counts_pick_their_specialists() -> None:
 def test_a_bad_list_of_teachers_is_refused(policy: str, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         TeacherConfig(policy)
+
+
+def test_the_parameter_features_are_what_an_observing_env_shows() -> None:
+    plain = ConvoyVectorEnv(ReverseV1Core, 6, n_trailers=2, randomize="mismatch20")
+    observing = ConvoyVectorEnv(
+        ReverseV1Core, 6, n_trailers=2, randomize="mismatch20", observe_params=True
+    )
+    obs, _ = plain.reset(seed=3)
+    seen, _ = observing.reset(seed=3)
+    np.testing.assert_array_equal(seen[:, : obs.shape[1]], obs)
+    features = plain.core.parameter_features()
+    np.testing.assert_array_equal(seen[:, obs.shape[1] :], features.astype(np.float32))
+    assert np.all(np.abs(features[:, [0, 1, 2, 5, 6]]) > 0.0)  # M, J0, a, l, mu drawn
+    np.testing.assert_array_equal(features[:, [3, 4]], 0.0)  # m, J: not randomised
+
+
+def _privileged_teacher(folder: Path) -> Path:
+    """An untrained PPO of Reverse-v1 n = 2 that reads the parameter features, with a card."""
+    from stable_baselines3 import PPO
+
+    from agents.artifacts.cards import write_card
+    from agents.artifacts.sb3_zip import save_model
+    from trailer_env.sb3 import ConvoySB3VecEnv
+
+    kwargs = {"n_trailers": 2, "randomize": "mismatch20", "observe_params": True}
+    venv = ConvoySB3VecEnv(V1, num_envs=2, **kwargs)
+    model = PPO("MlpPolicy", venv, n_steps=8, batch_size=16, seed=0, device="cpu")
+    path = save_model(model, folder / "privileged_n2.zip")
+    write_card(path, {"env_id": V1, "algo": "ppo", "env_kwargs": kwargs, "normalize": None})
+    return path
+
+
+def test_a_privileged_teacher_reads_each_rows_parameters(tmp_path: Path) -> None:
+    path = _privileged_teacher(tmp_path)
+    envs = ConvoyVectorEnv(ReverseV1Core, 8, autoreset_mode="same_step", n_trailers=(1, 2),
+                           randomize="mismatch20")  # fmt: skip
+    envs.reset(seed=11)
+    settings = {n: env_settings({"n_trailers": n, "randomize": "mismatch20"}) for n in (1, 2)}
+    config = TeacherConfig(f"1=dagger_reverse_v1_n1,{path}")
+    expert = TeacherExpert(ReverseV1Core, settings, 8, config)
+    assert expert.privileged == {2}
+    labels = expert.label(envs.core)
+    rows = np.flatnonzero(envs.core.trailers == 2)
+    core = envs.core.cores[2]
+    teacher = load_policy(str(path), V1, {"n_trailers": 2, "observe_params": True})
+    features = core.parameter_features(rows).astype(np.float32)
+    seen = np.hstack([core.obs[rows], features])
+    np.testing.assert_array_equal(labels[rows], teacher(seen))
+    nominal = np.hstack([core.obs[rows], np.zeros_like(features)])
+    assert np.all(labels[rows] != teacher(nominal))  # the parameters change its action
+    one = envs.core.cores[1]
+    ones = np.flatnonzero(envs.core.trailers == 1)
+    own = load_policy("dagger_reverse_v1_n1", V1, {"n_trailers": 1})
+    np.testing.assert_array_equal(labels[ones], own(one.obs[ones]))  # not privileged: as before
+    with pytest.raises(ValueError, match="observation"):
+        load_policy(str(path), V1, {"n_trailers": 2})  # only with its parameters

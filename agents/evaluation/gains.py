@@ -1,0 +1,244 @@
+"""The gains a policy applies at the straight convoy, trailer by trailer, n by n.
+
+Usage::
+
+    python -m agents.evaluation.gains --env trailer_env/Reverse-v1 --n 1-6 \\
+        --policy lqr distill_reverse_v1_sequence16 distill_reverse_v1_sequence \\
+        --specialist "1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}" --out docs/generated/gains
+
+Near the straight convoy a stabilising policy acts about linearly on the hitch angles, so
+its gains ``g_k = d action / d alpha_k`` (k = 1 the trailer behind the cart) say what it
+has learned about each trailer, and they can be compared with the linear regulator's
+(whose gains come from the model's Riccati equation at every n) and across n. Each gain is
+a central difference (``alpha_k = +-`` :data:`STEP` rad, one at a time) of the policy's
+action on one observation: the start ``--seed`` of the scene with every hitch angle set to
+zero, the rest (speed, turning rate, mass, task) as it started. A policy that stabilises
+the convoy at n has gains of alternating sign whose size grows with n; what a policy
+trained on fewer trailers does at an n it never saw is read off its row.
+
+``--policy`` specs are evaluated at every n they accept (a cell says why when refused);
+``--specialist`` names one model per n as :mod:`agents.evaluation.across_n` takes it.
+Writes ``gains.md`` (one table per n), ``gains.json`` (every gain) and ``gains.png`` (one
+panel per n, gain against trailer) into ``--out``, atomically;
+existing files are replaced only with ``--overwrite``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from agents.artifacts import files, limits
+from agents.artifacts.shipped import resolve_model
+from agents.envs import ENV_IDS, HEADLINE_ENV_ID, make_vector_env, scene_title
+from agents.evaluation.across_n import SPECIALIST, parse_counts, specialist_problem
+from agents.evaluation.results import policy_label
+from agents.policies.registry import load_policy
+from agents.policies.teachers import TeacherConfig
+from agents.progress import Progress, duration
+from agents.seeds import TEST_SEED
+from trailer_env.observation import flat_observation
+
+OUTPUTS = ("gains.md", "gains.json", "gains.png")
+#: The hitch-angle step of the central differences (rad): small enough that every policy
+#: here is linear over it (the gains of the LQR, linear up to its clip, match its design's
+#: to 1e-4), large enough that float32 observations resolve it.
+STEP = 1e-3
+
+#: Line label -> n -> the gains (one per trailer), or why the cell is empty.
+Gains = dict[str, dict[int, list[float] | str]]
+
+
+def straight_observations(env_id: str, n: int, seed: int) -> np.ndarray:
+    """The flat observations ``(1 + 2n, obs_dim)`` whose actions give the gains at ``n``:
+    the start ``seed`` with every hitch angle zero, then, for each trailer k, that
+    observation with ``alpha_k = +STEP`` and ``alpha_k = -STEP``.
+
+    The flat layout holds ``sin alpha_k`` at column ``1 + k`` and ``cos alpha_k`` at
+    ``1 + n + k`` (k = 1..n; :mod:`trailer_env.observation`).
+    """
+    envs = make_vector_env(env_id, 1, {"n_trailers": n})
+    try:
+        start, _ = envs.reset(seed=seed)
+    finally:
+        envs.close()
+    straight = flat_observation(start, "gains")[0].astype(np.float32)
+    sines, cosines = slice(2, 2 + n), slice(2 + n, 2 + 2 * n)
+    straight[sines], straight[cosines] = 0.0, 1.0
+    rows = [straight]
+    for k in range(n):
+        for sign in (1.0, -1.0):
+            row = straight.copy()
+            row[sines.start + k] = np.sin(sign * STEP)
+            row[cosines.start + k] = np.cos(STEP)
+            rows.append(row)
+    return np.stack(rows)
+
+
+def policy_gains(spec: str, env_id: str, n: int, seed: int) -> list[float]:
+    """``d action / d alpha_k`` (k = 1..n) of the policy ``spec`` at the straight convoy.
+
+    Raises:
+        ValueError: If the policy refuses this n, or acts with more than one action.
+    """
+    policy = load_policy(spec, env_id, {"n_trailers": n})
+    actions = np.asarray(policy(straight_observations(env_id, n, seed)), dtype=np.float64)
+    if actions.ndim != 2 or actions.shape[1] != 1:
+        raise ValueError(f"gains need one action, {spec} gives {actions.shape[1:]}")
+    plus, minus = actions[1::2, 0], actions[2::2, 0]
+    return ((plus - minus) / (2.0 * STEP)).tolist()
+
+
+def gains_across_n(
+    env_id: str, counts: Sequence[int], policies: Sequence[str], specialist: str | None, seed: int
+) -> Gains:
+    """Every line's gains at every n (:data:`Gains`)."""
+    lines: Gains = {policy_label(spec): {} for spec in policies}
+    if specialist is not None:
+        lines[SPECIALIST] = {}
+    with Progress(len(counts), f"{scene_title(env_id)} gains") as bar:
+        for n in counts:
+            for spec in policies:
+                lines[policy_label(spec)][n] = _cell(spec, env_id, n, seed)
+            if specialist is not None:
+                try:
+                    spec = TeacherConfig(specialist).spec(n)
+                except ValueError:
+                    lines[SPECIALIST][n] = f"no specialist of n = {n} in {specialist}"
+                else:
+                    exists = resolve_model(spec) != spec or Path(spec).is_file()
+                    lines[SPECIALIST][n] = (
+                        _cell(spec, env_id, n, seed) if exists else f"no model {spec}"
+                    )
+            bar.advance(f"n = {n}")
+    return lines
+
+
+def _cell(spec: str, env_id: str, n: int, seed: int) -> list[float] | str:
+    try:
+        return policy_gains(spec, env_id, n, seed)
+    except ValueError as error:  # a model built for other counts refuses this one
+        return f"refused: {str(error).splitlines()[0][:80]}"
+
+
+def markdown(lines: Gains, counts: Sequence[int]) -> str:
+    """One table per n: a row per line, a column per trailer (gains to 3 significant digits)."""
+    parts = []
+    for n in counts:
+        header = f"n = {n}\n\n| policy | " + " | ".join(f"g_{k}" for k in range(1, n + 1)) + " |"
+        rows = [header, "|---|" + "---|" * n]
+        for label, cells in lines.items():
+            cell = cells[n]
+            values = [f"{g:.3g}" for g in cell] if isinstance(cell, list) else ["-"] * n
+            rows.append(f"| {label} | " + " | ".join(values) + " |")
+        parts.append("\n".join(rows) + "\n")
+    return "\n".join(parts)
+
+
+def plot(lines: Gains, counts: Sequence[int], out: Path, title: str) -> Path:
+    """One panel per n (its own scale): each line's gain against the trailer."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    columns = min(3, len(counts))
+    rows = -(-len(counts) // columns)
+    fig, axes = plt.subplots(
+        rows, columns, figsize=(4.2 * columns, 3.2 * rows), layout="constrained", squeeze=False
+    )
+    for axis, n in zip(axes.flat, counts, strict=False):
+        for index, (label, cells) in enumerate(lines.items()):
+            cell = cells[n]
+            if isinstance(cell, list):
+                trailers = np.arange(1, n + 1)
+                axis.plot(trailers, cell, marker="o", label=label, color=f"C{index}")
+        axis.axhline(0.0, color="0.6", lw=0.8)
+        axis.set_xticks(range(1, n + 1))
+        axis.set_title(f"n = {n}", fontsize=10)
+        axis.set_xlabel("trailer k (1: behind the cart)")
+        axis.set_ylabel("d action / d alpha_k")
+        axis.grid(alpha=0.3)
+    for axis in list(axes.flat)[len(counts) :]:
+        axis.set_visible(False)
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(labels)), fontsize=8)
+    fig.suptitle(title, fontsize=11)
+    with files.replacing(out) as temporary:
+        fig.savefig(temporary, dpi=90)
+    plt.close(fig)
+    return out
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The command-line interface."""
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.evaluation.gains",
+        description="The gains policies apply at the straight convoy, trailer by trailer, "
+        "n by n (table, JSON, chart)",
+    )
+    parser.add_argument("--env", default=HEADLINE_ENV_ID, choices=ENV_IDS, metavar="ENV_ID")
+    parser.add_argument("--n", type=parse_counts, default=parse_counts("1-6"), help="e.g. 1-6")
+    parser.add_argument("--policy", nargs="+", default=["lqr"], metavar="SPEC")
+    parser.add_argument(
+        "--specialist",
+        default=None,
+        metavar="SPEC",
+        help="one model per n: {n} in the spec, or several comma-separated, each but one "
+        "after its counts (1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n})",
+    )
+    parser.add_argument(
+        "--seed", type=int, default=TEST_SEED, help="the start whose other features are used"
+    )
+    parser.add_argument("--out", type=Path, default=Path("out") / "gains")
+    parser.add_argument("--overwrite", action="store_true", help="replace an earlier run's files")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; bad arguments exit with 2 before any policy is loaded."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    problem = specialist_problem(args.specialist)
+    if problem is not None:
+        parser.error(f"argument --specialist: {problem}")
+    problem = limits.seed_problem(args.seed) or files.writable_problem(args.out, folder=True)
+    if problem is not None:
+        parser.error(f"argument --seed or --out: {problem}")
+    existing = [name for name in OUTPUTS if (args.out / name).exists()]
+    if existing and not args.overwrite:
+        parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")
+    started = time.perf_counter()
+    lines = gains_across_n(args.env, args.n, args.policy, args.specialist, args.seed)
+    args.out.mkdir(parents=True, exist_ok=True)
+    table = markdown(lines, args.n)
+    files.atomic_write_text(args.out / "gains.md", table)
+    files.write_json(
+        args.out / "gains.json",
+        {
+            "env_id": args.env,
+            "seed": args.seed,
+            "step": STEP,
+            "meaning": "d action / d alpha_k at the straight convoy, k = 1 behind the cart",
+            "lines": {
+                label: {str(n): value for n, value in cells.items()}
+                for label, cells in lines.items()
+            },
+        },
+    )
+    title = f"{scene_title(args.env)}: gains at the straight convoy (start {args.seed})"
+    plot(lines, args.n, args.out / "gains.png", title)
+    print(table, end="")
+    print(
+        f"wrote {', '.join(str(args.out / name) for name in OUTPUTS)} in "
+        f"{duration(time.perf_counter() - started)}"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
