@@ -106,6 +106,7 @@ from agents.policies.sb3 import detect_algo, limit_torch_threads, load_model
 from agents.progress import plural
 from agents.training.config import TrainConfig, load_hyperparams, shaping_setting
 from agents.training.sb3 import train
+from trailer_env.json_types import JSONObject
 from trailer_env.registry import core_class_of
 
 
@@ -262,8 +263,12 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _check_resume(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """Refuse a --resume that is missing, of another algorithm, damaged or unsafe to load."""
+def _check_resume(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, env_kwargs: JSONObject
+) -> None:
+    """Refuse a --resume that is missing, of another algorithm, damaged, unsafe to load or
+    made for other observations than the run's env (``env_kwargs``: the file's, with the
+    command's n and physics)."""
     if not args.resume.is_file():
         parser.error(f"argument --resume: no checkpoint file {args.resume}")
     try:
@@ -272,7 +277,6 @@ def _check_resume(parser: argparse.ArgumentParser, args: argparse.Namespace) -> 
         parser.error(f"argument --resume: {error}")
     if saved_algo != args.algo:
         parser.error(f"argument --resume: {args.resume} was saved by {saved_algo}, not {args.algo}")
-    env_kwargs = {"n_trailers": args.n_trailers}
     try:
         load_model(
             args.resume,
@@ -345,9 +349,12 @@ def _check_resumed_run(
         )
 
 
-def _check_init_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
-    """Refuse an --init-from that is missing, of another algorithm or unloadable, and a
-    --critic-warmup without it or for an algorithm without a separate value function."""
+def _check_init_from(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, env_kwargs: JSONObject
+) -> None:
+    """Refuse an --init-from that is missing, of another algorithm or unloadable in the
+    run's env (``env_kwargs``), and a --critic-warmup without it or for an algorithm
+    without a separate value function."""
     if args.critic_warmup and args.init_from is None:
         parser.error("argument --critic-warmup: only with --init-from")
     if args.critic_warmup and algorithm(args.algo).off_policy:
@@ -374,7 +381,7 @@ def _check_init_from(parser: argparse.ArgumentParser, args: argparse.Namespace) 
             args.init_from,
             args.algo,
             env_id=args.env,
-            env_kwargs={"n_trailers": args.n_trailers},
+            env_kwargs=env_kwargs,
             trust_pickle=args.trust_pickle,
         )
         if stats_path(args.init_from).is_file():
@@ -517,11 +524,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     _check_backend(parser, args)
     _check_start_curriculum(parser, args)
-    if args.resume is not None:
-        _check_resume(parser, args)
-    _check_init_from(parser, args)
     command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
     config = config_from_args(parser, args, command)
+    # The saved models are checked against the run's env: the file's env_kwargs (such as
+    # observe_params) change what it observes.
+    if args.resume is not None:
+        _check_resume(parser, args, config.env_kwargs)
+    _check_init_from(parser, args, config.env_kwargs)
     if args.resume is not None:
         _check_resumed_run(parser, args, config)
     default = default_run_dir(args.env, args.algo, args.n_trailers, args.seed)

@@ -168,6 +168,22 @@ def test_resume_continues_the_timestep_count(
     assert walls == sorted(walls)  # the wall clock goes on across the resume
 
 
+def test_resume_and_init_from_read_the_files_env_kwargs(tmp_path: Path) -> None:
+    # A file whose env_kwargs change the observation (observe_params: 7 more numbers):
+    # the checkpoint is checked against that env, not the bare scene's.
+    folder = _hyperparams(tmp_path)
+    (folder / "ppo.yml").write_text(SMALL_PPO + "    observe_params: true\n")
+    run = tmp_path / "run"
+    common = ["--run-dir", str(run), "--checkpoint-freq", "2048", "--eval-freq", "2048"]
+    assert _train(tmp_path, "--timesteps", "2048", *common) == 0
+    assert load_model(run / "final_model.zip").observation_space.shape == (13,)
+    resumed = ["--resume", str(run / "final_model.zip"), "--eval-freq", "2048"]
+    assert _train(tmp_path, "--timesteps", "4096", *resumed) == 0
+    assert load_model(run / "final_model.zip").num_timesteps == 4096
+    tuned = ["--init-from", str(run / "final_model.zip"), "--run-dir", str(tmp_path / "tuned")]
+    assert _train(tmp_path, "--timesteps", "2048", *tuned) == 0
+
+
 def test_off_policy_resume_restores_the_replay_buffer(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
