@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import argparse
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from pathlib import Path
 
 from agents.artifacts import files, limits
@@ -33,6 +34,7 @@ from agents.oracles.certify import ceiling_fraction
 from agents.policies.teachers import TeacherConfig
 from agents.progress import Progress, duration
 from agents.seeds import TEST_SEED
+from trailer_env.json_types import JSONObject
 
 OUTPUTS = ("across_n.md", "across_n.json", "across_n.png")
 #: The label of the specialists' line (one model per n).
@@ -66,6 +68,78 @@ def specialist_problem(specialist: str | None) -> str | None:
     return "the spec must hold {n}, e.g. dagger_reverse_v1_n{n}" if one_policy else None
 
 
+def specialist_of(specialist: str, n: int) -> tuple[str | None, str]:
+    """``(spec, "")``: the model ``--specialist`` names for ``n``; ``(None, why)`` when it
+    names none, or one that does not exist."""
+    try:
+        spec = TeacherConfig(specialist).spec(n)
+    except ValueError:
+        return None, f"no specialist of n = {n} in {specialist}"
+    if resolve_model(spec) == spec and not Path(spec).is_file():
+        return None, f"no model {spec}"
+    return spec, ""
+
+
+def add_count_options(parser: argparse.ArgumentParser, policies: list[str], out: str) -> None:
+    """The options every command drawn n by n takes: --env, --n, --policy, --specialist,
+    --out (default ``out/<out>``) and --overwrite."""
+    parser.add_argument("--env", default=HEADLINE_ENV_ID, choices=ENV_IDS, metavar="ENV_ID")
+    parser.add_argument("--n", type=parse_counts, default=parse_counts("1-6"), help="e.g. 1-6")
+    parser.add_argument("--policy", nargs="+", default=policies, metavar="SPEC")
+    parser.add_argument(
+        "--specialist",
+        default=None,
+        metavar="SPEC",
+        help="one model per n: {n} in the spec, or several comma-separated, each but one "
+        "after its counts (1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n})",
+    )
+    parser.add_argument("--out", type=Path, default=Path("out") / out)
+    parser.add_argument("--overwrite", action="store_true", help="replace an earlier run's files")
+
+
+def check_count_options(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, outputs: Sequence[str], episodes: int
+) -> None:
+    """Exit with status 2 (``parser.error``), before anything runs, on a --specialist that
+    names no model per n, a --seed that ``episodes`` would carry past the seeds' range, an
+    --out that cannot be written or that holds ``outputs`` without --overwrite."""
+    problem = specialist_problem(args.specialist)
+    if problem is not None:
+        parser.error(f"argument --specialist: {problem}")
+    problem = limits.seed_problem(args.seed, episodes) or files.writable_problem(
+        args.out, folder=True
+    )
+    if problem is not None:
+        parser.error(f"argument --seed or --out: {problem}")
+    existing = [name for name in outputs if (args.out / name).exists()]
+    if existing and not args.overwrite:
+        parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")
+
+
+def write_outputs(
+    out: Path,
+    outputs: Sequence[str],
+    lines: Mapping[str, Mapping[int, object]],
+    fields: JSONObject,
+    table: str,
+    draw: Callable[[Path], object],
+    started: float,
+) -> None:
+    """Write the table, the JSON (``fields`` and every line's cells by n) and the chart
+    (``outputs``, in that order) atomically into ``out``, then print the table and what
+    was written since ``started``."""
+    out.mkdir(parents=True, exist_ok=True)
+    files.atomic_write_text(out / outputs[0], table)
+    by_n = {label: {str(n): value for n, value in cells.items()} for label, cells in lines.items()}
+    files.write_json(out / outputs[1], {**fields, "lines": by_n})
+    draw(out / outputs[2])
+    print(table, end="")
+    print(
+        f"wrote {', '.join(str(out / name) for name in outputs)} in "
+        f"{duration(time.perf_counter() - started)}"
+    )
+
+
 def rates_across_n(
     env_id: str,
     counts: Sequence[int],
@@ -86,16 +160,9 @@ def rates_across_n(
             for spec in policies:
                 lines[policy_label(spec)][n] = _rate(spec, env_id, kwargs, episodes, seed, metric)
             if specialist is not None:
-                try:
-                    spec = TeacherConfig(specialist).spec(n)
-                except ValueError:
-                    lines[SPECIALIST][n] = f"no specialist of n = {n} in {specialist}"
-                    continue
-                exists = resolve_model(spec) != spec or Path(spec).is_file()
+                own, missing = specialist_of(specialist, n)
                 lines[SPECIALIST][n] = (
-                    _rate(spec, env_id, kwargs, episodes, seed, metric)
-                    if exists
-                    else f"no model {spec}"
+                    missing if own is None else _rate(own, env_id, kwargs, episodes, seed, metric)
                 )
             ceiling = ceiling_fraction(env_id, n, episodes, seed)
             lines[CEILING][n] = "not certified" if ceiling is None else ceiling
@@ -165,20 +232,9 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m agents.evaluation.across_n",
         description="The headline rate against the number of trailers (table, JSON, chart)",
     )
-    parser.add_argument("--env", default=HEADLINE_ENV_ID, choices=ENV_IDS, metavar="ENV_ID")
-    parser.add_argument("--n", type=parse_counts, default=parse_counts("1-6"), help="e.g. 1-6")
-    parser.add_argument("--policy", nargs="+", default=["lqr", "lqr-adaptive"], metavar="SPEC")
-    parser.add_argument(
-        "--specialist",
-        default=None,
-        metavar="SPEC",
-        help="one model per n: {n} in the spec, or several comma-separated, each but one "
-        "after its counts (1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n})",
-    )
+    add_count_options(parser, ["lqr", "lqr-adaptive"], "across_n")
     parser.add_argument("--episodes", type=int, default=100, help="episodes per cell")
     parser.add_argument("--seed", type=int, default=TEST_SEED, help="first episode's seed")
-    parser.add_argument("--out", type=Path, default=Path("out") / "across_n")
-    parser.add_argument("--overwrite", action="store_true", help="replace an earlier run's files")
     return parser
 
 
@@ -186,45 +242,21 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; bad arguments exit with 2 before any episode runs."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    problem = specialist_problem(args.specialist)
-    if problem is not None:
-        parser.error(f"argument --specialist: {problem}")
     if not 1 <= args.episodes <= limits.MAX_EPISODES:
         parser.error(f"argument --episodes: must lie in 1..{limits.MAX_EPISODES}")
-    problem = limits.seed_problem(args.seed, args.episodes) or files.writable_problem(
-        args.out, folder=True
-    )
-    if problem is not None:
-        parser.error(f"argument --seed or --out: {problem}")
-    existing = [name for name in OUTPUTS if (args.out / name).exists()]
-    if existing and not args.overwrite:
-        parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")
+    check_count_options(parser, args, OUTPUTS, args.episodes)
     started = time.perf_counter()
     lines = rates_across_n(args.env, args.n, args.policy, args.specialist, args.episodes, args.seed)
-    args.out.mkdir(parents=True, exist_ok=True)
     seeds = f"seeds {args.seed}..{args.seed + args.episodes - 1}"
-    table = markdown(lines, args.n)
-    files.atomic_write_text(args.out / "across_n.md", table)
-    files.write_json(
-        args.out / "across_n.json",
-        {
-            "env_id": args.env,
-            "episodes": args.episodes,
-            "seed": args.seed,
-            "metric": headline_metric(args.env),
-            "lines": {
-                label: {str(n): value for n, value in cells.items()}
-                for label, cells in lines.items()
-            },
-        },
-    )
+    fields: JSONObject = {
+        "env_id": args.env,
+        "episodes": args.episodes,
+        "seed": args.seed,
+        "metric": headline_metric(args.env),
+    }
     title = f"{scene_title(args.env)}: {args.episodes} episodes per n ({seeds})"
-    plot(lines, args.n, args.out / "across_n.png", title)
-    print(table, end="")
-    print(
-        f"wrote {', '.join(str(args.out / name) for name in OUTPUTS)} in "
-        f"{duration(time.perf_counter() - started)}"
-    )
+    draw = partial(plot, lines, args.n, title=title)
+    write_outputs(args.out, OUTPUTS, lines, fields, markdown(lines, args.n), draw, started)
     return 0
 
 

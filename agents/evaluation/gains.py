@@ -28,19 +28,25 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Sequence
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
-from agents.artifacts import files, limits
-from agents.artifacts.shipped import resolve_model
-from agents.envs import ENV_IDS, HEADLINE_ENV_ID, make_vector_env, scene_title
-from agents.evaluation.across_n import SPECIALIST, parse_counts, specialist_problem
+from agents.artifacts import files
+from agents.envs import make_vector_env, scene_title
+from agents.evaluation.across_n import (
+    SPECIALIST,
+    add_count_options,
+    check_count_options,
+    specialist_of,
+    write_outputs,
+)
 from agents.evaluation.results import policy_label
 from agents.policies.registry import load_policy
-from agents.policies.teachers import TeacherConfig
-from agents.progress import Progress, duration
+from agents.progress import Progress
 from agents.seeds import TEST_SEED
+from trailer_env.json_types import JSONObject
 from trailer_env.observation import flat_observation
 
 OUTPUTS = ("gains.md", "gains.json", "gains.png")
@@ -105,15 +111,8 @@ def gains_across_n(
             for spec in policies:
                 lines[policy_label(spec)][n] = _cell(spec, env_id, n, seed)
             if specialist is not None:
-                try:
-                    spec = TeacherConfig(specialist).spec(n)
-                except ValueError:
-                    lines[SPECIALIST][n] = f"no specialist of n = {n} in {specialist}"
-                else:
-                    exists = resolve_model(spec) != spec or Path(spec).is_file()
-                    lines[SPECIALIST][n] = (
-                        _cell(spec, env_id, n, seed) if exists else f"no model {spec}"
-                    )
+                own, missing = specialist_of(specialist, n)
+                lines[SPECIALIST][n] = missing if own is None else _cell(own, env_id, n, seed)
             bar.advance(f"n = {n}")
     return lines
 
@@ -181,21 +180,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="The gains policies apply at the straight convoy, trailer by trailer, "
         "n by n (table, JSON, chart)",
     )
-    parser.add_argument("--env", default=HEADLINE_ENV_ID, choices=ENV_IDS, metavar="ENV_ID")
-    parser.add_argument("--n", type=parse_counts, default=parse_counts("1-6"), help="e.g. 1-6")
-    parser.add_argument("--policy", nargs="+", default=["lqr"], metavar="SPEC")
-    parser.add_argument(
-        "--specialist",
-        default=None,
-        metavar="SPEC",
-        help="one model per n: {n} in the spec, or several comma-separated, each but one "
-        "after its counts (1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n})",
-    )
+    add_count_options(parser, ["lqr"], "gains")
     parser.add_argument(
         "--seed", type=int, default=TEST_SEED, help="the start whose other features are used"
     )
-    parser.add_argument("--out", type=Path, default=Path("out") / "gains")
-    parser.add_argument("--overwrite", action="store_true", help="replace an earlier run's files")
     return parser
 
 
@@ -203,40 +191,18 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; bad arguments exit with 2 before any policy is loaded."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    problem = specialist_problem(args.specialist)
-    if problem is not None:
-        parser.error(f"argument --specialist: {problem}")
-    problem = limits.seed_problem(args.seed) or files.writable_problem(args.out, folder=True)
-    if problem is not None:
-        parser.error(f"argument --seed or --out: {problem}")
-    existing = [name for name in OUTPUTS if (args.out / name).exists()]
-    if existing and not args.overwrite:
-        parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")
+    check_count_options(parser, args, OUTPUTS, episodes=1)
     started = time.perf_counter()
     lines = gains_across_n(args.env, args.n, args.policy, args.specialist, args.seed)
-    args.out.mkdir(parents=True, exist_ok=True)
-    table = markdown(lines, args.n)
-    files.atomic_write_text(args.out / "gains.md", table)
-    files.write_json(
-        args.out / "gains.json",
-        {
-            "env_id": args.env,
-            "seed": args.seed,
-            "step": STEP,
-            "meaning": "d action / d alpha_k at the straight convoy, k = 1 behind the cart",
-            "lines": {
-                label: {str(n): value for n, value in cells.items()}
-                for label, cells in lines.items()
-            },
-        },
-    )
+    fields: JSONObject = {
+        "env_id": args.env,
+        "seed": args.seed,
+        "step": STEP,
+        "meaning": "d action / d alpha_k at the straight convoy, k = 1 behind the cart",
+    }
     title = f"{scene_title(args.env)}: gains at the straight convoy (start {args.seed})"
-    plot(lines, args.n, args.out / "gains.png", title)
-    print(table, end="")
-    print(
-        f"wrote {', '.join(str(args.out / name) for name in OUTPUTS)} in "
-        f"{duration(time.perf_counter() - started)}"
-    )
+    draw = partial(plot, lines, args.n, title=title)
+    write_outputs(args.out, OUTPUTS, lines, fields, markdown(lines, args.n), draw, started)
     return 0
 
 
