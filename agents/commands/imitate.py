@@ -63,7 +63,7 @@ from agents.artifacts.run_folder import (
 from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID
 from agents.oracles.experts import default_expert
-from agents.policies.extractors import CONVOY_DIRECTIONS
+from agents.policies.convoy_order import CONVOY_DIRECTIONS
 from agents.policies.sb3 import limit_torch_threads
 from agents.policies.teachers import DAGGER_EXPERTS
 from agents.training.imitate import CHECKPOINT_FILE, CheckpointError, ImitationConfig, imitate

@@ -263,12 +263,8 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _check_resume(
-    parser: argparse.ArgumentParser, args: argparse.Namespace, env_kwargs: JSONObject
-) -> None:
-    """Refuse a --resume that is missing, of another algorithm, damaged, unsafe to load or
-    made for other observations than the run's env (``env_kwargs``: the file's, with the
-    command's n and physics)."""
+def _check_resume_file(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse a --resume that is missing or of another algorithm (before anything else)."""
     if not args.resume.is_file():
         parser.error(f"argument --resume: no checkpoint file {args.resume}")
     try:
@@ -277,6 +273,14 @@ def _check_resume(
         parser.error(f"argument --resume: {error}")
     if saved_algo != args.algo:
         parser.error(f"argument --resume: {args.resume} was saved by {saved_algo}, not {args.algo}")
+
+
+def _check_resume(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, env_kwargs: JSONObject
+) -> None:
+    """Refuse a --resume that is damaged, unsafe to load or made for other observations than
+    the run's env (``env_kwargs``: the file's, with the command's n and physics), after
+    :func:`_check_resume_file`."""
     try:
         load_model(
             args.resume,
@@ -349,12 +353,10 @@ def _check_resumed_run(
         )
 
 
-def _check_init_from(
-    parser: argparse.ArgumentParser, args: argparse.Namespace, env_kwargs: JSONObject
-) -> None:
-    """Refuse an --init-from that is missing, of another algorithm or unloadable in the
-    run's env (``env_kwargs``), and a --critic-warmup without it or for an algorithm
-    without a separate value function."""
+def _check_init_from(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Refuse an --init-from that is missing, of another algorithm or trained with the
+    mirror, and a --critic-warmup without it or for an algorithm without a separate value
+    function (before anything else)."""
     if args.critic_warmup and args.init_from is None:
         parser.error("argument --critic-warmup: only with --init-from")
     if args.critic_warmup and algorithm(args.algo).off_policy:
@@ -377,6 +379,18 @@ def _check_init_from(
             # It acts as the mean of its network and the network's mirror image; training
             # the bare network would start from other decisions than the model's.
             raise ValueError(f"{args.init_from} was trained with the mirror (imitation.mirror)")
+    except (ValueError, FileNotFoundError) as error:
+        parser.error(f"argument --init-from: {error}")
+
+
+def _check_init_from_model(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, env_kwargs: JSONObject
+) -> None:
+    """Refuse an --init-from that does not load in the run's env (``env_kwargs``: the
+    file's, with the command's n and physics) or whose statistics are damaged."""
+    if args.init_from is None:
+        return
+    try:
         load_model(
             args.init_from,
             args.algo,
@@ -524,13 +538,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     _check_backend(parser, args)
     _check_start_curriculum(parser, args)
+    if args.resume is not None:
+        _check_resume_file(parser, args)
+    _check_init_from(parser, args)
     command = ["python", "-m", "agents.train", *(sys.argv[1:] if argv is None else argv)]
     config = config_from_args(parser, args, command)
-    # The saved models are checked against the run's env: the file's env_kwargs (such as
+    # The saved models load in the run's env: the file's env_kwargs (such as
     # observe_params) change what it observes.
     if args.resume is not None:
         _check_resume(parser, args, config.env_kwargs)
-    _check_init_from(parser, args, config.env_kwargs)
+    _check_init_from_model(parser, args, config.env_kwargs)
     if args.resume is not None:
         _check_resumed_run(parser, args, config)
     default = default_run_dir(args.env, args.algo, args.n_trailers, args.seed)

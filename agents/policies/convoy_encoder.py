@@ -29,7 +29,7 @@ from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
-from agents.policies.extractors import CONVOY_DIRECTIONS
+from agents.policies.convoy_order import CONVOY_DIRECTIONS
 
 #: The factor on the centred trailer features (see :class:`ConvoyEncoder`).
 DEFAULT_TRAILER_SCALE = 10.0

@@ -12,11 +12,6 @@ from __future__ import annotations
 #: Names of the shipped features extractors (a ``policy_kwargs`` string may use them).
 FEATURE_EXTRACTORS = ("ConvoyEncoder",)
 
-#: The orders in which :class:`~agents.policies.convoy_encoder.ConvoyEncoder` may read the
-#: trailers (its ``direction``): from the cart to the last trailer (the default), from
-#: the last trailer to the cart, or both passes side by side.
-CONVOY_DIRECTIONS = ("cart_first", "tail_first", "both")
-
 
 def feature_extractors() -> dict[str, type]:
     """Name -> class of every shipped features extractor (imports torch and SB3)."""

@@ -86,7 +86,8 @@ from agents.envs import check_env_id, make_sb3_env, settings_by_count
 from agents.evaluation.metrics import rollout, summarize
 from agents.oracles.experts import ExpertConfig, Labeller, default_expert
 from agents.oracles.planner import SamplingPlanner
-from agents.policies.extractors import CONVOY_DIRECTIONS, feature_extractor
+from agents.policies.convoy_order import CONVOY_DIRECTIONS
+from agents.policies.extractors import feature_extractor
 from agents.policies.mirror import MirroredPolicy
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy
 from agents.policies.teachers import DAGGER_EXPERTS, TeacherConfig
@@ -183,7 +184,7 @@ class ImitationConfig:
             its card says so, and :func:`agents.policies.registry.load_policy` wraps it
             the same way.
         convoy_direction: The order in which the "trailers" student's encoder reads the
-            convoy, one of :data:`agents.policies.extractors.CONVOY_DIRECTIONS` (default
+            convoy, one of :data:`agents.policies.convoy_order.CONVOY_DIRECTIONS` (default
             ``"cart_first"``; another needs ``observation="trailers"``).
     """
 
