@@ -29,13 +29,10 @@ from gymnasium import spaces
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
-from agents.policies.convoy_order import CONVOY_DIRECTIONS
+from agents.policies.convoy_order import check_direction
 
 #: The factor on the centred trailer features (see :class:`ConvoyEncoder`).
 DEFAULT_TRAILER_SCALE = 10.0
-
-#: The values of :class:`ConvoyEncoder`'s ``direction`` (kept where no torch is imported).
-DIRECTIONS = CONVOY_DIRECTIONS
 
 
 class ConvoyEncoder(BaseFeaturesExtractor):
@@ -82,13 +79,13 @@ class ConvoyEncoder(BaseFeaturesExtractor):
         hidden: Size of the GRU's state.
         body_hidden: Width of the body's layer.
         trailer_scale: Factor on the centred trailer features (> 0).
-        direction: One of :data:`DIRECTIONS` (default ``"cart_first"``, the order of every
-            model saved before the option).
+        direction: One of :data:`~agents.policies.convoy_order.CONVOY_DIRECTIONS`
+            (default ``"cart_first"``, the order of every model saved before the option).
 
     Raises:
         TypeError: If ``observation_space`` is not that Dict space, or ``direction`` not a str.
         ValueError: If a size is not a positive integer, the scale not a positive number
-            or ``direction`` not one of :data:`DIRECTIONS`.
+            or ``direction`` not one of the directions.
     """
 
     def __init__(
@@ -117,10 +114,7 @@ class ConvoyEncoder(BaseFeaturesExtractor):
             or not 0.0 < trailer_scale < float("inf")
         ):
             raise ValueError(f"trailer_scale must be a positive number, got {trailer_scale!r}")
-        if not isinstance(direction, str):
-            raise TypeError(f"direction must be a str, got {type(direction).__name__}")
-        if direction not in DIRECTIONS:
-            raise ValueError(f"direction must be one of {DIRECTIONS}, got {direction!r}")
+        check_direction("direction", direction)
         passes = 2 if direction == "both" else 1
         super().__init__(observation_space, features_dim=passes * hidden + body_hidden)
         body_space = observation_space["body"]

@@ -214,8 +214,8 @@ class TeacherExpert:
             )
         if not isinstance(core, MixedCore):
             ((n, teacher),) = self.teachers.items()
-            rows = np.arange(core.batch_size)
-            return np.asarray(teacher(self._seen(n, core, rows)), dtype=np.float64).reshape(-1, 1)
+            seen = self._seen(n, core, slice(None))
+            return np.asarray(teacher(seen), dtype=np.float64).reshape(-1, 1)
         cores = core.cores
         if sorted(cores) != sorted(self.teachers):
             raise ValueError("the teachers' counts differ from the core's")
@@ -227,7 +227,7 @@ class TeacherExpert:
                 labels[rows] = np.asarray(teacher(seen), dtype=np.float64)
         return labels
 
-    def _seen(self, n: int, core: ConvoyCore, rows: np.ndarray) -> np.ndarray:
+    def _seen(self, n: int, core: ConvoyCore, rows: np.ndarray | slice) -> np.ndarray:
         """What the teacher of ``n`` reads of ``rows``: the observations, then (a
         privileged teacher) their parameter features, in the observation's precision."""
         obs = core.obs[rows]

@@ -86,7 +86,7 @@ from agents.envs import check_env_id, make_sb3_env, settings_by_count
 from agents.evaluation.metrics import rollout, summarize
 from agents.oracles.experts import ExpertConfig, Labeller, default_expert
 from agents.oracles.planner import SamplingPlanner
-from agents.policies.convoy_order import CONVOY_DIRECTIONS
+from agents.policies.convoy_order import CONVOY_DIRECTIONS, check_direction
 from agents.policies.extractors import feature_extractor
 from agents.policies.mirror import MirroredPolicy
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy
@@ -241,15 +241,7 @@ class ImitationConfig:
             raise ValueError(f"learning_rate must be finite and > 0, got {self.learning_rate}")
         if not isinstance(self.mirror, bool):
             raise TypeError(f"mirror must be a bool, got {type(self.mirror).__name__}")
-        if not isinstance(self.convoy_direction, str):
-            raise TypeError(
-                f"convoy_direction must be a str, got {type(self.convoy_direction).__name__}"
-            )
-        if self.convoy_direction not in CONVOY_DIRECTIONS:
-            raise ValueError(
-                f"convoy_direction must be one of {CONVOY_DIRECTIONS}, "
-                f"got {self.convoy_direction!r}"
-            )
+        check_direction("convoy_direction", self.convoy_direction)
         if self.convoy_direction != CONVOY_DIRECTIONS[0] and self.observation != "trailers":
             raise ValueError(
                 f"convoy_direction={self.convoy_direction!r} needs observation='trailers' "
