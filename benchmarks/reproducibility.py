@@ -55,10 +55,10 @@ import numpy as np
 from benchmarks._common import RESULTS, machine_note, report_written, write_csv
 
 #: Relative tolerance of an episode's return across targets (see the module docstring):
-#: on the hosts of sessions up to 16 the largest measured difference was 6.2e-5 (the PPO
-#: agent of Reverse-v1, n = 2), a margin of 16. On the AVX-512 host with AMX of session
-#: 17 the headline task stays within 7e-5, but other tasks exceed it (7.0e-3 on
-#: Reverse-v1 n = 3, 1.7e-2 on Coast-v0 n = 2), so the full run reports a failure there.
+#: on AVX-512 CPUs without AMX the largest measured difference was 6.2e-5 (a 64 x 64 PPO
+#: agent of Reverse-v1, n = 2), a margin of 16. On an AVX-512 CPU with AMX the headline
+#: task stays within 7e-5, but other tasks exceed it (up to 1.7e-2 on Coast-v0 n = 2,
+#: benchmarks/results/reproducibility.md), so the full run reports a failure there.
 RETURN_RTOL = 1e-3
 #: Per-episode outcomes that must be identical across targets. An episode's length is one
 #: too, except where it ended in a failure: after a policy has lost the unstable convoy,

@@ -1,7 +1,7 @@
 """One line on standard error before this project's first kernel compiles in a process.
 
 numba compiles a kernel the first time it runs and caches it on disk; until the cache
-is filled, a first ``gym.make`` + ``step`` waits about 30 s in silence. A listener on
+is filled, a first ``gym.make`` + ``step`` waits about a minute in silence. A listener on
 numba's ``numba:compile`` event, which numba broadcasts only when it compiles (a kernel
 loaded from the disk cache raises none), prints :data:`NOTICE` once per process, and
 only for functions of ``dynamics``, ``trailer_env`` and ``agents``.
@@ -15,7 +15,9 @@ from typing import Any
 from numba.core import event
 
 #: The line printed before the first compile.
-NOTICE = "trailer-env: compiling kernels once, about 30 s; `trailer-env --compile` does it ahead"
+NOTICE = (
+    "trailer-env: compiling kernels once, about a minute; `trailer-env --compile` does it ahead"
+)
 
 #: The top-level packages whose kernels the notice speaks for.
 PACKAGES = frozenset({"dynamics", "trailer_env", "agents"})

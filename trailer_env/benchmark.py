@@ -331,7 +331,7 @@ class Score:
             f"{s['episodes']} episodes, seeds {self.document['seeds'][0]}.."
             f"{self.document['seeds'][1]} ({PROTOCOL})\n\n"
             f"| policy | {metric.removesuffix('_rate')} [95% CI] | return (mean ± sd) "
-            "| jackknife | time in band | min margin (mean / worst) |\n"
+            "| fold | time in band | min margin (mean / worst) |\n"
             "|---|---|---|---|---|---|\n"
             f"| {self.document['policy']} | {100 * s[metric]:.0f}% "
             f"[{100 * low:.0f}, {100 * high:.0f}] "

@@ -512,6 +512,12 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         """Lower and upper bounds of the task features (default unbounded)."""
         return np.full(self.n_task_features, -np.inf), np.full(self.n_task_features, np.inf)
 
+    def row_core(self, i: int) -> ConvoyCore:
+        """The core holding row ``i``'s episode: this one (a mix of trailer counts holds
+        one core per count, :meth:`trailer_env.mixed.MixedCore.row_core`)."""
+        del i
+        return self
+
     def check_task(self, task: Mapping[str, object]) -> JSONObject:
         """The task values :meth:`set_task` would set, validated, changing nothing.
 

@@ -8,12 +8,15 @@ to name its core class and carry its documentation.
 from __future__ import annotations
 
 import numbers
-from collections.abc import Sequence
+import sys
+from collections.abc import Mapping, Sequence
+from types import FrameType
 from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.wrappers import TimeLimit
 
 from dynamics.columns import ETA, theta_column, x_column
 from dynamics.params import one_of, real_number
@@ -240,6 +243,8 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         self._path = PathTrace(1, PATH_LENGTH)
         self._renderer: Any = None
         self._has_reset = False
+        # set_state began an episode that the TimeLimit wrappers above have not seen yet
+        self._restart_time_limits = False
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, object] | None = None
@@ -281,9 +286,11 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         super().reset(seed=seed)
         self.core.reset_rows(self._rows, [self.np_random])
         self._has_reset = True
+        self._restart_time_limits = False
         if options:
             task = {key: value for key, value in options.items() if key not in STATE_OPTIONS}
-            state, s, s_dot = given if given is not None else (self.core.z[0].copy(), 0.0, 0.0)
+            drawn = self.core.row_core(0).z[0].copy()
+            state, s, s_dot = given if given is not None else (drawn, 0.0, 0.0)
             self.core.set_row_state(0, state, s=s, s_dot=s_dot, **task)
         self._path.clear()
         self._record_path()
@@ -308,6 +315,8 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         """
         if not self._has_reset:
             raise gym.error.ResetNeeded("call reset() before step()")
+        if self._restart_time_limits:
+            self._restart_wrapper_counts()
         if (
             type(action) is np.ndarray
             and action.shape == self._action_shape
@@ -344,28 +353,68 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         s_dot: float = 0.0,
         **task: Any,
     ) -> Observation:
-        """Put the environment in a hand-built state (tests, demos); returns the observation.
+        """Put the environment in a hand-built state and start a new episode there; returns
+        the observation.
+
+        The new episode is one for the wrappers too: the step count of every
+        ``gymnasium.wrappers.TimeLimit`` around this env (``gym.make``'s included) starts
+        again at the next step, as after ``reset``, so the episode runs its full time limit.
 
         Args:
             z: (u, omega, alpha_1..alpha_n), optionally followed by the cart's pose (x, y, theta)
                 when the environment tracks it (otherwise the pose is the origin, heading x).
+                Or the dict :meth:`get_state` returns (then no other argument).
+                With ``n_trailers=(low, high)`` its length picks the episode's n, and it
+                must be whole, as :meth:`get_state` returns it (pose included where the
+                env tracks it): a state without its pose would read as another count's.
             s, s_dot: The mass on the rail (rail modes; in planar mode the lateral axis).
             **task: Scene-specific task values (e.g. ``target_heading``), see the scene.
 
         Raises:
-            TypeError: If ``z``, ``s`` or ``s_dot`` is not made of real numbers.
-            ValueError: If the shape is wrong, a value is not finite or overflows, or the
-                mass is off the rail.
+            TypeError: If ``z``, ``s`` or ``s_dot`` is not made of real numbers, or ``z`` is
+                a dict given with other arguments.
+            ValueError: If the shape is wrong, a value is not finite or overflows, the
+                mass is off the rail, or a key or task value is unknown.
         """
+        if isinstance(z, Mapping):
+            if task or s != 0.0 or s_dot != 0.0:
+                raise TypeError(
+                    "set_state takes get_state()'s dict alone, or z with keywords; not both"
+                )
+            if "z" not in z or not all(isinstance(key, str) for key in z):
+                raise ValueError(
+                    "a state dict needs the key 'z' and string keys, as get_state() returns"
+                )
+            return self.set_state(**z)
         state, s, s_dot = checked_state(z, s, s_dot)
         self.core.check_row_state(state, s, s_dot)  # refused before anything changes
         self.core.check_task(task)
         if not self._has_reset:
             self.reset()
         self.core.set_row_state(0, state, s=s, s_dot=s_dot, **task)
+        self._restart_time_limits = True
         self._path.clear()
         self._record_path()
         return self._view.row(self.core.obs, 0)
+
+    def _restart_wrapper_counts(self) -> None:
+        """Start again the step count of every TimeLimit wrapper whose ``step`` calls this one.
+
+        :meth:`set_state` is called on ``env.unwrapped`` and cannot reach the wrappers
+        that ``gym.make`` put around it, but the first step after it comes through them:
+        each wrapper's ``step`` is on the call stack, so the ``TimeLimit`` frames there
+        are this env's. Their count is set to 0 and this step makes it 1, as after a
+        ``reset(options={"state": ...})`` through the wrappers.
+        """
+        self._restart_time_limits = False
+        code = TimeLimit.step.__code__
+        frame: FrameType | None = sys._getframe(2)  # the caller of step
+        while frame is not None:
+            if frame.f_code is code:
+                wrapper = frame.f_locals.get("self")
+                if isinstance(wrapper, TimeLimit) and wrapper.unwrapped is self:
+                    wrapper.__dict__["_elapsed_steps"] = 0
+            frame = frame.f_back
 
     def get_state(self) -> dict[str, object]:
         """The current state, as :meth:`set_state` takes it: ``env.set_state(**env.get_state())``
@@ -376,6 +425,8 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
             pose x, y, theta when the env tracks it, as :attr:`state`), ``s`` and ``s_dot``
             (the mass on the rail, floats; in planar mode its lateral axis) and the
             scene's task values (Heading: ``target_heading``; Dock: ``target``).
+            With ``n_trailers=(low, high)``: the running episode's, ``z`` of length 2 + n
+            for its n. ``env.set_state(env.get_state())`` takes the dict as it is.
 
         :meth:`set_state` starts a new episode at that state: what counts steps
         (the time limit, Heading's 1 s hold) and the energy reference start again, and
@@ -388,7 +439,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         """
         if not self._has_reset:
             raise gym.error.ResetNeeded("call reset() before get_state()")
-        core = self.core
+        core = self.core.row_core(0)
         return {
             "z": core.z[0].copy(),
             "s": float(core.act[0, ETA]),
@@ -400,8 +451,9 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
     def state(self) -> np.ndarray:
         """The convoy's state z (a float64 copy), the Gymnasium-usual attribute: (u, omega,
         alpha_1..alpha_n), then the cart's pose (x, y, theta) when the env tracks it
-        (:meth:`get_state` adds the mass and the task; zeros before the first reset)."""
-        return self.core.z[0].copy()
+        (:meth:`get_state` adds the mass and the task; zeros before the first reset).
+        With ``n_trailers=(low, high)``: the running episode's, of length 2 + n."""
+        return self.core.row_core(0).z[0].copy()
 
     def _record_path(self) -> None:
         if self.core.with_pose:

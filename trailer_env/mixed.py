@@ -40,8 +40,11 @@ N+2 .. 2N+1           cos(alpha_k) for k <= n, 0 beyond
 (each as large as the batch; a row is live in the core of its episode's n), so a step
 is one compiled call per n present, not one call: the kernels' loops over the trailers
 are bounded by one n. Measured cost: benchmarks/README.md. Not supported with a range
-(each refused with a ValueError): rendering, hand-built states and task values in
-``reset(options=...)``, and ``set_state``.
+(each refused with a ValueError): rendering, and task values in ``reset(options=...)``.
+A hand-built state (``set_state``, the ``state`` reset option) starts an episode of the
+n its length names: 2 + n entries (u, omega, alpha_1..alpha_n), then the pose's 3 in the
+scenes that track it (Heading, Dock), as ``get_state()`` and ``state`` return the
+running episode's, so they round-trip.
 """
 
 from __future__ import annotations
@@ -345,14 +348,52 @@ class MixedCore:
                 row["params"] = dict(zip(names, entry, strict=True))
         return rows
 
-    # ------------------------------------------------------------- refused
-    def check_row_state(self, *args: Any, **kwargs: Any) -> np.ndarray:
-        raise ValueError("a hand-built state needs one number of trailers, not a range")
+    # ------------------------------------------------------ hand-built states
+    def row_core(self, i: int) -> ConvoyCore:
+        """The core of row ``i``'s running episode (that of its n): its ``z``, ``act`` and
+        task values are the row's state."""
+        return self.cores[int(self.trailers[i])]
+
+    def _core_for_state(self, z: object) -> ConvoyCore:
+        """The core of the count a hand-built state ``z`` is for: the one whose full state
+        (as ``get_state`` returns it) has ``z``'s length.
+
+        Raises:
+            ValueError: If ``z`` is not a flat vector of such a length.
+        """
+        shape = np.shape(z)  # type: ignore[call-overload]
+        for core in self.cores.values():
+            if shape == (core.z.shape[1],):
+                return core
+        top = self.cores[self.n]
+        pose = ", then x, y, theta" if top.z.shape[1] > top.n + 2 else ""
+        raise ValueError(
+            f"z must be a state of n in {self.low}..{self.n} trailers as get_state() returns "
+            f"it (u, omega, alpha_1..alpha_n{pose}), got shape {shape}"
+        )
+
+    def check_row_state(self, z: object, s: float = 0.0, s_dot: float = 0.0) -> np.ndarray:
+        """:meth:`ConvoyCore.check_row_state` of the count ``z``'s length names."""
+        return self._core_for_state(z).check_row_state(z, s, s_dot)
 
     def check_task(self, task: Mapping[str, object]) -> JSONObject:
-        if task:
-            raise ValueError("task values in reset options need one number of trailers")
-        return {}
+        """The scene's task values, checked as every count's core checks them."""
+        return self.cores[self.n].check_task(task)
+
+    def set_row_state(
+        self, i: int, z: object, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
+    ) -> None:
+        """Start a new episode of row ``i`` in a hand-built state: the episode's n is the
+        one ``z``'s length names (:meth:`_core_for_state`), the rest as
+        :meth:`ConvoyCore.set_row_state`."""
+        core = self._core_for_state(z)
+        n = core.n
+        core.set_row_state(i, z, s=s, s_dot=s_dot, **task)
+        rows = np.array([i], dtype=np.int64)
+        self.trailers[i] = n
+        self.obs[i] = 0.0
+        self._gather(n, rows)
+        self.energy0[i] = core.energy0[i]
 
 
 def mixed_settings(kwargs: JSONObject) -> dict[int, EnvSettings]:

@@ -175,14 +175,18 @@ class ConvoySB3VecEnv(VecEnv):
 
         Raises:
             TypeError: If ``replay`` is neither a StartReplay nor None.
-            ValueError: If the batch mixes counts of trailers or draws its physics;
-                nothing changes.
+            ValueError: If the batch mixes counts of trailers or draws its physics, or
+                the replay serves another batch (one that still lives, or of another
+                scene, size or state); nothing changes.
         """
         if replay is not None:
             if not isinstance(replay, StartReplay):
                 shown = type(replay).__name__
                 raise TypeError(f"replay must be a StartReplay or None, got {shown}")
-            replay.check_core(self.core)
+            replay.attach(self.core)
+        previous = self.start_replay
+        if previous is not None and previous is not replay:
+            previous.detach()  # free for another batch
         self.start_replay = replay
 
     def close(self) -> None:

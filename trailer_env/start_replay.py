@@ -23,6 +23,8 @@ without leaving the scene's support; evaluation environments are not touched.
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from dynamics.params import bounded_integer, bounded_real
@@ -48,6 +50,11 @@ class StartReplay:
 
     Raises:
         TypeError, ValueError: On a bad argument, naming it.
+
+    A replay serves one batch: the first batch it draws starts for is its own, and
+    attaching it to another one (:meth:`check_core`) is refused while that batch lives;
+    after it is gone, a batch of the same scene, size and settings may take the buffer
+    over (its running episodes' starts are then learnt afresh).
     """
 
     def __init__(
@@ -70,6 +77,8 @@ class StartReplay:
         self._current: StartRecord | None = None  # every row's running episode's start
         self._current_replays = np.zeros(0, dtype=np.int64)
         self._known = np.zeros(0, dtype=bool)
+        self._served: weakref.ref[ConvoyCore] | None = None  # the batch drawn for
+        self._layout: tuple[object, ...] | None = None  # its scene, size and state widths
         #: Episodes begun from the buffer, and those of them that succeeded.
         self.replayed = 0
         self.replayed_successes = 0
@@ -81,7 +90,8 @@ class StartReplay:
 
     def check_core(self, core: object) -> None:
         """Refuse a batch whose starts cannot be recorded (mixed counts of trailers,
-        drawn physics), changing nothing.
+        drawn physics) or that this replay cannot serve (it serves another batch that
+        still lives, or holds starts of another scene, size or state), changing nothing.
 
         Raises:
             ValueError: Naming the reason.
@@ -90,6 +100,42 @@ class StartReplay:
             raise ValueError("start replay needs one count of trailers, not a mix")
         if core.randomization is not None:
             raise ValueError("start replay does not record drawn physics (randomize)")
+        served = self._served() if self._served is not None else None
+        if served is not None and served is not core:
+            raise ValueError(
+                "this StartReplay serves another batch; give each batch its own StartReplay"
+            )
+        if self._layout is not None and self._layout != _layout(core):
+            raise ValueError(
+                f"this StartReplay holds starts of {_describe(self._layout)}, not of "
+                f"{_describe(_layout(core))}; give each batch its own StartReplay"
+            )
+
+    def attach(self, core: ConvoyCore) -> None:
+        """Serve ``core`` from now on (:meth:`check_core` first; the buffer is kept).
+
+        Raises:
+            ValueError: As :meth:`check_core`, changing nothing.
+        """
+        self.check_core(core)
+        if self._served is None or self._served() is not core:
+            if self._served is not None:
+                self._current = None  # another batch's running episodes are not this one's
+            self._served = weakref.ref(core)
+            self._layout = _layout(core)
+
+    def detach(self) -> None:
+        """Serve no batch any more (the buffer is kept): another batch may attach it."""
+        self._served = None
+        self._current = None
+
+    def __getstate__(self) -> dict[str, object]:
+        """Pickle all but the reference to the batch served (a weak reference); the
+        unpickled replay serves the first batch of its layout it draws for, keeping the
+        running episodes' starts (the batch pickled with it)."""
+        state = self.__dict__.copy()
+        state["_served"] = None
+        return state
 
     def episodes_ended(self, rows: np.ndarray, succeeded: np.ndarray) -> None:
         """Keep the starts of the episodes of ``rows`` that ended without success
@@ -109,7 +155,13 @@ class StartReplay:
 
     def starts_drawn(self, core: ConvoyCore, rows: np.ndarray) -> None:
         """After the scene drew the starts of ``rows``: begin a share of them from the
-        buffer instead, and record every row's start."""
+        buffer instead, and record every row's start.
+
+        Raises:
+            ValueError: As :meth:`check_core`, before anything changes.
+        """
+        if self._served is None or self._served() is not core:
+            self.attach(core)
         if self._current is None:
             self._current = core.start_records(np.arange(core.batch_size))
             self._known = np.zeros(core.batch_size, dtype=bool)
@@ -156,6 +208,22 @@ class StartReplay:
         stored = self._stored
         for array in (stored.z, stored.act, self._stored_replays, *stored.task.values()):
             array[: self.size] = array[kept]
+
+
+def _layout(core: ConvoyCore) -> tuple[object, ...]:
+    """What a batch's start records depend on: scene, batch size, widths, task keys."""
+    return (
+        type(core).__name__,
+        core.batch_size,
+        core.z.shape[1],
+        core.act.shape[1],
+        core.task_keys,
+    )
+
+
+def _describe(layout: tuple[object, ...]) -> str:
+    scene, size, width = layout[:3]
+    return f"{scene} with {size} environments and {width} state columns"
 
 
 def _put(target: StartRecord, index: np.ndarray, record: StartRecord) -> None:

@@ -66,7 +66,7 @@ from trailer_env.env import (
 from trailer_env.episodes import count_step
 from trailer_env.generators import GeneratorBank
 from trailer_env.json_types import JSONObject
-from trailer_env.mixed import build_core, observation_view
+from trailer_env.mixed import MixedCore, build_core, observation_view
 from trailer_env.observation import Observation
 from trailer_env.rendering import PathTrace, core_frame, make_renderer
 
@@ -327,6 +327,10 @@ class ConvoyVectorEnv(VectorEnv):
             rows = np.flatnonzero(mask)
         states = None
         if "state" in options:
+            if isinstance(self.core, MixedCore):
+                # One width for every row would name one count (the pose makes widths of
+                # two counts meet); the single env's set_state takes a state per episode.
+                raise ValueError("the state reset option needs one number of trailers, not a range")
             width = self.core.n + 2
             expected = f"an array of real numbers of shape ({self.num_envs}, {width})"
             states = real_array("state", options["state"], expected).astype(np.float64)

@@ -44,7 +44,6 @@ Logged each rollout (SB3's logger, ``logs/*/progress.csv``): ``lagrangian/lambda
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -56,6 +55,8 @@ from stable_baselines3.common.type_aliases import MaybeCallback
 from stable_baselines3.common.utils import obs_as_tensor
 from stable_baselines3.common.vec_env import VecEnv, VecEnvWrapper
 from stable_baselines3.common.vec_env.base_vec_env import VecEnvObs, VecEnvStepReturn
+
+from agents.algorithms.bounds import argument_problem
 
 __all__ = ["PPOLagrangian", "info_column", "lagrange_update", "penalised_reward"]
 
@@ -94,13 +95,17 @@ def info_column(infos: Any, key: str) -> np.ndarray:
         ) from None
 
 
-def _number(name: str, value: object, minimum: float, strict: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
+def _number(name: str, value: object) -> float:
+    """``value`` as a float within the bound of :data:`agents.algorithms.bounds.ARGUMENT_BOUNDS`
+    (the one a hyperparameter file's or a search space's ``name`` is checked against)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+        value, (int, float, np.floating, np.integer)
+    ):
         raise TypeError(f"{name} must be a number, got {type(value).__name__}")
     number = float(value)
-    if not math.isfinite(number) or number < minimum or (strict and number == minimum):
-        relation = ">" if strict else ">="
-        raise ValueError(f"{name} must be a finite number {relation} {minimum:g}, got {value!r}")
+    problem = argument_problem("ppo_lag", name, number)
+    if problem is not None:
+        raise ValueError(problem)
     return number
 
 
@@ -164,10 +169,10 @@ class PPOLagrangian(PPO):
         lambda_init: float = 0.0,
         **kwargs: Any,
     ) -> None:
-        self.cost_limit = _number("cost_limit", cost_limit, 0.0)
-        self.lambda_lr = _number("lambda_lr", lambda_lr, 0.0, strict=True)
+        self.cost_limit = _number("cost_limit", cost_limit)
+        self.lambda_lr = _number("lambda_lr", lambda_lr)
         #: The multiplier lambda (saved with the model, so a resumed run continues it).
-        self.lagrange_multiplier = _number("lambda_init", lambda_init, 0.0)
+        self.lagrange_multiplier = _number("lambda_init", lambda_init)
         self._episode_costs: np.ndarray | None = None
         super().__init__(policy, env, **kwargs)
 

@@ -15,6 +15,8 @@ import io
 import json
 import math
 import re
+import zipfile
+import zlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -262,11 +264,7 @@ def markdown(certificate: JSONObject) -> str:
         f"ceiling (feasible, replayed): {certificate['feasible']}/{count} = "
         f"{100 * certificate['ceiling']:.0f}%; not recoverable (screen): "
         f"{certificate['not_recoverable']}; open: {certificate['open']}",
-        f"planner: {certificate['planner']['first_pass_safe']}/{count} safe in one pass "
-        f"({certificate['planner']['first_pass_wall_time_s']} s), "
-        f"{certificate['planner']['wall_time_s']} s with up to "
-        f"{certificate['planner']['restarts']} restarts; "
-        f"screen: {_screen_text(certificate)}",
+        f"planner: {_planner_text(certificate)}; screen: {_screen_text(certificate)}",
         *_closed_loop_lines(certificate),
         *_witness_lines(certificate),
         "",
@@ -340,6 +338,21 @@ def _witness_lines(certificate: JSONObject) -> list[str]:
             "still reached success with the policy re-run"
         )
     return lines
+
+
+def _planner_text(certificate: JSONObject) -> str:
+    """The planner's passes; a certificate written before the first pass was timed on its
+    own (the Reverse-v0 ones) gives its total time only."""
+    planner = certificate["planner"]
+    total = (
+        f"{planner.get('wall_time_s', '?')} s with up to {planner.get('restarts', '?')} restarts"
+    )
+    if "first_pass_safe" not in planner:
+        return total
+    return (
+        f"{planner['first_pass_safe']}/{certificate['episodes']} safe in one pass "
+        f"({planner.get('first_pass_wall_time_s', '?')} s), {total}"
+    )
 
 
 def _screen_text(certificate: JSONObject) -> str:
@@ -451,16 +464,27 @@ def read_actions(path: Path) -> dict[int, np.ndarray]:
             for key in archive.files:
                 prefix, _, digits = key.partition("_")
                 if prefix != "seed" or not digits.isdigit():
-                    raise ValueError(f"{path}: unexpected entry {key!r}")
+                    raise _RecordError(f"{path}: unexpected entry {key!r:.60}")
                 info = archive.zip.getinfo(f"{key}.npy")
                 if info.file_size > 8 * _MAX_RECORD + 1024:
-                    raise ValueError(f"{path}: entry {key!r} is larger than any episode")
+                    raise _RecordError(f"{path}: entry {key!r} is larger than any episode")
                 record = np.asarray(archive[key])
                 if record.dtype != np.float64 or record.ndim not in (1, 2):
-                    raise ValueError(f"{path}: entry {key!r} is not a float64 action record")
+                    raise _RecordError(f"{path}: entry {key!r} is not a float64 action record")
                 if not np.all(np.isfinite(record)) or np.any(np.abs(record) > 1.0):
-                    raise ValueError(f"{path}: entry {key!r} holds actions outside [-1, 1]")
+                    raise _RecordError(f"{path}: entry {key!r} holds actions outside [-1, 1]")
                 records[int(digits)] = record.reshape(len(record), -1)
-    except (OSError, KeyError) as error:
-        raise ValueError(f"{path} is not an action-record archive: {error}") from None
+    except _RecordError:
+        raise
+    except (OSError, KeyError, EOFError, ValueError, zipfile.BadZipFile, zlib.error) as error:
+        # A cut or damaged archive fails inside numpy or zipfile in many ways (no central
+        # directory, a bad CRC, a cut deflate stream, a header numpy cannot parse).
+        reason = str(error).splitlines()[0][:120] if str(error) else type(error).__name__
+        raise ValueError(
+            f"{path} is not an action-record archive (cut or damaged?): {reason}"
+        ) from None
     return records
+
+
+class _RecordError(ValueError):
+    """A readable archive whose content is not a certificate's action records."""

@@ -9,19 +9,29 @@ Nothing a run writes follows a symbolic link: a folder whose run files (config.j
 evaluations.csv, the models, ``checkpoints/`` and what is in it, ``logs/``) include a
 link is refused (:func:`symlink_problem`), fresh, resumed or overwritten. While a run
 writes its folder it holds ``<run>/.lock`` (:class:`agents.artifacts.files.RunLock`).
+
+A run that is resumed is checked whole before anything is written: its record
+(:func:`read_record`) must match the resumed run's in every setting that shapes it
+(:func:`record_differences`), and every file the resume reads back must be readable
+(:func:`resume_problem`); a refusal names the file, or the setting with its old and new
+value, and leaves the folder as it was.
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
 from agents.artifacts import files
+from agents.artifacts.cards import check_card, read_card
+from agents.artifacts.curves import CURVE_COLUMNS, read_curve
 from agents.artifacts.files import write_json
 from agents.artifacts.paths import card_path, curve_path, export_files, stats_path
 from agents.envs import scene_of
+from trailer_env.json_types import JSONObject
 
 #: The run's record (:meth:`agents.training.config.TrainConfig.document`).
 CONFIG_FILE = "config.json"
@@ -35,7 +45,12 @@ FINAL_MODEL = "final_model.zip"
 #: SB3's periodic checkpoints; RLlib's checkpoint.
 CHECKPOINTS = "checkpoints"
 RLLIB_CHECKPOINT = "checkpoint"
-#: Files of an earlier run that a fresh start in its folder removes (with ``--overwrite``).
+#: An imitation run's checkpoint and data set (:mod:`agents.training.imitate`).
+IMITATION_CHECKPOINT = "checkpoint.json"
+IMITATION_DATASET = "dataset.npz"
+#: Files of an earlier run that a fresh start in its folder removes (with ``--overwrite``):
+#: everything a resume reads back, so that a fresh run cut short is never resumed from
+#: the earlier run's checkpoint, data or models.
 STALE_FILES = (
     CURVE_FILE,
     CONFIG_FILE,
@@ -44,19 +59,16 @@ STALE_FILES = (
     card_path(Path(BEST_MODEL)).name,
     stats_path(Path(BEST_MODEL)).name,
     stats_path(Path(BEST_MODEL)).with_suffix(".pkl").name,
+    FINAL_MODEL,
+    card_path(Path(FINAL_MODEL)).name,
+    stats_path(Path(FINAL_MODEL)).name,
+    IMITATION_CHECKPOINT,
+    IMITATION_DATASET,
 )
 #: Folders of an earlier run removed likewise.
 STALE_FOLDERS = (CHECKPOINTS, RLLIB_CHECKPOINT)
 #: Everything else a run writes in its folder (checked for links with the above).
-RUN_FILES = (
-    FINAL_MODEL,
-    card_path(Path(FINAL_MODEL)).name,
-    stats_path(Path(FINAL_MODEL)).name,
-    "logs",
-    "ray_logs",
-    "dataset.npz",
-    files.LOCK_FILE,
-)
+RUN_FILES = ("logs", "ray_logs", files.LOCK_FILE)
 
 
 class RunFolderError(ValueError):
@@ -83,9 +95,15 @@ def run_dir_of_checkpoint(checkpoint: Path) -> Path | None:
     in a run: resuming it starts a fresh run folder, it never turns the file's folder
     into one.
     """
-    parent = checkpoint.resolve().parent
-    folder = parent.parent if parent.name == CHECKPOINTS else parent
+    folder = checkpoint_folder(checkpoint)
     return folder if (folder / CONFIG_FILE).is_file() else None
+
+
+def checkpoint_folder(checkpoint: Path) -> Path:
+    """The folder whose run a checkpoint would belong to (resolved): the one holding it,
+    or the one above its ``checkpoints/``."""
+    parent = checkpoint.resolve().parent
+    return parent.parent if parent.name == CHECKPOINTS else parent
 
 
 def symlink_problem(folder: Path) -> str | None:
@@ -155,6 +173,86 @@ def clear_run(folder: Path, everything: bool = True) -> None:
 def write_config(run_dir: Path, record: dict[str, object]) -> Path:
     """Write the run's ``config.json``."""
     return write_json(run_dir / CONFIG_FILE, record)
+
+
+#: Keys every run's record has.
+RECORD_KEYS = ("algo", "env_id", "env_kwargs", "seed")
+
+
+def read_record(run_dir: Path) -> JSONObject:
+    """The run's record (its ``config.json``), read bounded and checked: a JSON object with
+    :data:`RECORD_KEYS`, the keys a model card has of their types
+    (:func:`agents.artifacts.cards.check_card`).
+
+    Raises:
+        ValueError: Naming the file and what is wrong: missing, unreadable, not JSON, not
+            a JSON object, a key missing or of another type.
+    """
+    path = run_dir / CONFIG_FILE
+    if not path.is_file():
+        raise ValueError(f"{path} is missing")
+    record = files.read_json(path, "run record")
+    if not isinstance(record, dict):
+        raise ValueError(f"run record {path} is not a JSON object")
+    missing = [key for key in RECORD_KEYS if key not in record]
+    if missing:
+        raise ValueError(f"run record {path} lacks {', '.join(map(repr, missing))}")
+    try:
+        return check_card(record, str(path))
+    except ValueError as error:
+        raise ValueError(str(error).replace("model card", "run record", 1)) from None
+
+
+def comparable_hyperparams(value: object) -> object:
+    """A recorded ``hyperparams`` setting as the hyperparameter files give it: SB3's
+    off-policy algorithms write ``use_sde: False`` (their default) into the
+    ``policy_kwargs`` they are given, so older records carry it and the files do not."""
+    if isinstance(value, dict):
+        kwargs = value.get("policy_kwargs")
+        if isinstance(kwargs, dict) and kwargs.get("use_sde") is False:
+            trimmed = {key: item for key, item in kwargs.items() if key != "use_sde"}
+            value = {**value, "policy_kwargs": trimmed}
+    return value
+
+
+def record_differences(
+    saved: JSONObject, wanted: JSONObject, free: tuple[str, ...] = ()
+) -> list[tuple[str, object, object]]:
+    """The settings whose values differ between a run's ``saved`` record and the record
+    of its continuation ``wanted`` (as JSON: tuples are lists), as ``(key, old, new)``;
+    a nested setting as ``a.b``; a key absent on one side has the value None. Keys in
+    ``free`` (either ``a`` or ``a.b``) may differ.
+    """
+    wanted = json.loads(json.dumps(wanted, default=str))
+    saved = {**saved, "hyperparams": comparable_hyperparams(saved.get("hyperparams"))}
+    wanted["hyperparams"] = comparable_hyperparams(wanted.get("hyperparams"))
+    differing: list[tuple[str, object, object]] = []
+    for key in sorted(set(saved) | set(wanted)):
+        if key in free:
+            continue
+        old, new = saved.get(key), wanted.get(key)
+        if isinstance(old, dict) and isinstance(new, dict):
+            differing += [
+                (f"{key}.{sub}", old.get(sub), new.get(sub))
+                for sub in sorted(set(old) | set(new), key=str)
+                if old.get(sub) != new.get(sub) and f"{key}.{sub}" not in free
+            ]
+        elif old != new:
+            differing.append((key, old, new))
+    return differing
+
+
+def resume_problem(run_dir: Path) -> str | None:
+    """Why an SB3 training run in ``run_dir`` could not go on (None: it can), found
+    without writing: its learning curve (:data:`CURVE_FILE`, the resumed run keeps its
+    rows and appends under its header) or its best model's card (the resumed run reads
+    when that model was selected) is unreadable."""
+    try:
+        read_curve(run_dir / CURVE_FILE, CURVE_COLUMNS, header=CURVE_COLUMNS)
+        read_card(run_dir / BEST_MODEL)
+    except ValueError as error:
+        return str(error)
+    return None
 
 
 def export_problem(destination: Path, overwrite: bool = False) -> str | None:

@@ -43,6 +43,27 @@ def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR)
     return found
 
 
+def models_covering(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[Path]:
+    """Models under ``directory`` trained on ``env_id`` with nominal physics that take
+    ``n_trailers``: those of that count (:func:`committed_models`), then those trained over
+    a range of counts that holds it (``n_trailers: [low, high]`` on the card). A model
+    trained under randomised physics is left out: it is not that scenario's policy."""
+    found = committed_models(env_id, n_trailers, directory)
+    for path in sorted(directory.glob("*.zip")):
+        card = read_card(path)
+        env_kwargs = card.get("env_kwargs", {})
+        counts = env_kwargs.get("n_trailers")
+        if (
+            card.get("env_id") == env_id
+            and isinstance(counts, list)
+            and len(counts) == 2
+            and counts[0] <= n_trailers <= counts[1]
+            and env_kwargs.get("randomize") is None
+        ):
+            found.append(path)
+    return found
+
+
 def seed_models(spec: str, directory: Path = SEEDS_DIR) -> list[Path]:
     """The models of every training seed of a committed model: ``<seeds>/<stem>_s<k>.zip``.
 

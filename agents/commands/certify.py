@@ -33,7 +33,8 @@ distribution (``--sample-seed``): a stochastic policy's lucky episode is as good
 record as any once it replays. ``--warm-start [SPEC ...]`` (goal scenes) then plans
 the starts still open with iLQR from the states those policies reach.
 
-``--out`` must be a writable folder; an existing one is written into only with
+``--out`` (default ``out/certify/<scene>_n<n>``, :func:`default_out`) must be a
+writable folder; an existing one is written into only with
 ``--overwrite``, which replaces the certificate's own files (certificate.json,
 certificate.md, actions/seed_*.npy) and nothing else; a link among them is refused.
 """
@@ -47,7 +48,6 @@ from pathlib import Path
 
 from agents.artifacts import files, limits
 from agents.artifacts.certificates import (
-    FEASIBLE,
     markdown,
     read_actions,
     read_certificate,
@@ -56,10 +56,11 @@ from agents.artifacts.certificates import (
     write_problem,
 )
 from agents.commands import options as cli
-from agents.envs import ENV_IDS, check_env_id, env_settings
+from agents.envs import ENV_IDS, check_env_id, env_settings, scene_of
 from agents.evaluation.witnesses import (
     MAX_WITNESS_SAMPLES,
     add_witnesses,
+    check_records,
     committed_witnesses,
     default_witnesses,
     repeated_labels,
@@ -81,6 +82,24 @@ from trailer_env.randomize import PRESETS
 
 #: The defaults of --env, --n-trailers and --seeds.
 DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = "trailer_env/Reverse-v1", 2, "1000-1099"
+#: The folder the default ``--out`` lies in.
+DEFAULT_OUT_ROOT = Path("out") / "certify"
+
+
+def default_out(
+    env_id: str, n_trailers: int, randomize: str | JSONObject | None, witnessed: bool
+) -> Path:
+    """``--out``'s default: ``out/certify/<scene>[_<preset>]_n<n>`` (the committed
+    certificates' names, :func:`agents.artifacts.certificates.certificate_path`; custom
+    factor ranges read ``randomized``), ending in ``_witnessed`` for ``--from-certificate``,
+    so that the documented commands run one after another each write their own folder."""
+    physics = (
+        ""
+        if randomize is None
+        else "_" + (randomize if isinstance(randomize, str) else "randomized")
+    )
+    name = f"{scene_of(env_id)}{physics}_n{n_trailers}" + ("_witnessed" if witnessed else "")
+    return DEFAULT_OUT_ROOT / name
 
 
 @dataclass(frozen=True)
@@ -135,9 +154,12 @@ def parse_seeds(text: str, maximum: int = limits.MAX_CERTIFY_SEEDS) -> list[int]
     """ "1000-1099" -> [1000, ..., 1099]; "5" -> [5]; "1,4,9" -> [1, 4, 9].
 
     Raises:
-        ValueError: On a malformed, empty or repeated seed, one outside 0 .. 2**32 - 1,
-            or more than ``maximum`` seeds (counted before any list is built).
+        ValueError: On no seeds at all (an empty text); a malformed, empty or repeated
+            seed, one outside 0 .. 2**32 - 1, or more than ``maximum`` seeds (counted
+            before any list is built).
     """
+    if not text.strip():
+        raise ValueError("no seeds given (e.g. 1000-1099)")
     seeds: list[int] = []
     for part in text.split(","):
         part = part.strip()
@@ -203,7 +225,14 @@ def build_parser() -> argparse.ArgumentParser:
         default=DEFAULT_SEEDS,
         help=f"e.g. 1000-1099 (default) or 1,4,9; at most {limits.MAX_CERTIFY_SEEDS:,} seeds",
     )
-    parser.add_argument("--out", type=Path, required=True, help="output folder")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output folder (default out/certify/<scene>_n<n>, e.g. out/certify/reverse_v1_n2; "
+        "with --randomize out/certify/<scene>_<preset>_n<n>; with --from-certificate "
+        "the same name ending in _witnessed)",
+    )
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     parser.add_argument(
         "--planner",
@@ -300,26 +329,30 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def load_certificate(path: Path) -> JSONObject:
-    """A certificate file and its action records (``actions``), checked.
+    """A certificate file and its action records (``actions``), checked and replayed.
+
+    The records are replayed on the certificate's own scene, n and physics
+    (:func:`agents.evaluation.witnesses.check_records`) before anything is built on
+    them: a record that does not replay to its start's stated outcome is refused.
 
     Raises:
-        ValueError: If either is missing or invalid, the env is unknown, or a feasible
-            start has no record.
+        ValueError: If either file is missing or invalid, the env or its settings are
+            unknown, a feasible start has no record, a start that is not feasible has
+            one, or a record does not replay to its start's stated outcome (the message
+            names the start).
     """
     certificate = read_certificate(path)
     check_env_id(certificate["env_id"])
+    try:
+        env_settings(certificate["env_kwargs"])
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{path}: env_kwargs: {error}") from None
     records_path = records_beside(path)
     if not records_path.is_file():
         raise ValueError(f"{path}: its action records {records_path} are missing")
-    records = read_actions(records_path)
-    missing = [
-        start["seed"]
-        for start in certificate["starts"]
-        if start["status"] == FEASIBLE and start["seed"] not in records
-    ]
-    if missing:
-        raise ValueError(f"{records_path} has no record of the feasible starts {missing[:8]}")
-    return {**certificate, "actions": records}
+    loaded = {**certificate, "actions": read_actions(records_path)}
+    check_records(loaded, str(path))
+    return loaded
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -363,7 +396,7 @@ def main(argv: list[str] | None = None) -> int:
     if randomize is not None:
         env_kwargs["randomize"] = randomize
     try:
-        seeds = parse_seeds(args.seeds or DEFAULT_SEEDS)
+        seeds = parse_seeds(DEFAULT_SEEDS if args.seeds is None else args.seeds)
     except ValueError as error:
         parser.error(f"argument --seeds: {error}")
     if args.no_witnesses and (args.witnesses is not None or args.warm_start is not None):
@@ -398,6 +431,8 @@ def main(argv: list[str] | None = None) -> int:
             )
     except ValueError as error:
         parser.error(str(error))
+    if args.out is None:
+        args.out = default_out(env_id, n_trailers, randomize, witnessed=base is not None)
     problem = write_problem(args.out, args.overwrite)
     if problem is not None:
         parser.error(f"argument --out: {problem}")

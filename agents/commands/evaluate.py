@@ -3,7 +3,7 @@
 Usage::
 
     python -m agents.evaluate --env trailer_env/Reverse-v1 --n-trailers 2 \
-        --policy zero lqr dagger_reverse_v1_n2 my_policy:act --episodes 100 --out out/eval
+        --policy zero lqr dagger_reverse_v1_n2 my_policy:act --episodes 100
 
 A policy is a baseline name, the stem of a shipped model (``dagger_reverse_v1_n2`` is
 the installed package's ``agents/models/dagger_reverse_v1_n2.zip``, from any folder), a
@@ -22,10 +22,12 @@ Without ``--policy`` it evaluates the scene's baselines and every committed mode
 All episodes of one policy run in one native batch; episode ``i`` is seeded
 ``seed + i`` (default seed 1000), so the same command gives the same JSON.
 
-Writes to ``--out``: ``results.json`` (every metric, per policy), ``results.md``
-(a Markdown table, also printed), and unless ``--no-plots``: ``margins.png``
-(singular-margin histograms), ``frames.png`` (a rendered episode per policy) and
-``curves.png`` (learning curves of the models that have them), each atomically.
+Writes to ``--out`` (default ``out/evaluate/<scene>_n<n>`` followed by the
+``--policy`` names and the ``--set`` settings, :func:`default_out`): ``results.json``
+(every metric, per policy), ``results.md`` (a Markdown table, also printed), and
+unless ``--no-plots``: ``margins.png`` (singular-margin histograms), ``frames.png`` (a
+rendered episode per policy) and ``curves.png`` (learning curves of the models that have
+them), each atomically.
 Everything is checked before the first episode: ``--out`` and ``--video`` must be
 writable and no symbolic link (nor any of the files written in ``--out``), none of
 the files it would write may exist unless ``--overwrite`` (``results.json`` and
@@ -38,14 +40,16 @@ curve is loaded and checked first.
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
+from collections.abc import Mapping
 from pathlib import Path
 
 from agents.artifacts import files
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
-from agents.envs import ENV_IDS, HEADLINE_ENV_ID, check_env_id, env_settings
+from agents.envs import ENV_IDS, HEADLINE_ENV_ID, check_env_id, env_settings, scene_of
 from agents.evaluation.pictures import write_pictures
 from agents.evaluation.results import (
     curve_metric,
@@ -55,7 +59,7 @@ from agents.evaluation.results import (
 )
 from agents.evaluation.tables import markdown_table, table_legend
 from agents.policies.baselines import BASELINES
-from agents.policies.registry import is_model_spec, model_card
+from agents.policies.registry import is_model_spec, model_card, policy_label
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import plural
 from agents.seeds import TEST_SEED
@@ -100,7 +104,11 @@ def build_parser() -> argparse.ArgumentParser:
     cli.add_episodes(parser, 100, "episodes (default 100)")
     cli.add_seed(parser, TEST_SEED, f"episode i is seeded seed + i (default {TEST_SEED})")
     parser.add_argument(
-        "--out", type=Path, default=Path("out/eval"), help="output folder (default out/eval)"
+        "--out",
+        type=Path,
+        default=None,
+        help="output folder (default out/evaluate/<scene>_n<n>, then the --policy names and "
+        "the --set settings: e.g. out/evaluate/reverse_v1_n2_lqr_dagger_reverse_v1_n2)",
     )
     parser.add_argument("--no-plots", action="store_true", help="write JSON and Markdown only")
     parser.add_argument(
@@ -149,10 +157,28 @@ def env_from_cards(specs: list[str]) -> tuple[str | None, int | None, str | None
     return None, None, None
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status (bad arguments exit with 2)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
+#: The folder the default ``--out`` lies in.
+DEFAULT_OUT_ROOT = cli.OUT_ROOT / "evaluate"
+
+
+def default_out(env_id: str, env_kwargs: Mapping[str, object], policies: list[str] | None) -> Path:
+    """``--out``'s default: ``out/evaluate/<scene>_n<n>``, then the ``--policy`` labels
+    (a model's stem, a baseline's name) and the ``--set`` settings, so that two
+    evaluations of other policies, scenes or physics do not meet in one folder
+    (:func:`agents.commands.options.folder_name`)."""
+    labels = [policy_label(spec) for spec in policies or []]
+    settings = [
+        f"{key}={value if isinstance(value, str) else json.dumps(value, separators=(',', ':'))}"
+        for key, value in env_kwargs.items()
+        if key != "n_trailers"
+    ]
+    scene = f"{scene_of(env_id)}_n{env_kwargs['n_trailers']}"
+    return DEFAULT_OUT_ROOT / cli.folder_name(scene, *labels, *settings)
+
+
+def _check_out(parser: argparse.ArgumentParser, args: argparse.Namespace) -> None:
+    """Exit 2 unless ``--out`` can take this evaluation's files (an earlier one's only
+    with ``--overwrite``)."""
     cli.check_out_folder(parser, args.out, files_in=OUT_FILES)
     written = OUT_FILES[:2] if args.no_plots else OUT_FILES
     present = [name for name in written if (args.out / name).exists()]
@@ -161,6 +187,14 @@ def main(argv: list[str] | None = None) -> int:
             f"argument --out: {args.out} holds {', '.join(present)} of an earlier evaluation; "
             "pass --overwrite to replace them"
         )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments exit with 2)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.out is not None:
+        _check_out(parser, args)
     cli.check_seeds(parser, args.seed, args.episodes)
     if args.video is not None:
         from agents.evaluation.plots import VIDEO_SUFFIXES, missing_video_modules
@@ -190,6 +224,9 @@ def main(argv: list[str] | None = None) -> int:
     args.n_trailers = 2 if args.n_trailers is None else args.n_trailers
     env_id = check_env_id(args.env)
     env_kwargs = cli.env_kwargs_from(parser, args)
+    if args.out is None:
+        args.out = default_out(env_id, env_kwargs, args.policy)
+        _check_out(parser, args)
     specs = args.policy or [
         *default_baselines(env_id),
         *(str(path) for path in committed_models(env_id, args.n_trailers)),

@@ -44,12 +44,16 @@ through :class:`~agents.policies.convoy_encoder.ConvoyEncoder`, so it acts with 
 to ``--max-trailers``; its default run folder ends in ``_trailers``.
 
 The run folder and ``--export`` are checked as by ``agents.train`` (writable, no
-symbolic link, locked while the run writes it).
+symbolic link, locked while the run writes it). ``--resume`` first checks every file the
+run reads back (:func:`agents.training.imitate.read_saved_run`: the checkpoint, the
+record, the data set, the learning curve, the models and their statistics): a damaged
+one exits with status 2 naming it, and the folder is left as it was.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from agents.artifacts import limits
@@ -66,7 +70,13 @@ from agents.oracles.experts import default_expert
 from agents.policies.convoy_order import CONVOY_DIRECTIONS
 from agents.policies.sb3 import limit_torch_threads
 from agents.policies.teachers import DAGGER_EXPERTS
-from agents.training.imitate import CHECKPOINT_FILE, CheckpointError, ImitationConfig, imitate
+from agents.training.imitate import (
+    CHECKPOINT_FILE,
+    CheckpointError,
+    ImitationConfig,
+    imitate,
+    read_saved_run,
+)
 from dynamics.params import MAX_TRAILERS
 from trailer_env.observation import OBSERVATIONS
 
@@ -179,6 +189,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    command = ["python", "-m", "agents.imitate", *(sys.argv[1:] if argv is None else argv)]
     if args.net_arch:
         problem = limits.network_problem(args.net_arch)
         if problem is not None:
@@ -235,12 +246,16 @@ def main(argv: list[str] | None = None) -> int:
         checkpoint = (args.run_dir or default) / CHECKPOINT_FILE
         if not checkpoint.is_file():
             parser.error(f"argument --resume: no checkpoint {checkpoint}")
+        try:  # the whole folder, before anything is written (the model: once built)
+            read_saved_run(checkpoint.parent)
+        except CheckpointError as error:
+            parser.error(f"argument --resume: {error}")
     try:
         with claimed_run_dir(
             default, args.run_dir, resume=checkpoint, overwrite=args.overwrite
         ) as run_dir:
             limit_torch_threads()
-            imitate(config, run_dir, resume=args.resume)
+            imitate(config, run_dir, resume=args.resume, command=command)
             if args.export is not None:
                 print(f"exported {export_model(run_dir, args.export, overwrite=args.overwrite)}")
     except RunFolderError as error:

@@ -16,7 +16,7 @@ Run with ``python -m agents.main [--out DIR] [--episodes K] [--planner | --no-pl
    expensive oracle), ``--no-planner`` leaves both out.
 3. Print the comparison table and the ceiling (the certified share of these starts,
    :func:`agents.oracles.certify.ceiling_note`), and write ``results.json``, ``results.md``,
-   ``margins.png``, ``frames.png`` and ``curves.png`` to ``--out`` (default ``out``).
+   ``margins.png``, ``frames.png`` and ``curves.png`` to ``--out`` (default ``out/main``).
 
 Progress goes to standard error, the table to standard output; the measured times
 are in the docs (Agents: the main job).
@@ -63,6 +63,11 @@ SHORT_ITERATIONS = 2
 
 
 SHORT_EPISODES = 64
+
+
+#: ``--out``'s default: the main job's own folder (the other commands write beside it,
+#: under ``out/<command>/``).
+DEFAULT_OUT = cli.OUT_ROOT / "main"
 
 
 #: The files written to --out (besides the short run's).
@@ -131,7 +136,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=cli.program("agents.main"), description=(__doc__ or "").split("\n")[0]
     )
-    parser.add_argument("--out", type=Path, default=Path("out"), help="output folder (default out)")
+    parser.add_argument(
+        "--out", type=Path, default=DEFAULT_OUT, help=f"output folder (default {DEFAULT_OUT})"
+    )
     cli.add_episodes(parser, 100, "evaluation episodes (default 100)")
     planner_options = parser.add_mutually_exclusive_group()
     planner_options.add_argument(

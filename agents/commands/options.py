@@ -11,8 +11,10 @@ any work (:func:`check_out_folder`, :func:`check_out_file`).
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import math
+import re
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -280,6 +282,27 @@ def add_trust_pickle(parser: argparse.ArgumentParser, what: str) -> None:
         action="store_true",
         help=f"allow unpickling {what}: only for files you trust",
     )
+
+
+#: Where the commands' default output folders lie: ``out/<command>/<name>``.
+OUT_ROOT = Path("out")
+#: Longest name :func:`folder_name` returns.
+MAX_FOLDER_NAME = 100
+
+
+def folder_name(*parts: str) -> str:
+    """A folder name of ``parts`` joined by ``_``: in each part every character but
+    letters, digits and ``.=+-`` becomes ``-`` (runs of them one, none at either end),
+    and a part left empty is left out (``default`` if all are); a name longer than
+    :data:`MAX_FOLDER_NAME` is cut and ends in a digest of the whole (two long names
+    stay apart)."""
+    cleaned = [re.sub(r"[^A-Za-z0-9._=+-]+", "-", part).strip("-.") for part in parts]
+    name = "_".join(part for part in cleaned if part) or "default"
+    joined = "_".join(parts)
+    if len(name) <= MAX_FOLDER_NAME:
+        return name
+    digest = hashlib.sha256(joined.encode("utf-8", "surrogateescape")).hexdigest()[:10]
+    return f"{name[: MAX_FOLDER_NAME - 11].rstrip('-_.')}_{digest}"
 
 
 def check_out_folder(

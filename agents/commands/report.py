@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 from agents.artifacts import files
-from agents.artifacts.shipped import committed_models
+from agents.artifacts.shipped import models_covering
 from agents.commands import options as cli
 from agents.evaluation import leaderboard, plots
 from agents.evaluation.pictures import write_pictures
@@ -43,6 +43,7 @@ from agents.evaluation.report import (
     curve_panel,
     report_order,
     scenario_section,
+    scenario_slug,
     tables_document,
 )
 from agents.evaluation.results import (
@@ -51,11 +52,15 @@ from agents.evaluation.results import (
     results_document,
 )
 from agents.evaluation.time_to_ceiling import TIME_TO_CEILING_LEGEND, time_to_ceiling_table
-from agents.policies.baselines import applicable_baselines
+from agents.policies.baselines import BASELINES, applicable_baselines
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import Progress, duration
-from agents.seeds import TEST_SEED
+from agents.seeds import FRESH_SEED, TEST_SEED
 from trailer_env.json_types import JSONObject
+
+#: The oracles the report evaluates by default: the sampling planner and the replay of the
+#: certificate's records (seconds a scenario); iLQR takes minutes a scenario (``--oracle``).
+DEFAULT_ORACLES = ("mpc", "mpc-replay")
 
 #: The pictures the report writes (under ``<out>/img`` or ``<docs>/img``).
 PICTURES = (
@@ -88,8 +93,19 @@ def build_parser() -> argparse.ArgumentParser:
         help="also write the site's generated tables and pictures under DIR (e.g. docs)",
     )
     cli.add_episodes(parser, 100, "episodes per policy (default 100)")
+    parser.add_argument("--no-planner", action="store_true", help="leave the scenes' oracles out")
     parser.add_argument(
-        "--no-planner", action="store_true", help="leave the scenes' oracle (mpc) out"
+        "--oracle",
+        nargs="+",
+        default=list(DEFAULT_ORACLES),
+        metavar="NAME",
+        help="the oracles to evaluate where they fit the scene (default: "
+        f"{' '.join(DEFAULT_ORACLES)}; ilqr costs about 10 s an episode at n = 6)",
+    )
+    parser.add_argument(
+        "--no-fresh",
+        action="store_true",
+        help=f"leave out the fresh starts (seeds from {FRESH_SEED}): about half the time",
     )
     return parser
 
@@ -124,6 +140,9 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    unknown = sorted(set(args.oracle) - set(BASELINES))
+    if unknown:
+        parser.error(f"argument --oracle: no baseline {', '.join(unknown)}")
     cli.check_out_folder(parser, args.out, files_in=("tables.md", "results.json"))
     if args.docs is not None:
         cli.check_out_folder(parser, args.docs, "--docs")
@@ -142,16 +161,51 @@ def main(argv: list[str] | None = None) -> int:
         for env_id, n in report_order(SCENARIOS):
             env_kwargs = {"n_trailers": n}
             oracles = [] if args.no_planner else list(applicable_baselines(env_id))
-            oracles = [name for name in oracles if name not in default_baselines(env_id)]
-            models = [str(path) for path in committed_models(env_id, n)]
+            oracles = [
+                name
+                for name in oracles
+                if name not in default_baselines(env_id) and name in args.oracle
+            ]
+            models = [str(path) for path in models_covering(env_id, n)]
             specs = [*default_baselines(env_id), *oracles, *models]
             evaluations = evaluate_policies(
                 specs, env_id, env_kwargs, args.episodes, TEST_SEED, progress=False
             )
-            sections.append(scenario_section(env_id, n, evaluations, args.episodes))
-            documents.append(
-                results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
+            fresh = None
+            if not args.no_fresh:
+                # Fresh starts check the learned policies and the baselines against
+                # over-fitting the test starts; the oracles read the exact state (nothing
+                # to over-fit) and the certificate's records exist for the test starts only.
+                fresh_specs = [*default_baselines(env_id), *models]
+                fresh = evaluate_policies(
+                    fresh_specs,
+                    env_id,
+                    env_kwargs,
+                    args.episodes,
+                    FRESH_SEED,
+                    with_seeds=False,
+                    progress=False,
+                )
+            document = results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
+            slug = scenario_slug(env_id, n)
+            leaderboard.plot_leaderboard(
+                [leaderboard.panel_of(document)], img / "results" / f"{slug}.png", columns=1
             )
+            sections.append(
+                scenario_section(
+                    env_id,
+                    n,
+                    evaluations,
+                    args.episodes,
+                    fresh=fresh,
+                    picture=f"img/results/{slug}.png",
+                )
+            )
+            if fresh is not None:
+                document["fresh"] = results_document(
+                    fresh, env_id, env_kwargs, args.episodes, FRESH_SEED
+                )
+            documents.append(document)
             panels.append(curve_panel(env_id, n, evaluations))
             print(sections[-1], flush=True)
             if (env_id, n) == HEADLINE:

@@ -31,6 +31,15 @@ its ``checkpoints/``, when that folder has the run's ``config.json``); a checkpo
 that is in no run folder (e.g. a shipped ``agents/models/*.zip``) starts the fresh
 default run folder instead: its own folder is never turned into a run. A folder that
 already holds another run is refused unless ``--overwrite`` (:mod:`agents.artifacts.run_folder`).
+A resume continues the run as its ``config.json`` records it: every option that shapes
+the run (``--env``, ``--algo``, ``--n-trailers``, ``--randomize``, ``--seed``,
+``--n-envs``, ``--shaping``, the hyperparameter file's entry, ``--init-from``,
+``--critic-warmup``, the start options) must be the run's, or the refusal names the
+option with the run's value and the one given; ``--timesteps`` must be above the
+checkpoint's steps; and the files the run reads back (its record, ``evaluations.csv``,
+the best model's card) are checked before anything is written. The rows of
+``evaluations.csv`` up to the checkpoint stay as they were written; later ones (an
+abandoned continuation) go.
 
 ``--init-from MODEL`` fine-tunes: a new run whose policy starts as MODEL's (an imitation
 agent, another run's best model) under this run's hyperparameters, MODEL's observation
@@ -92,11 +101,17 @@ from agents.artifacts.run_folder import (
     CONFIG_FILE,
     RLLIB_CHECKPOINT,
     RunFolderError,
+    checkpoint_folder,
     claimed_run_dir,
     default_run_dir,
     export_model,
     export_problem,
+    holds_run,
+    read_record,
+    record_differences,
+    resume_problem,
     run_dir_of_checkpoint,
+    symlink_problem,
 )
 from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError
 from agents.artifacts.stats import read_stats
@@ -277,12 +292,12 @@ def _check_resume_file(parser: argparse.ArgumentParser, args: argparse.Namespace
 
 def _check_resume(
     parser: argparse.ArgumentParser, args: argparse.Namespace, env_kwargs: JSONObject
-) -> None:
+) -> int:
     """Refuse a --resume that is damaged, unsafe to load or made for other observations than
     the run's env (``env_kwargs``: the file's, with the command's n and physics), after
-    :func:`_check_resume_file`."""
+    :func:`_check_resume_file`; returns its step count."""
     try:
-        load_model(
+        model = load_model(
             args.resume,
             args.algo,
             env_id=args.env,
@@ -304,6 +319,7 @@ def _check_resume(
             )
     except (ValueError, FileNotFoundError) as error:
         parser.error(f"argument --resume: {error}")
+    return int(model.num_timesteps)
 
 
 def _start_flags(key: str, value: object) -> str:
@@ -319,24 +335,74 @@ def _start_flags(key: str, value: object) -> str:
     return flags
 
 
+#: Keys of a training run's record that its continuation may change: the command, the
+#: total budget (which only grows) and the totals of the run so far.
+RESUMABLE_KEYS = ("command", "budget", "timesteps", "wall_time_s", "stopped_on_plateau_at")
+#: Keys of the record checked apart, with messages that give the flags to repeat.
+_STARTS = ("start_curriculum", "start_replay")
+_FINE_TUNING = ("init_from", "critic_warmup")
+#: The option that sets a key of the record (the hyperparameter file sets the others).
+_FLAGS = {
+    "algo": "--algo",
+    "env_id": "--env",
+    "seed": "--seed",
+    "n_envs": "--n-envs",
+    "shaping": "--shaping",
+    "env_kwargs.n_trailers": "--n-trailers",
+    "env_kwargs.randomize": "--randomize",
+}
+
+
+def _shown(value: object) -> str:
+    """A record's value in a refusal message."""
+    if value is None:
+        return "none"
+    return value if isinstance(value, str) else json.dumps(value, sort_keys=True)
+
+
+def _check_budget(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, config: TrainConfig, steps: int
+) -> None:
+    """Refuse a --resume whose total budget is not above the checkpoint's ``steps``: it
+    would train nothing and record a smaller budget than the run had."""
+    if config.budget <= steps:
+        parser.error(
+            f"argument --timesteps: {args.resume} is at {steps:,} steps; the run's total "
+            f"budget must be above that, got {config.budget:,}"
+        )
+
+
 def _check_resumed_run(
     parser: argparse.ArgumentParser, args: argparse.Namespace, config: TrainConfig
 ) -> None:
-    """Refuse a --resume of a fine-tuning run without its --init-from and --critic-warmup
-    (or of a plain run with them): the frozen statistics and the warm-up depend on them;
-    and one without the run's --start-curriculum or --start-replay (or with others): the
-    schedule and the buffer's rules go on."""
+    """Refuse a --resume that does not continue the checkpoint's run as it was recorded
+    (before its files are loaded): every setting that shapes the run (scene, algorithm,
+    n, physics, seed, batch, shaping, the hyperparameter file's entry) must be the run's;
+    so must its --init-from and --critic-warmup (the frozen statistics and the warm-up
+    depend on them) and its --start-curriculum and --start-replay (the schedule and the
+    buffer's rules go on). The message names the option, with the run's value and the
+    one given. A run folder whose record is damaged, or that holds another trainer's run,
+    is refused likewise."""
     own_run = run_dir_of_checkpoint(args.resume)
     if own_run is None:
+        folder = checkpoint_folder(args.resume)
+        if holds_run(folder):  # its learning curve without its record: a damaged run
+            parser.error(f"argument --resume: {folder / CONFIG_FILE} is missing")
         return
+    problem = symlink_problem(own_run)  # the folder the run goes on in, first
+    if problem is not None:
+        parser.error(f"argument --run-dir: {problem}")
     try:
-        saved = json.loads((own_run / CONFIG_FILE).read_text())
-    except (OSError, ValueError) as error:
-        parser.error(f"argument --resume: unreadable {own_run / CONFIG_FILE}: {error}")
-    if not isinstance(saved, dict):
-        parser.error(f"argument --resume: {own_run / CONFIG_FILE} is not a JSON object")
+        saved = read_record(own_run)
+    except ValueError as error:
+        parser.error(f"argument --resume: {error}")
+    if saved.get("recipe") is not None:  # e.g. an imitation run: another trainer's record
+        parser.error(
+            f"argument --resume: {own_run} holds a {saved['recipe']} run, not one of "
+            "agents.train; fine-tune its model with --init-from"
+        )
     wanted = config.document()
-    for key in ("start_curriculum", "start_replay"):
+    for key in _STARTS:
         if saved.get(key) != wanted.get(key):
             parser.error(
                 f"argument --resume: {own_run} was trained with "
@@ -350,6 +416,13 @@ def _check_resumed_run(
         parser.error(
             f"argument --resume: {own_run} was trained with --init-from {saved_from} "
             f"--critic-warmup {saved_warmup}; resume it with the same"
+        )
+    free = (*RESUMABLE_KEYS, *_STARTS, *_FINE_TUNING)
+    for key, old, new in record_differences(saved, wanted, free):
+        flag = _FLAGS.get(key) or _FLAGS.get(key.partition(".")[0]) or "--hyperparams"
+        parser.error(
+            f"argument {flag}: {own_run} was trained with {key} = {_shown(old)}, not "
+            f"{_shown(new)}; resume it with the same"
         )
 
 
@@ -546,12 +619,18 @@ def main(argv: list[str] | None = None) -> int:
     # The saved models load in the run's env: the file's env_kwargs (such as
     # observe_params) change what it observes.
     if args.resume is not None:
-        _check_resume(parser, args, config.env_kwargs)
-    _check_init_from_model(parser, args, config.env_kwargs)
-    if args.resume is not None:
         _check_resumed_run(parser, args, config)
+        _check_budget(parser, args, config, _check_resume(parser, args, config.env_kwargs))
+    _check_init_from_model(parser, args, config.env_kwargs)
     default = default_run_dir(args.env, args.algo, args.n_trailers, args.seed)
-    target = args.run_dir or (args.resume and run_dir_of_checkpoint(args.resume)) or default
+    own_run = None if args.resume is None else run_dir_of_checkpoint(args.resume)
+    target = args.run_dir or own_run or default
+    if args.resume is not None and (target.resolve() == own_run or not holds_run(target)):
+        # The files of the folder the run goes on in (a folder holding another run is
+        # refused, or cleared with --overwrite): checked before anything is written.
+        problem = resume_problem(target)
+        if problem is not None:
+            parser.error(f"argument --resume: cannot resume into {target}: {problem}")
     if args.init_from is not None and args.init_from.resolve().is_relative_to(target.resolve()):
         # --overwrite would clear it, and the run's own models would replace it.
         parser.error(

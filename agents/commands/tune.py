@@ -15,11 +15,14 @@ the pruner the median of the earlier trials at each evaluation. Progress and an 
 to standard error, one line per trial.
 
 The study is ``<out>/study.log`` (an Optuna journal file): running the same command
-again after a kill resumes it (``--trials`` counts all the study's trials). At the end
+again after a kill resumes it (``--trials`` counts all the study's trials; a last record
+cut by the kill is dropped first, said on standard error; a journal damaged otherwise is
+refused and left as it is). At the end
 ``<out>/best_trials.md`` and ``<out>/best_hyperparams.yml`` (the winner, in the format
 of ``agents/hyperparams/<algo>.yml``) are written atomically. Everything is checked
 before anything is written (exit status 2 naming the argument): the arguments, Optuna
-being installed, the base file and the search space, and ``--out``: a folder of another
+being installed, the base file and the search space (every value it can sample,
+against the algorithm's bounds), and ``--out``: a folder of another
 search, a non-empty folder that holds no search or a finished search's results are
 refused unless ``--overwrite`` (a search with other settings always).
 """
@@ -66,7 +69,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--trials",
         type=cli.bounded(1, 100_000),
         default=20,
-        help="trials of the study in all, earlier sessions' included (default 20)",
+        help="trials of the study in all, those of a resumed search included (default 20)",
     )
     cli.add_seed(parser, 0, "training seed of every trial and the sampler's seed (default 0)")
     parser.add_argument(

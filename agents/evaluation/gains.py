@@ -52,7 +52,7 @@ from trailer_env.observation import flat_observation
 OUTPUTS = ("gains.md", "gains.json", "gains.png")
 #: The hitch-angle step of the central differences (rad): small enough that every policy
 #: here is linear over it (the LQR's, linear up to its clip, are its design's times one
-#: factor to 1e-7 on this host; the test allows 1e-3), large enough that float32
+#: factor to about 1e-7; the test allows 1e-3), large enough that float32
 #: observations resolve it.
 STEP = 1e-3
 

@@ -14,10 +14,10 @@ from agents.evaluation.results import (
     curve_metric,
     evaluate_policies,
 )
-from agents.evaluation.tables import markdown_table, table_legend
-from agents.oracles.certify import ceiling_note
+from agents.evaluation.tables import scenario_legend, scenario_table
+from agents.oracles.certify import ceiling_fraction, ceiling_note
 from agents.progress import plural
-from agents.seeds import TEST_SEED
+from agents.seeds import FRESH_SEED, TEST_SEED
 
 
 def committed_scenarios(directory: Path = MODELS_DIR) -> tuple[tuple[str, int], ...]:
@@ -48,23 +48,42 @@ def report_order(scenarios: Sequence[tuple[str, int]]) -> list[tuple[str, int]]:
     )
 
 
+def scenario_slug(env_id: str, n: int) -> str:
+    """ "reverse_v1_n2": the file name of a scenario's picture."""
+    return f"{scene_title(env_id).lower().replace('-', '_')}_n{n}"
+
+
 def scenario_section(
-    env_id: str, n: int, evaluations: Sequence[Evaluation], episodes: int, seed: int = TEST_SEED
+    env_id: str,
+    n: int,
+    evaluations: Sequence[Evaluation],
+    episodes: int,
+    seed: int = TEST_SEED,
+    *,
+    fresh: Sequence[Evaluation] | None = None,
+    fresh_seed: int = FRESH_SEED,
+    picture: str | None = None,
 ) -> str:
-    """One scenario's part of the results tables: a heading that names the scenario only
-    (the page's table of contents lists the headings, so the episodes, the same in every
-    section, are a line under it), the table (:func:`markdown_table`, with its training
-    line) and the ceiling line (:func:`agents.oracles.certify.ceiling_note`)."""
-    where = f"`{env_id}`, {plural(episodes, 'episode')}, seeds {seed}..{seed + episodes - 1}"
-    table = markdown_table(evaluations, curve_metric(env_id))
-    ceiling = ceiling_note(env_id, n, episodes, seed)
-    return f"#### {scene_title(env_id)}, n = {n}\n\n{where}\n\n{table}\n{ceiling}\n"
+    """One scenario's part of the results page: a heading that names the scenario only
+    (the page's table of contents lists the headings), its picture (``picture``, a path
+    relative to the page), the episodes, the table (:func:`scenario_table`: the test starts,
+    ``fresh`` on the episodes from ``fresh_seed``, the gap to the ceiling, how to rebuild
+    each model) and the ceiling line (:func:`agents.oracles.certify.ceiling_note`)."""
+    title = f"{scene_title(env_id)}, n = {n}"
+    where = f"`{env_id}`, test: {plural(episodes, 'episode')}, seeds {seed}..{seed + episodes - 1}"
+    if fresh is not None:
+        where += f"; fresh: seeds {fresh_seed}..{fresh_seed + episodes - 1}"
+    ceiling = ceiling_fraction(env_id, n, episodes, seed)
+    table = scenario_table(evaluations, fresh, ceiling, curve_metric(env_id))
+    image = f"![{title}: every policy's rate on the test starts]({picture})\n\n" if picture else ""
+    note = ceiling_note(env_id, n, episodes, seed)
+    return f"#### {title}\n\n{image}{where}\n\n{table}\n{note}\n"
 
 
 def tables_document(sections: Sequence[str], env_ids: Sequence[str]) -> str:
     """The results tables' Markdown: what the columns mean on the scenes ``env_ids``
-    (:func:`table_legend`, once), then the sections."""
-    return "\n".join([f"{table_legend(env_ids)}\n", *sections])
+    (:func:`scenario_legend`, once), then the sections."""
+    return "\n".join([f"{scenario_legend(env_ids)}\n", *sections])
 
 
 #: Actuator settings of the authority sweep (ConvoyParams / EnvSettings overrides).

@@ -36,7 +36,7 @@ the runs as the project commits a learned agent: each run's kept model goes to
 selection episodes (200 from seed 60,000, which no table uses; ties to the lower seed)
 to ``NAME.zip``, its card recording the selection.
 
-Run folders are not kept between sessions, so every scored run's curve (its
+Run folders are working files, not kept with the table, so every scored run's curve (its
 ``config.json`` and ``evaluations.csv``) is copied to
 ``<out>/rl_runs/<scene>_n<n>_<recipe>_s<seed>/`` (named by the row's identity: a
 re-scored run replaces its own); ``python -m agents.curves <out>/rl_runs/...`` redraws

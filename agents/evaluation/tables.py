@@ -13,6 +13,7 @@ from typing import Any
 
 from agents.algorithms import recipe_name
 from agents.envs import ENV_IDS, core_class_of, scene_title
+from agents.evaluation.metrics import wilson_interval
 from agents.evaluation.results import Evaluation
 from agents.policies.baselines import BASELINES
 
@@ -173,3 +174,100 @@ def markdown_table(evaluations: Sequence[Evaluation], metric: str = "safe_rate")
     footnote = training_footnote(evaluations)
     table = table_header(metric) + "\n".join(lines) + "\n"
     return table + (f"\n{footnote}\n" if footnote else "")
+
+
+#: How a policy of the results tables was made, in the order the tables explain them.
+TRAINING_KINDS = ("baseline", "oracle", "imitation", "from reward", "constrained")
+
+
+def training_kind(card: dict[str, Any], label: str = "") -> str:
+    """One of :data:`TRAINING_KINDS`: "oracle" for a baseline reading the exact state,
+    "imitation" for DAgger (from a planner or from trained specialists), "constrained" for
+    a cost-constrained algorithm (PPO-Lagrangian), "from reward" for the other learners."""
+    if not card:
+        return "oracle" if oracle_note(label) != "-" else "baseline"
+    if card.get("recipe") == "dagger":
+        return "imitation"
+    return "constrained" if card.get("algo") == "ppo_lag" else "from reward"
+
+
+def _rate_cell(summary: dict[str, Any], metric: str) -> str:
+    """ "99.0 [95, 100]": the rate in % with its 95 % Wilson interval."""
+    episodes = int(summary["episodes"])
+    low, high = wilson_interval(round(summary[metric] * episodes), episodes)
+    return f"{100 * summary[metric]:.1f} [{100 * low:.0f}, {100 * high:.0f}]"
+
+
+def _wall_cell(card: dict[str, Any]) -> str:
+    wall = card.get("wall_time_s") if card else None
+    return f"{wall / 60:.1f} min" if isinstance(wall, (int, float)) else "-"
+
+
+def reproduce_command(label: str) -> str:
+    """The command that rebuilds the committed model ``label`` from its card."""
+    return f"python -m agents.reproduce {label} --out out/reproduce/{label}"
+
+
+def scenario_table(
+    test: Sequence[Evaluation],
+    fresh: Sequence[Evaluation] | None,
+    ceiling: float | None,
+    metric: str = "safe_rate",
+) -> str:
+    """One scenario's results table (Markdown), then the lines under it: how each learned
+    row was trained (:func:`training_footnote`) and the command that rebuilds it.
+
+    Columns: the policy; how it was made (:func:`training_kind`); the headline rate in %
+    with its 95 % Wilson interval on the test starts and on fresh ones (``fresh``: the same
+    policies in the same order on other seeds; "-" where a policy has no fresh row, such as
+    the replay of the certificate's records, which exist on the test starts only); the gap
+    in points to the certified ``ceiling`` on the test starts (negative where a policy
+    passes it); the share of episodes ended by a fold; the headline rate over the committed
+    model's training seeds; the wall time its card records.
+    """
+    by_label = {evaluation.label: evaluation for evaluation in fresh or ()}
+    word = _metric_name(metric)
+    lines = [
+        f"| policy | made by | {word} % test [95% CI] | {word} % fresh [95% CI] "
+        "| gap | fold % | over seeds | training |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for evaluation in test:
+        summary = evaluation.summary
+        other = by_label.get(evaluation.label)
+        gap = "-" if ceiling is None else f"{100 * (ceiling - summary[metric]):.1f}"
+        lines.append(
+            f"| {evaluation.label} | {training_kind(evaluation.card, evaluation.label)} "
+            f"| {_rate_cell(summary, metric)} "
+            f"| {'-' if other is None else _rate_cell(other.summary, metric)} "
+            f"| {gap} | {100 * summary['jackknife_rate']:.0f} "
+            f"| {seeds_note(evaluation, metric)} | {_wall_cell(evaluation.card)} |"
+        )
+    notes = [training_footnote(test)]
+    commands = [
+        f"`{reproduce_command(evaluation.label)}`" for evaluation in test if evaluation.card
+    ]
+    if commands:
+        notes.append(f"rebuild: {'; '.join(commands)}")
+    return "\n".join(lines) + "\n\n" + "\n\n".join(note for note in notes if note) + "\n"
+
+
+def scenario_legend(env_ids: Sequence[str] = ENV_IDS) -> str:
+    """What the columns of :func:`scenario_table` hold, in one paragraph (once per page).
+
+    Raises:
+        ValueError: If ``env_ids`` is empty or names an unregistered id.
+    """
+    if not env_ids:
+        raise ValueError("scenario_legend needs the scenes the tables show, got none")
+    _, headline = _scenes_text(env_ids)
+    return (
+        f"Columns: the scene's headline rate ({headline}) in % with its 95 % Wilson interval, "
+        "on the test starts and on fresh ones; **made by**: "
+        f"{', '.join(TRAINING_KINDS)}; **gap**: points under the certified ceiling on the test "
+        "starts (negative: over a ceiling that is a lower bound); **fold %**: episodes ended "
+        "by a jackknife; **over seeds**: the headline rate of each training seed's model on "
+        "the test starts, mean ± sd (min-max, seeds); **training**: the wall time the run "
+        "recorded on its card. Under each table: how each row was trained and the command "
+        "that rebuilds it."
+    )

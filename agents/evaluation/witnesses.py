@@ -35,7 +35,9 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from agents.artifacts.cards import is_count_range, read_card
@@ -174,6 +176,56 @@ def replays_to_success(env_id: str, env_kwargs: JSONObject, seed: int, record: n
         return replay_goal(env_id, env_kwargs, seed, record) == (True, len(record))
     outcome = replay(env_id, env_kwargs, seed, record)
     return outcome.safe and outcome.length == core_class_of(env_id).max_episode_steps
+
+
+def check_records(certificate: Mapping[str, Any], where: str) -> None:
+    """Replay a certificate's own action records (``actions``) on its own scene, n and
+    physics (its ``env_id`` and ``env_kwargs``) before they are passed on.
+
+    Every feasible start must have a record that replays to success
+    (:func:`replays_to_success`); no start that is not feasible may have one; a start
+    that states its drawn parameters (``params``, randomised physics) must draw exactly
+    those again at ``reset(seed=seed)``. A record swapped for another, or a certificate
+    relabelled with another scene, n or physics, fails here.
+
+    Raises:
+        ValueError: Naming ``where`` and the first start whose record or parameters do
+            not match what the certificate states.
+    """
+    env_id = check_env_id(certificate["env_id"])
+    env_kwargs = dict(certificate["env_kwargs"])
+    actions = certificate["actions"]
+    feasible = [start["seed"] for start in certificate["starts"] if start["status"] == FEASIBLE]
+    missing = [seed for seed in feasible if seed not in actions]
+    if missing:
+        raise ValueError(f"{where}: no action record of the feasible starts {missing[:8]}")
+    extra = sorted(set(actions) - set(feasible))
+    if extra:
+        raise ValueError(f"{where}: action records of starts that are not feasible {extra[:8]}")
+    stated = [start for start in certificate["starts"] if "params" in start]
+    if stated:
+        env = gym.make(env_id, **env_kwargs)
+        try:
+            for start in stated:
+                _, info = env.reset(seed=start["seed"])
+                if start["params"] != info.get("params"):
+                    raise ValueError(
+                        f"{where}: start {start['seed']} states parameters that "
+                        f"{env_id} with {_kwargs_text(env_kwargs)} does not draw"
+                    )
+        finally:
+            env.close()
+    outcome = "the goal" if is_goal_scene(env_id) else "a safe episode of the full length"
+    for seed in feasible:
+        if not replays_to_success(env_id, env_kwargs, seed, np.asarray(actions[seed])):
+            raise ValueError(
+                f"{where}: the record of start {seed} does not replay to its stated outcome "
+                f"(feasible: {outcome} on {env_id} with {_kwargs_text(env_kwargs)})"
+            )
+
+
+def _kwargs_text(env_kwargs: Mapping[str, Any]) -> str:
+    return ", ".join(f"{key}={value!r}" for key, value in env_kwargs.items())
 
 
 #: Most sampled episodes per (start, model) of :func:`add_witnesses`.
@@ -621,6 +673,7 @@ __all__ = [
     "SampledWitness",
     "WitnessRun",
     "add_witnesses",
+    "check_records",
     "committed_witnesses",
     "default_witnesses",
     "repeated_labels",

@@ -3,7 +3,7 @@
 Command line (:mod:`agents.commands.certify`)::
 
     python -m agents.certify --env trailer_env/Reverse-v1 --n-trailers 2 \
-        --seeds 1000-1099 --out out/certify/reverse-v1-n2 [--overwrite]
+        --seeds 1000-1099 [--out out/certify/reverse_v1_n2] [--overwrite]
 
 For every seed it runs the feasibility screen (:mod:`agents.oracles.screen`, a linear
 programme on the linearised convoy) and the planner (:mod:`agents.oracles.planner`, on the

@@ -3,7 +3,7 @@
 Command line (:mod:`agents.commands.certify`)::
 
     python -m agents.certify --env trailer_env/Dock-v0 --n-trailers 1 \
-        --seeds 1000-1099 --out out/certify/dock-n1 [--closed-loop dopri5]
+        --seeds 1000-1099 [--out out/certify/dock_n1] [--closed-loop dopri5]
 
 The deterministic iLQR planner (:mod:`agents.oracles.ilqr`, the scene's goal-reaching
 costs) drives every start on the real nonlinear model, all starts in one batch from

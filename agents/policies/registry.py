@@ -34,6 +34,7 @@ from agents.policies.sb3 import ModelPolicy, TrailersPolicy, load_model, load_st
 from dynamics.params import MAX_TRAILERS, bounded_integer
 from trailer_env.json_types import JSONObject
 from trailer_env.mixed import is_trailer_range, pad_observations, trailer_range
+from trailer_env.vector import as_action_batch
 
 #: ``package.module:attribute`` (the form of console-script entry points).
 _CALLABLE_SPEC = re.compile(r"[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*:[A-Za-z_][\w]*")
@@ -68,6 +69,35 @@ def load_callable(spec: str) -> Policy:
     if not callable(policy):
         raise ValueError(f"policy {spec!r}: {module_name} has no callable {attribute!r}")
     return policy
+
+
+def check_callable(policy: Policy, spec: str, env_id: str, env_kwargs: JSONObject) -> None:
+    """Call the policy ``spec`` names once on a start of the environment (seed 0) and
+    check that it returns one action per observation, so that a callable that is no
+    policy (``os:system``) is refused where it is named, not in the middle of a run.
+
+    Raises:
+        ValueError: If the call raises (``sys.exit()`` included: the exception is named)
+            or returns anything but actions of the env's shape.
+    """
+    probe = make_vector_env(env_id, 1, env_kwargs)
+    observation: Any
+    observation, _ = probe.reset(seed=0)
+    action_dim = probe.settings.action_dim
+    probe.close()
+    try:
+        actions = policy(observation)
+    except (Exception, SystemExit) as error:  # its own code failed; KeyboardInterrupt passes
+        raise ValueError(
+            f"policy {spec!r}: calling it on a batch of observations raised "
+            f"{type(error).__name__}: {str(error)[:200]}"
+        ) from None
+    try:
+        as_action_batch(actions, 1, action_dim)
+    except (TypeError, ValueError) as error:
+        raise ValueError(
+            f"policy {spec!r} does not return one action per observation: {error}"
+        ) from None
 
 
 def is_model_spec(spec: str) -> bool:
@@ -252,7 +282,9 @@ def load_policy(
         inner = load_policy(base, env_id, kwargs, seed, trust_pickle=trust_pickle, force=force)
         return MirroredPolicy(inner, *signs)
     if is_callable_spec(spec):
-        return load_callable(spec)
+        policy = load_callable(spec)
+        check_callable(policy, spec, env_id, kwargs)
+        return policy
     spec = resolve_model(spec)
     if not is_model_spec(spec):
         if spec not in BASELINES:

@@ -21,7 +21,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
 
 from agents.artifacts import files
 from agents.artifacts.cards import read_card, write_card
-from agents.artifacts.curves import CURVE_COLUMNS, append_rows, read_curve, write_curve
+from agents.artifacts.curves import CURVE_COLUMNS, append_rows, keep_rows, write_curve
 from agents.artifacts.paths import card_path, stats_path
 from agents.artifacts.run_folder import BEST_MODEL, CURVE_FILE
 from agents.artifacts.sb3_zip import save_model
@@ -42,7 +42,7 @@ EvaluationHook = Callable[[int, Mapping[str, Any]], bool]
 class PlateauStop:
     """An :data:`EvaluationHook` that stops a run once its headline rate is flat: the last
     ``window`` evaluations within ``eps`` of their mean (the rule of
-    :mod:`agents.evaluation.learning_curves`), earlier sessions' evaluations included.
+    :mod:`agents.evaluation.learning_curves`), the evaluations before a resume included.
 
     A window whose mean is within ``eps`` of the run's first evaluation is not a plateau:
     a run that has not left its starting level (PPO on Reverse sits at 0 for its first
@@ -55,7 +55,7 @@ class PlateauStop:
     Args:
         metric: The rate (a key of the summaries), e.g. "safe_rate".
         window, eps: The rule.
-        previous: The (steps, rate) of the evaluations before this session (a resumed run).
+        previous: The (steps, rate) of the evaluations before the resume (a resumed run).
     """
 
     def __init__(
@@ -181,10 +181,12 @@ class SafetyEvalCallback(BaseCallback):
         self.seed = seed
         self.curve_path = run_dir / CURVE_FILE
         self.best_path = run_dir / BEST_MODEL
-        previous = read_curve(self.curve_path, CURVE_COLUMNS) if resume_from is not None else []
+        previous: list[dict[str, float]] = []
         if resume_from is not None:
-            previous = [row for row in previous if row["timesteps"] <= resume_from]
-            self._write_rows(previous)
+            # The kept rows stay as they were written; the later ones go.
+            previous = keep_rows(
+                self.curve_path, lambda row: row["timesteps"] <= resume_from, CURVE_COLUMNS
+            )
             selected = read_card(self.best_path).get("selected_at_timesteps")
             if selected is None or selected > resume_from:
                 for path in (self.best_path, card_path(self.best_path), stats_path(self.best_path)):
@@ -196,7 +198,7 @@ class SafetyEvalCallback(BaseCallback):
         self._evaluated_at = {int(row["timesteps"]) for row in previous}
         self._next_eval = 0
         self._start = time.perf_counter()
-        #: The rows evaluated before this session (a resumed run), as kept.
+        #: The rows evaluated before the resume (a resumed run), as kept.
         self.previous_rows = previous
 
     @property
@@ -236,7 +238,7 @@ class SafetyEvalCallback(BaseCallback):
 
     @property
     def wall_seconds(self) -> float:
-        """Training wall time of the run so far, earlier sessions (before a resume) included."""
+        """Training wall time of the run so far, the time before a resume included."""
         return self.wall_offset + time.perf_counter() - self._start
 
     def evaluate(self) -> JSONObject:

@@ -51,6 +51,7 @@ from typing import Any
 import yaml
 
 from agents.algorithms import algo_class
+from agents.algorithms.bounds import argument_problem
 from agents.artifacts import files, limits
 from agents.policies.extractors import FEATURE_EXTRACTORS, feature_extractor
 from trailer_env.json_types import JSONObject
@@ -323,6 +324,10 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
     for key in _NUMBER_KEYS:
         if key in raw and not files.is_number(raw[key]):
             raise ValueError(f"{where}: {key} must be a finite number, got {raw[key]!r:.60}")
+    for key, value in raw.items():  # the bounds the algorithm (and agents.tune) holds to
+        problem = argument_problem(algo, key, value)
+        if problem is not None:
+            raise ValueError(f"{where}: {problem}")
     rollout = raw.get("n_steps", 0) * result.n_envs
     if rollout > MAX_ROLLOUT_STEPS:
         raise ValueError(

@@ -46,6 +46,11 @@ their cards and statistics. After every iteration it also gets a checkpoint
 (``checkpoint.json``, the aggregated ``dataset.npz`` and the final model so far):
 ``--resume`` continues a run cut short, or one asked for more ``--iterations``, with the
 same data, weights and random streams, so that it ends as an uninterrupted run would.
+A resume first reads back and checks every file it needs (:func:`read_saved_run`): a
+damaged one, or a run configured otherwise, is refused (:class:`CheckpointError`, naming
+the file or the settings with their old and new values) before anything is written; the
+run's record is rewritten with its first new iteration, and the curve's earlier rows stay
+as they were written.
 
 With ``observation="trailers"`` (``--observation trailers``) the student is PPO's
 ``MultiInputPolicy`` with :class:`~agents.policies.convoy_encoder.ConvoyEncoder` (a GRU
@@ -60,27 +65,34 @@ from __future__ import annotations
 
 import io
 import json
+import pickle
 import sys
 import time
+import zipfile
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from agents.artifacts import limits
+from agents.artifacts import files, limits
 from agents.artifacts.cards import read_card, write_card
-from agents.artifacts.curves import read_curve, write_curve
+from agents.artifacts.curves import CURVE_COLUMNS, append_rows, read_curve, write_curve
 from agents.artifacts.files import atomic_write_bytes
-from agents.artifacts.paths import stats_path
+from agents.artifacts.paths import card_path, stats_path
 from agents.artifacts.run_folder import (
     BEST_MODEL,
     CONFIG_FILE,
     CURVE_FILE,
     FINAL_MODEL,
+    IMITATION_CHECKPOINT,
+    IMITATION_DATASET,
+    read_record,
+    record_differences,
     write_config,
 )
-from agents.artifacts.sb3_zip import save_model
+from agents.artifacts.sb3_zip import check_zip, save_model
 from agents.artifacts.stats import read_stats, restore_stats, save_stats
 from agents.envs import check_env_id, make_sb3_env, settings_by_count
 from agents.evaluation.metrics import rollout, summarize
@@ -112,11 +124,14 @@ RUN_TOTALS = ("timesteps", "wall_time_s", "simulated_steps")
 
 #: The aggregated data set (observations: normalised, or raw with "trailers"; labels) in the
 #: run folder.
-DATASET_FILE = "dataset.npz"
+DATASET_FILE = IMITATION_DATASET
 
 #: The run's checkpoint, rewritten after every iteration (with the data set and the final
 #: model): what ``--resume`` continues from.
-CHECKPOINT_FILE = "checkpoint.json"
+CHECKPOINT_FILE = IMITATION_CHECKPOINT
+
+#: Columns of the run's evaluations.csv: one row per iteration.
+CURVE_FIELDS = (*CURVE_COLUMNS, "iteration", "loss")
 
 #: Keys of the run's record that may differ when a run is resumed (the rest must match):
 #: the command, the budget and the iterations asked for, and the totals of the run so far.
@@ -459,22 +474,154 @@ class _RunState:
     simulated_steps: int = 0
 
 
-def _differences(saved: JSONObject, record: JSONObject) -> list[str]:
-    """The keys (``a.b`` for nested ones) whose values differ, but :data:`RESUMABLE_KEYS`."""
-    wanted = json.loads(json.dumps(record, default=str))
-    keys = sorted(set(saved) | set(wanted))
-    differing = []
-    for key in keys:
-        old, new = saved.get(key), wanted.get(key)
-        if isinstance(old, dict) and isinstance(new, dict):
-            differing += [
-                f"{key}.{sub}"
-                for sub in sorted(set(old) | set(new))
-                if old.get(sub) != new.get(sub) and f"{key}.{sub}" not in RESUMABLE_KEYS
-            ]
-        elif old != new and key not in RESUMABLE_KEYS:
-            differing.append(key)
-    return differing
+@dataclass(frozen=True)
+class SavedRun:
+    """The files of an imitation run that its resume reads back, read and checked
+    (:func:`read_saved_run`)."""
+
+    checkpoint: JSONObject
+    record: JSONObject
+    observations: np.ndarray
+    labels: np.ndarray
+    curve: list[dict[str, float]]
+
+
+def _refused(run_dir: Path, name: str, problem: str) -> CheckpointError:
+    return CheckpointError(f"cannot resume {run_dir}: {name}: {problem}")
+
+
+def _rng_problem(state: object) -> str | None:
+    """Why ``state`` is not the state of a generator of the run (None: it is one)."""
+    try:
+        np.random.default_rng().bit_generator.state = state  # type: ignore[assignment]
+    except (TypeError, ValueError, KeyError, OverflowError) as error:
+        return f"{type(error).__name__}: {error}"
+    return None
+
+
+def _checkpoint_problem(checkpoint: object) -> str | None:
+    """Why ``checkpoint`` (checkpoint.json's document) is not one :func:`_write_checkpoint`
+    writes (None: it is)."""
+    if not isinstance(checkpoint, dict):
+        return "not a JSON object"
+    counts = {"iterations": 1, "rows": 1, "simulated_steps": 0}
+    for key, least in counts.items():
+        if not files.is_integer(checkpoint.get(key), least):
+            return f"{key!r} must be an integer >= {least}, got {checkpoint.get(key)!r:.60}"
+    best = checkpoint.get("best")
+    if not (isinstance(best, list) and len(best) == 3 and all(map(files.is_number, best))):
+        return f"'best' must be a list of 3 finite numbers (a score), got {best!r:.60}"
+    wall = checkpoint.get("wall_s")
+    if not (files.is_number(wall) and isinstance(wall, (int, float)) and wall >= 0):
+        return f"'wall_s' must be a finite number >= 0, got {wall!r:.60}"
+    problem = _rng_problem(checkpoint.get("fit_rng"))
+    if problem is not None:
+        return f"'fit_rng' is not a generator's state ({problem:.80})"
+    streams = checkpoint.get("expert_rngs")
+    if not isinstance(streams, list):
+        return f"'expert_rngs' must be a list of generator states, got {streams!r:.60}"
+    for index, state in enumerate(streams):
+        problem = _rng_problem(state)
+        if problem is not None:
+            return f"'expert_rngs'[{index}] is not a generator's state ({problem:.80})"
+    return None
+
+
+def _read_dataset(run_dir: Path, rows: int) -> tuple[np.ndarray, np.ndarray]:
+    """The data set's observations and labels, checked against the checkpoint's ``rows``.
+
+    Raises:
+        CheckpointError: Naming the file and what is wrong.
+    """
+    path = run_dir / DATASET_FILE
+    members = {"observations.npy", "labels.npy"}
+    try:
+        with zipfile.ZipFile(path) as archive:
+            infos = archive.infolist()
+        if {info.filename for info in infos} != members:
+            raise ValueError(f"its members are not {sorted(members)}")
+        size = sum(info.file_size for info in infos)
+        if size > limits.MAX_ZIP_TOTAL_BYTES:
+            raise ValueError(f"it inflates to {size} bytes, over {limits.MAX_ZIP_TOTAL_BYTES}")
+        with np.load(path, allow_pickle=False) as dataset:
+            observations, labels = dataset["observations"], dataset["labels"]
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as error:
+        raise _refused(run_dir, path.name, f"unreadable ({error})") from None
+    if observations.dtype != np.float32 or observations.ndim != 2:
+        shown = f"{observations.dtype} {observations.shape}"
+        raise _refused(run_dir, path.name, f"observations are {shown}, not 2-D float32")
+    if labels.dtype != np.float64 or labels.shape != (len(labels), 1):
+        shown = f"{labels.dtype} {labels.shape}"
+        raise _refused(run_dir, path.name, f"labels are {shown}, not float64 (rows, 1)")
+    if len(observations) != len(labels) or len(labels) != rows:
+        raise _refused(
+            run_dir,
+            path.name,
+            f"holds {len(observations)} observations and {len(labels)} labels, the "
+            f"checkpoint {rows}; a run was cut while writing it",
+        )
+    if not (np.all(np.isfinite(observations)) and np.all(np.isfinite(labels))):
+        raise _refused(run_dir, path.name, "holds values that are not finite")
+    return observations, labels
+
+
+def read_saved_run(run_dir: Path) -> SavedRun:
+    """Every file a resume of the imitation run in ``run_dir`` reads back, read and
+    checked, before anything is written: :data:`CHECKPOINT_FILE` (its counts, best score,
+    times and random streams), the record (``config.json``), the data set (its arrays,
+    as many rows as the checkpoint says), the learning curve (one row per iteration done,
+    under the run's header), the final model (a bounded zip) and its statistics (a
+    normalising student), and the best model's card (and that model).
+
+    Raises:
+        CheckpointError: Naming the file and what is wrong with it.
+    """
+    path = run_dir / CHECKPOINT_FILE
+    if not path.is_file():
+        raise _refused(run_dir, path.name, "missing")
+    try:
+        checkpoint = files.read_json(path, "checkpoint")
+    except ValueError as error:
+        raise _refused(run_dir, path.name, str(error)) from None
+    problem = _checkpoint_problem(checkpoint)
+    if problem is not None:
+        raise _refused(run_dir, path.name, problem)
+    try:
+        record = read_record(run_dir)
+    except ValueError as error:
+        raise _refused(run_dir, CONFIG_FILE, str(error)) from None
+    done = int(checkpoint["iterations"])
+    observations, labels = _read_dataset(run_dir, int(checkpoint["rows"]))
+    try:
+        curve = read_curve(run_dir / CURVE_FILE, CURVE_FIELDS, header=CURVE_FIELDS)
+    except ValueError as error:
+        raise _refused(run_dir, CURVE_FILE, str(error)) from None
+    if [int(row["iteration"]) for row in curve] != list(range(done)):
+        raise _refused(
+            run_dir,
+            CURVE_FILE,
+            f"holds {len(curve)} iterations, the checkpoint {done}; a run was cut while writing it",
+        )
+    for model in (run_dir / FINAL_MODEL, run_dir / BEST_MODEL):
+        if not model.is_file():  # the best: the checkpoint has a best score
+            raise _refused(run_dir, model.name, "missing")
+        try:
+            check_zip(model)
+        except ValueError as error:
+            raise _refused(run_dir, model.name, str(error)) from None
+    try:
+        read_card(run_dir / BEST_MODEL)  # the card the run's end completes
+    except ValueError as error:
+        raise _refused(run_dir, card_path(run_dir / BEST_MODEL).name, str(error)) from None
+    final_stats = stats_path(run_dir / FINAL_MODEL)
+    if record.get("normalize") is not None:
+        if not final_stats.is_file():
+            raise _refused(run_dir, final_stats.name, "missing")
+        try:
+            read_stats(final_stats)
+        except ValueError as error:
+            raise _refused(run_dir, final_stats.name, str(error)) from None
+    return SavedRun(checkpoint, record, observations, labels, curve)
 
 
 def _restore(
@@ -485,58 +632,70 @@ def _restore(
     stats: Any,
     planner: Labeller,
     rng: np.random.Generator,
-) -> _RunState:
-    """Load the run's checkpoint into the model, statistics and random streams.
+    width: int,
+) -> tuple[_RunState, JSONObject]:
+    """Load the run's checkpoint into the model, statistics and random streams; returns
+    what the run has done and its saved record. ``width``: the numbers of the labelling
+    env's observation (what the data set holds). Nothing is written.
 
     Raises:
-        CheckpointError: If the folder holds no complete checkpoint, or one of a run whose
-            configuration differs from ``record`` (other than :data:`RESUMABLE_KEYS`), or
-            one that has already done ``config.iterations``.
+        CheckpointError: If a file of the run is missing or damaged
+            (:func:`read_saved_run`), the run was configured differently from ``record``
+            (other than :data:`RESUMABLE_KEYS`; the message gives each setting's old and
+            new value), it has already done ``config.iterations``, or its model,
+            statistics or random streams do not fit the run's.
     """
-    path = run_dir / CHECKPOINT_FILE
-    try:
-        checkpoint = json.loads(path.read_text())
-        saved = json.loads((run_dir / CONFIG_FILE).read_text())
-        with np.load(run_dir / DATASET_FILE, allow_pickle=False) as dataset:
-            observations, labels = dataset["observations"], dataset["labels"]
-        curve = read_curve(run_dir / CURVE_FILE, ("timesteps", "iteration"))
-    except (OSError, ValueError, KeyError) as error:
-        raise CheckpointError(f"cannot resume {run_dir}: {type(error).__name__}: {error}") from None
-    differing = _differences(saved, record)
+    saved = read_saved_run(run_dir)
+    differing = record_differences(saved.record, record, RESUMABLE_KEYS)
     if differing:
-        raise CheckpointError(
-            f"cannot resume {run_dir}: its run was configured differently ({', '.join(differing)})"
-        )
+        shown = ", ".join(f"{key} = {old!r:.40}, not {new!r:.40}" for key, old, new in differing)
+        raise _refused(run_dir, CONFIG_FILE, f"its run was configured differently ({shown})")
+    checkpoint = saved.checkpoint
     done = int(checkpoint["iterations"])
-    if len(curve) != done or len(labels) != int(checkpoint["rows"]):
-        raise CheckpointError(
-            f"cannot resume {run_dir}: the checkpoint ({done} iterations, "
-            f"{checkpoint['rows']} labels) does not match its files ({len(curve)} iterations, "
-            f"{len(labels)} labels); a run was cut while writing it"
-        )
     if done >= config.iterations:
         raise CheckpointError(
             f"cannot resume {run_dir}: it has done {done} iterations; ask for more "
             f"(--iterations > {done})"
         )
-    model.set_parameters(str(run_dir / FINAL_MODEL), exact_match=True, device="cpu")
-    if stats is not None:
-        restore_stats(stats, read_stats(stats_path(run_dir / FINAL_MODEL)))
+    if saved.observations.shape[1] != width:
+        raise _refused(
+            run_dir,
+            DATASET_FILE,
+            f"observations of {saved.observations.shape[1]} numbers, the run's have {width}",
+        )
+    final = run_dir / FINAL_MODEL
+    try:
+        model.set_parameters(str(final), exact_match=True, device="cpu")
+        if stats is not None:
+            restore_stats(stats, read_stats(stats_path(final)))
+    except (
+        OSError,
+        ValueError,
+        KeyError,
+        RuntimeError,
+        EOFError,
+        zipfile.BadZipFile,
+        pickle.UnpicklingError,  # torch's weights-only loader refuses the entry
+    ) as error:
+        first = (str(error).splitlines() or [""])[0]
+        problem = f"does not load into the run's student ({first:.200})"
+        raise _refused(run_dir, final.name, problem) from None
     rng.bit_generator.state = checkpoint["fit_rng"]
     streams = planner.random_streams()
     if len(streams) != len(checkpoint["expert_rngs"]):
-        raise CheckpointError(f"cannot resume {run_dir}: the expert's random streams differ")
+        raise _refused(run_dir, CHECKPOINT_FILE, "the expert's random streams differ")
     for stream, state in zip(streams, checkpoint["expert_rngs"], strict=True):
         stream.bit_generator.state = state
-    return _RunState(
+    state = _RunState(
         iterations=done,
-        data_obs=[observations],
-        data_labels=[labels],
-        curve=curve,
+        data_obs=[saved.observations],
+        data_labels=[saved.labels],
+        curve=saved.curve,
         best=tuple(checkpoint["best"]),
         wall_s=float(checkpoint["wall_s"]),
         simulated_steps=int(checkpoint["simulated_steps"]),
     )
+    return state, saved.record
 
 
 def _write_checkpoint(
@@ -570,9 +729,16 @@ def _write_checkpoint(
 
 
 def imitate(
-    config: ImitationConfig, run_dir: Path, verbose: int = 1, resume: bool = False
+    config: ImitationConfig,
+    run_dir: Path,
+    verbose: int = 1,
+    resume: bool = False,
+    command: Sequence[str] | None = None,
 ) -> JSONObject:
     """Run DAgger (see the module); returns the run's record (also its ``config.json``).
+
+    ``command`` is what the record says started the run (default: this process's
+    ``python -m agents.imitate`` arguments).
 
     After every iteration the run folder gets a checkpoint (:data:`CHECKPOINT_FILE`, the
     data set, the final model and its statistics). With ``resume`` the run in ``run_dir``
@@ -611,7 +777,7 @@ def imitate(
         "algo": "ppo",
         "recipe": "dagger",
         "expert": expert.name,
-        "command": ["python", "-m", "agents.imitate", *sys.argv[1:]],
+        "command": list(command or ["python", "-m", "agents.imitate", *sys.argv[1:]]),
         "env_id": config.env_id,
         "env_kwargs": config.student_kwargs,
         "seed": config.seed,
@@ -646,11 +812,12 @@ def imitate(
     }
     done = _RunState(data_obs=[], data_labels=[], curve=[])
     if resume:
-        done = _restore(run_dir, config, record, model, stats, planner, rng)
-        saved = json.loads((run_dir / CONFIG_FILE).read_text())
-        record["resumed_at"] = [*saved.get("resumed_at", []), done.iterations]
+        width = int((envs.single_observation_space.shape or (0,))[-1])
+        done, saved = _restore(run_dir, config, record, model, stats, planner, rng, width)
+        earlier = saved.get("resumed_at")
+        record["resumed_at"] = [*(earlier if isinstance(earlier, list) else []), done.iterations]
         started -= done.wall_s
-    write_config(run_dir, record)
+    first_iteration = done.iterations
     data_obs: list[np.ndarray] = done.data_obs or []
     data_labels: list[np.ndarray] = done.data_labels or []
     curve: list[dict[str, float]] = done.curve or []
@@ -704,7 +871,14 @@ def imitate(
             "loss": round(loss, 6),
         }
         curve.append(row)
-        write_curve(run_dir / CURVE_FILE, curve)
+        if iteration == first_iteration:
+            # The record is written with the first new work: a run (or a resume) that
+            # fails before leaves the folder as it was.
+            write_config(run_dir, record)
+        if iteration == 0:
+            write_curve(run_dir / CURVE_FILE, [row], CURVE_FIELDS)
+        else:  # the earlier rows stay as they were written
+            append_rows(run_dir / CURVE_FILE, [row], CURVE_FIELDS)
         if verbose:
             print(
                 f"iteration {iteration}: {samples} labels, loss {loss:.4f}, validation safe "

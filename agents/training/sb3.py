@@ -16,6 +16,7 @@ from agents.artifacts.run_folder import (
     BEST_MODEL,
     CHECKPOINTS,
     FINAL_MODEL,
+    resume_problem,
     write_config,
 )
 from agents.artifacts.sb3_zip import UnsafeFileError, algo_class, load_sb3, save_model
@@ -63,9 +64,11 @@ def train(
             pruner): each evaluation is passed on; one returning True stops the run.
 
     Raises:
-        ValueError: If ``resume`` cannot be loaded safely (or at all), or the environment
-            has ``observation="trailers"`` (not supported here yet; before anything is
-            written).
+        ValueError: Before anything is written: if ``resume`` cannot be loaded safely (or
+            at all), is already at ``config.budget`` steps or more, or ``run_dir``'s curve
+            or best model's card is unreadable
+            (:func:`~agents.artifacts.run_folder.resume_problem`); or if the environment has
+            ``observation="trailers"`` (not supported here yet).
     """
     from stable_baselines3.common.logger import configure
     from stable_baselines3.common.noise import NormalActionNoise
@@ -118,6 +121,10 @@ def train(
             # drift would change its decisions under it (docs/agents.md, fine-tuning).
             venv.training = False
     kwargs = dict(hp.algo_kwargs)
+    if isinstance(kwargs.get("policy_kwargs"), dict):
+        # SB3 adds its own entries to the dict it is given (SAC: use_sde); the run's
+        # record keeps the file's.
+        kwargs["policy_kwargs"] = dict(kwargs["policy_kwargs"])
     if hp.action_noise_std is not None:
         dim = settings.action_dim
         kwargs["action_noise"] = NormalActionNoise(
@@ -135,7 +142,15 @@ def train(
             extractors=feature_extractors(),
         )
         start_steps = int(model.num_timesteps)
-        # Fresh starting states, not a replay of the first session's.
+        if start_steps >= budget:
+            raise ValueError(
+                f"{resume} is at {start_steps} steps; the run's total budget must be above "
+                f"that, got {budget}"
+            )
+        problem = resume_problem(run_dir)
+        if problem is not None:
+            raise ValueError(f"cannot resume into {run_dir}: {problem}")
+        # Fresh starting states, not a replay of those before the resume.
         venv.seed(seed + start_steps)
         model.set_random_seed(seed + start_steps)
         buffer = replay_buffer_path(resume)
@@ -158,10 +173,6 @@ def train(
     record = config.document()
     write_config(run_dir, record)
     remaining = budget - start_steps
-    if remaining <= 0:
-        if verbose:
-            print(f"{resume} is already at {start_steps} >= {budget} steps: nothing to train")
-        return model
     evaluator = SafetyEvalCallback(
         config.env_id,
         env_kwargs,

@@ -38,7 +38,12 @@ before the second evaluation or tenth).
 
 The study is an Optuna journal file, ``<out>/study.log``: a search that was killed
 resumes by running the same command again (trials left running are marked failed; the
-settings in ``<out>/search.json`` must match). At the end :func:`write_results` writes
+settings in ``<out>/search.json`` must match). A kill during a write leaves the
+journal's last record cut (no line end): Optuna reads past it, but would append the
+next record to it and so damage the journal for good, so a resumed search first drops
+that cut record (:func:`intact_journal_length`; it names it on standard error). Any
+other damage, a complete line that is not a JSON record, is refused before anything
+is written, and the journal is left as it is. At the end :func:`write_results` writes
 ``best_trials.md`` (the best complete trials) and ``best_hyperparams.yml`` (the best
 trial's entry, in the format of ``agents/hyperparams/<algo>.yml``, to be committed),
 atomically.
@@ -46,7 +51,9 @@ atomically.
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
@@ -57,12 +64,14 @@ import numpy as np
 import yaml
 
 from agents.algorithms import algo_class
-from agents.artifacts import files
+from agents.algorithms.bounds import argument_problem, bound_of
+from agents.artifacts import files, limits
 from agents.artifacts.curves import read_curve
 from agents.artifacts.run_folder import CURVE_FILE
 from agents.envs import headline_metric
 from agents.progress import duration
 from agents.training.config import (
+    _RESERVED,
     HYPERPARAMS_DIR,
     MAX_HYPERPARAMS_BYTES,
     TrainConfig,
@@ -134,6 +143,31 @@ def _distribution(key: str, spec: object, where: str) -> Distribution:
     return Distribution(kind, tuple(values))
 
 
+def _values_problem(algo: str, key: str, distribution: Distribution) -> str | None:
+    """Why a distribution may sample a value ``algo`` refuses (None when it cannot):
+    every categorical choice and both ends of a range are checked against the
+    argument's bound (:mod:`agents.algorithms.bounds`), a count must be sampled as an
+    integer, and every net_arch choice must fit the network limits."""
+    if key == "net_arch":
+        for choice in distribution.values:
+            problem = limits.network_problem(net_arch(choice))
+            if problem is not None:
+                return f"net_arch choice {choice!r}: {problem}"
+        return None
+    bound = bound_of(algo, key)
+    if bound is None:
+        return None
+    if bound.integer and distribution.kind in ("uniform", "log_uniform"):
+        return f"{key} takes integers: sample it with int or categorical, not {distribution.kind}"
+    for value in distribution.values:
+        if isinstance(value, str):
+            continue  # a schedule or SAC's "auto": the trainer's reading of the file checks it
+        problem = argument_problem(algo, key, value)
+        if problem is not None:
+            return problem
+    return None
+
+
 def net_arch(choice: object) -> list[int]:
     """A net_arch choice ``"64x64"`` as ``[64, 64]``.
 
@@ -149,9 +183,14 @@ def net_arch(choice: object) -> list[int]:
 def read_space(algo: str, path: Path = SEARCH_SPACES) -> dict[str, Distribution]:
     """``algo``'s search space from ``path``, checked.
 
+    The space is checked whole, as every trial would use it: a distribution that can
+    sample a value the algorithm refuses (``batch_size: [0]``, a discount of 1.5, a
+    count sampled as a float) is refused here, before a study is written.
+
     Raises:
         ValueError: If the file is unreadable, has no space for ``algo``, names a key the
-            algorithm does not take, or a distribution is malformed.
+            algorithm does not take (or the trainer sets itself), a distribution is
+            malformed, or it can sample a value the algorithm refuses.
     """
     try:
         if path.stat().st_size > MAX_HYPERPARAMS_BYTES:
@@ -161,12 +200,19 @@ def read_space(algo: str, path: Path = SEARCH_SPACES) -> dict[str, Distribution]
         raise ValueError(f"cannot read the search spaces {path}: {str(error)[:200]}") from None
     if not isinstance(spaces, dict) or not isinstance(spaces.get(algo), dict):
         raise ValueError(f"{path} has no search space for {algo}")
-    accepted = init_arguments(algo_class(algo)) | set(POLICY_KEYS) | set(ZOO_KEYS)
+    arguments = init_arguments(algo_class(algo)) - set(_RESERVED)
+    accepted = arguments | set(POLICY_KEYS) | set(ZOO_KEYS)
     space = {}
     for key, spec in spaces[algo].items():
         if key not in accepted:
-            raise ValueError(f"{path}, {algo}: {key!r} is not an argument of {algo}")
-        space[str(key)] = _distribution(str(key), spec, f"{path}, {algo}")
+            raise ValueError(
+                f"{path}, {algo}: {key!r} is not an argument of {algo} that a search may set"
+            )
+        distribution = _distribution(str(key), spec, f"{path}, {algo}")
+        problem = _values_problem(algo, str(key), distribution)
+        if problem is not None:
+            raise ValueError(f"{path}, {algo}: {problem}")
+        space[str(key)] = distribution
     if not space:
         raise ValueError(f"{path}: the search space of {algo} is empty")
     return space
@@ -331,12 +377,40 @@ class TuneSettings:
         return raw_entry(self.algo, self.env_id, directory)
 
 
+def intact_journal_length(path: Path) -> int:
+    """The bytes of the journal ``path`` that hold whole records: up to its last line end
+    (a last line without one is a record cut by a kill during its write).
+
+    Raises:
+        ValueError: If it cannot be read, or a complete line is not a JSON object (a
+            damaged journal), naming the record.
+    """
+    try:
+        files.refuse_symlink(path)
+        data = path.read_bytes()
+    except (OSError, files.UnsafeFileError) as error:
+        raise ValueError(f"cannot read the study {path}: {error}") from None
+    end = data.rfind(b"\n") + 1
+    for number, line in enumerate(data[:end].split(b"\n")[:-1], start=1):
+        try:
+            record = json.loads(line)
+        except (UnicodeDecodeError, ValueError):
+            record = None
+        if not isinstance(record, dict):
+            raise ValueError(
+                f"the study {path} is damaged: its record {number} is not a JSON object "
+                "(restore the file or search in another --out)"
+            )
+    return end
+
+
 def search_problem(out: Path, settings: TuneSettings, overwrite: bool) -> str | None:
     """Why a search could not run in ``out`` (None when it can), found without writing.
 
     A folder holding this search's study resumes it; its results (``best_*``) are
     replaced only with ``overwrite``; a folder holding anything else is refused unless
-    ``overwrite``; a study of other settings is always refused.
+    ``overwrite``; a study of other settings, or a damaged one
+    (:func:`intact_journal_length`), is always refused.
     """
     problem = files.writable_problem(out, folder=True)
     if problem is not None or not out.exists():
@@ -356,6 +430,10 @@ def search_problem(out: Path, settings: TuneSettings, overwrite: bool) -> str | 
                 f"{out} holds a search with other settings ({', '.join(changed)}); "
                 "use another --out"
             )
+        try:
+            intact_journal_length(out / STUDY_FILE)
+        except ValueError as error:
+            return str(error)
         for name in (BEST_TRIALS, BEST_HYPERPARAMS):
             if (out / name).exists() and not overwrite:
                 return f"{out / name} exists (a finished search); pass --overwrite to go on"
@@ -399,6 +477,14 @@ def tune(
         raise ValueError(problem)
     metric = headline_metric(settings.env_id)
     with files.RunLock(out):
+        journal = out / STUDY_FILE
+        if journal.exists():
+            intact = intact_journal_length(journal)
+            cut = journal.stat().st_size - intact
+            if cut:
+                # Optuna would append the next record to the cut one: it goes first.
+                os.truncate(journal, intact)
+                _print(f"{journal}: dropped its last record, cut by a kill ({cut} bytes)", 1)
         files.write_json(out / SETTINGS_FILE, settings.document())
         optuna.logging.set_verbosity(optuna.logging.WARNING)
         storage = optuna.storages.JournalStorage(

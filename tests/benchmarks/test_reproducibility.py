@@ -60,8 +60,8 @@ def test_outcomes_are_those_of_a_generic_x86_64(generic_document: dict) -> None:
         assert row["max_rel_return_diff"] <= RETURN_RTOL, row
     # Known rates of the protocol (docs/generated/results_tables.md), recorded on other
     # machines: compared by outcome within one episode, as docs/reliability.md states (the
-    # PPO agent, 256 x 256 since session 18, keeps 100 on a Sapphire Rapids host under every
-    # emulated target; its 64 x 64 predecessor kept 99 on the CPUs of earlier sessions).
+    # 256 x 256 PPO agent keeps 100 on a Sapphire Rapids CPU under every emulated target; a
+    # 64 x 64 agent of the same recipe kept 99 on other AVX-512 CPUs).
     lqr, dagger, ppo = (host["episodes"][f"{TASK[0]} n={TASK[1]} {p}"] for p in POLICIES)
     rates = (sum(lqr["safe"]), sum(dagger["safe"]), sum(ppo["safe"]))
     assert all(abs(got - known) <= 1 for got, known in zip(rates, (91, 97, 100), strict=True))

@@ -42,7 +42,17 @@ DOCUMENTS = sorted(
 #: The agents' commands: module of ``python -m agents.<name>`` -> its command module.
 AGENT_COMMANDS = {
     f"agents.{name}": f"agents.commands.{name}"
-    for name in ("main", "train", "evaluate", "certify", "imitate", "report", "tune", "curves")
+    for name in (
+        "main",
+        "train",
+        "evaluate",
+        "certify",
+        "imitate",
+        "report",
+        "tune",
+        "curves",
+        "reproduce",
+    )
 } | {"agents.evaluation.across_n": "agents.evaluation.across_n"}
 #: The example module that protocol.md's ``--policy my_module:act`` imports.
 MY_MODULE = "import numpy as np\n\n\ndef act(obs):\n    return np.zeros((len(obs), 1))\n"
@@ -95,8 +105,10 @@ def documented_commands() -> list[Command]:
                     commands.append(Command(where, tuple(words)))
         for span in re.findall(r"`(python -m [^`]+)`", text):
             # Placeholders (python -m benchmarks.<name>, a|b) are patterns, not commands.
+            # The README's are copied as shown by a reader's first hour: they run whole.
             if not re.search(r"[<|]", span):
-                commands.append(Command(where, tuple(shlex.split(span)), inline=True))
+                inline = document.name != "README.md" or document.parent != ROOT
+                commands.append(Command(where, tuple(shlex.split(span)), inline=inline))
     return commands
 
 

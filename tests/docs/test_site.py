@@ -305,6 +305,21 @@ def test_in_a_narrow_window_a_wide_table_scrolls_with_a_drawn_scroll_bar(
         browser.set_window_size(1280, 900)  # type: ignore[attr-defined]
     assert all(wrapped for wrapped, *_ in tables), "every table is in Material's scroll wrapper"
     wide = [(hidden, bar, overflow) for _, hidden, bar, overflow in tables if hidden > 1]
-    # The ten-column results tables cannot fit 480 px: they are the case in point.
+    # The results tables cannot fit 480 px: they are the case in point.
     assert len(wide) >= 11, tables
     assert all(overflow == "auto" and bar >= 8 for _, bar, overflow in wide), wide
+
+
+_FIRST_AFTER_TITLE = """
+const title = document.querySelector('.md-content__inner h1');
+let next = title ? title.nextElementSibling : null;
+return next ? [next.tagName, next.querySelectorAll('img').length, next.tagName === 'IMG'] : [];
+"""
+
+
+def test_the_results_pages_open_with_a_picture(site: tuple[Path, str], browser: object) -> None:
+    _, base = site
+    for page in ("results/", "from_reward/"):
+        browser.get(f"{base}{page}")  # type: ignore[attr-defined]
+        found = browser.execute_script(_FIRST_AFTER_TITLE)  # type: ignore[attr-defined]
+        assert found and (found[1] > 0 or found[2]), f"{page}: after the title comes {found}"

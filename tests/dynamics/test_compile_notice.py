@@ -27,7 +27,7 @@ def test_the_notice_is_printed_once_per_process(
     assert captured.err == _notice.NOTICE + "\n"
     assert captured.out == ""
     assert _notice.NOTICE == (
-        "trailer-env: compiling kernels once, about 30 s; `trailer-env --compile` does it ahead"
+        "trailer-env: compiling kernels once, about a minute; `trailer-env --compile` does it ahead"
     )
 
 

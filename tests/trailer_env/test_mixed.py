@@ -167,8 +167,10 @@ def test_what_needs_one_count_is_refused_with_a_range() -> None:
         gym.make(REVERSE, n_trailers=(1, 2), render_mode="rgb_array")
     env = gym.make(REVERSE, n_trailers=(1, 2))
     env.reset(seed=0)
-    with pytest.raises(ValueError, match="hand-built state"):
-        env.reset(options={"state": [-1.0, 0.0, 0.0]})
+    with pytest.raises(ValueError, match=r"a state of n in 1\.\.2 trailers"):
+        env.reset(options={"state": [-1.0, 0.0, 0.0, 0.0, 0.0]})  # 2 + 3: no count's
+    with pytest.raises(ValueError, match="reset option"):
+        env.reset(options={"target_heading": 0.0})
     with pytest.raises(ValueError, match="non-finite"):
         env.step(np.array([np.nan], dtype=np.float32))
     assert env.step(np.zeros(1, dtype=np.float32))[0].shape == (2 + 4 + 2 + 2,)

@@ -307,7 +307,14 @@ def test_resuming_a_model_outside_a_run_starts_a_fresh_run_folder(
         "--quiet",
         "--no-progress",
     ]
-    assert train.main(argv) == 0  # already past 1000 steps: nothing to train
+    # A total at or below the model's 3,260,416 steps would train nothing: refused.
+    code, err = _exit(train.main, argv, capsys)
+    assert code == 2 and "argument --timesteps" in err and "is at 3,260,416 steps" in err
+    assert not (tmp_path / "runs").exists()
+    # One more rollout of one env (256 steps), scored on two episodes.
+    argv[argv.index("1000")] = "3260417"
+    argv += ["--n-envs", "1", "--eval-episodes", "2"]
+    assert train.main(argv) == 0
     assert sorted(path.name for path in model.parent.iterdir()) == [
         "ppo_reverse_n1.json",
         "ppo_reverse_n1.zip",

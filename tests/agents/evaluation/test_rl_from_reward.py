@@ -190,7 +190,7 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
     # run is its scene, n, recipe and seed, so seed 1 scored under another folder name
     # is replaced, not counted twice.
     document["runs"].append({**document["runs"][0], "run": "gone", "seed": 7, "kept_test": 0.5})
-    document["runs"][1]["run"] = "s1_first_session"
+    document["runs"][1]["run"] = "s1_under_another_name"
     (out / "rl_from_reward.json").write_text(json.dumps(document))
     assert main([str(tmp_path / "runs" / "s1"), *argv[1:], "--update"]) == 0
     updated = json.loads((out / "rl_from_reward.json").read_text())

@@ -18,10 +18,14 @@ from agents.evaluation.report import (
 )
 from agents.evaluation.results import Evaluation
 from agents.evaluation.tables import (
+    TRAINING_KINDS,
     markdown_table,
+    scenario_legend,
+    scenario_table,
     table_header,
     table_legend,
     training_footnote,
+    training_kind,
     training_label,
     training_note,
 )
@@ -151,11 +155,17 @@ def test_markdown_table_rows_and_footnote() -> None:
 
 
 def test_section_heading_names_the_scenario_only_and_the_legend_comes_once() -> None:
-    section = scenario_section("trailer_env/Reverse-v1", 2, _evaluations(), 4)
+    fresh = _evaluations()[:1] + _evaluations()[2:]  # no fresh row for the oracle
+    section = scenario_section(
+        "trailer_env/Reverse-v1", 2, _evaluations(), 4, fresh=fresh, picture="img/x.png"
+    )
     lines = section.splitlines()
     assert lines[0] == "#### Reverse-v1, n = 2"
-    assert lines[2] == "`trailer_env/Reverse-v1`, 4 episodes, seeds 1000..1003"
-    assert lines[4].startswith("| policy | training |")
+    assert lines[2] == "![Reverse-v1, n = 2: every policy's rate on the test starts](img/x.png)"
+    assert lines[4] == (
+        "`trailer_env/Reverse-v1`, test: 4 episodes, seeds 1000..1003; fresh: seeds 7000..7003"
+    )
+    assert lines[6].startswith("| policy | made by | safe % test [95% CI] | safe % fresh")
     assert lines[-1].startswith("ceiling: ")
     headings = [line for line in section.splitlines() if line.startswith("#")]
     assert headings == ["#### Reverse-v1, n = 2"]
@@ -163,10 +173,34 @@ def test_section_heading_names_the_scenario_only_and_the_legend_comes_once() -> 
         [section, section.replace("n = 2", "n = 3")], ["trailer_env/Reverse-v1"] * 2
     )
     assert document.startswith(
-        table_legend(["trailer_env/Reverse-v1"]) + "\n\n#### Reverse-v1, n = 2\n"
+        scenario_legend(["trailer_env/Reverse-v1"]) + "\n\n#### Reverse-v1, n = 2\n"
     )
     assert document.count("Columns:") == 1
     assert document.count("#### ") == 2
+
+
+def test_scenario_table_rates_gap_and_rebuild_command() -> None:
+    """Two of the four episodes are safe (50 %, Wilson [15, 85]); against a ceiling of
+    0.75 the gap is 25 points; the oracle has no fresh row; the model's command rebuilds it."""
+    evaluations = _evaluations()
+    table = scenario_table(evaluations, [evaluations[0], evaluations[2]], 0.75)
+    rows = table.splitlines()
+    assert rows[2] == "| lqr | baseline | 50.0 [15, 85] | 50.0 [15, 85] | 25.0 | 25 | - | - |"
+    assert rows[3] == "| mpc | oracle | 50.0 [15, 85] | - | 25.0 | 25 | - | - |"
+    assert rows[4] == (
+        "| dagger_x | imitation | 50.0 [15, 85] | 50.0 [15, 85] | 25.0 | 25 "
+        "| 50 ± 8 (40-60, 3 seeds) | 8.3 min |"
+    )
+    assert "rebuild: `python -m agents.reproduce dagger_x --out out/reproduce/dagger_x`" in table
+    assert "| - |" in scenario_table(evaluations, None, None).splitlines()[2]
+
+
+def test_training_kinds() -> None:
+    assert [training_kind({}, "zero"), training_kind({}, "ilqr")] == ["baseline", "oracle"]
+    assert training_kind(DAGGER_CARD) == "imitation"
+    assert training_kind(PPO_CARD) == "from reward"
+    assert training_kind({"algo": "ppo_lag"}) == "constrained"
+    assert set(TRAINING_KINDS) == {"baseline", "oracle", "imitation", "from reward", "constrained"}
 
 
 def test_the_headline_scenario_comes_first() -> None:
@@ -225,4 +259,16 @@ def test_the_legend_words_each_scene_from_its_core() -> None:
 def test_the_committed_results_page_has_the_report_legend() -> None:
     page = Path(__file__).resolve().parents[3] / "docs" / "generated" / "results_tables.md"
     first = page.read_text().splitlines()[0]
-    assert first == table_legend([env_id for env_id, _ in SCENARIOS])
+    assert first == scenario_legend([env_id for env_id, _ in SCENARIOS])
+
+
+def test_the_tables_of_a_count_hold_the_models_trained_over_a_range_that_holds_it() -> None:
+    from agents.artifacts.shipped import models_covering
+
+    at_four = [path.stem for path in models_covering("trailer_env/Reverse-v1", 4)]
+    assert at_four[0] == "dagger_reverse_v1_n4"  # the count's own models first
+    assert {"distill_reverse_v1_sequence16", "dagger_reverse_v1_sequence16m"} <= set(at_four)
+    assert "distill_reverse_v1_sequence" not in at_four  # trained on n = 1-3
+    at_two = [path.stem for path in models_covering("trailer_env/Reverse-v1", 2)]
+    assert {"ppo_reverse_v1_n2", "distill_reverse_v1_sequence"} <= set(at_two)
+    assert "dagger_reverse_v1_general" not in at_two  # randomised physics: not this scenario

@@ -35,7 +35,7 @@ def test_a_run_still_at_its_first_level_is_not_stopped() -> None:
     assert stops == [False] * 9 + [True] * 5 and stop.stopped_at == 9
 
 
-#: TD3 on Reverse-v1 n = 2, seed 2 (session 16): its validation safe rate every 25k steps,
+#: TD3 on Reverse-v1 n = 2, seed 2: its validation safe rate every 25k steps,
 #: from 175k (0 before), as run with ``--stop-on-plateau 5,0.05``.
 TD3_N2_SEED2 = (0.04, 0.44, 0.44, 0.52, 0.7, 0.74, 0.62, 0.66, 0.86, 0.68,
                 0.84, 0.84, 0.88, 0.9, 0.94, 0.9, 0.9)  # fmt: skip

@@ -162,7 +162,7 @@ def test_resume_continues_the_timestep_count(
     assert _train(tmp_path, "--timesteps", "6144", *resumed) == 0
     assert load_model(run / "final_model.zip").num_timesteps == 6144
     steps = [int(row["timesteps"]) for row in read_curve(run / "evaluations.csv")]
-    # The first session's evaluation at 4096 belonged to the abandoned continuation.
+    # The evaluation at 4096 before the resume belonged to the abandoned continuation.
     assert steps == [0, 2048, 4096, 6144]
     walls = [row["wall_s"] for row in read_curve(run / "evaluations.csv")]
     assert walls == sorted(walls)  # the wall clock goes on across the resume

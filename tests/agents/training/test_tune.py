@@ -165,7 +165,7 @@ def test_two_trials_write_a_study_and_the_winner(
     assert "is not empty and holds no search" in capsys.readouterr().err
     assert [path.name for path in other.iterdir()] == ["notes.txt"]
 
-    # A killed search left a trial running: the next session fails it and goes on.
+    # A killed search left a trial running: the resumed search fails it and goes on.
     storage = optuna.storages.JournalStorage(
         optuna.storages.journal.JournalFileBackend(str(out / STUDY_FILE))
     )
