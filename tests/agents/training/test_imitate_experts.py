@@ -206,7 +206,9 @@ def test_the_default_run_folder_names_a_non_default_expert(
     monkeypatch.setattr(
         imitate_command,
         "imitate",
-        lambda config, run_dir, resume=False: folders.append((str(config.expert), run_dir.name)),
+        lambda config, run_dir, resume=False, command=None: folders.append(
+            (str(config.expert), run_dir.name)
+        ),
     )
     for argv in (["--expert", "ilqr"], ["--expert", "mpc"], ["--env", DOCK]):
         assert imitate_command.main(["--n-trailers", "1", *argv]) == 0
