@@ -14,6 +14,9 @@ Every policy maps a batch of observations ``(B, obs_dim)`` to a batch of actions
   ``randomize`` the drawn parameters are not in the observation unless
   ``observe_params=True``, and even then only to float32). Without randomisation it is
   ``lqr``.
+* ``lqr-estimated``: the same regulator designed for parameters estimated online from the
+  observations and its own actions (:class:`agents.policies.estimator.EstimatingLQRPolicy`,
+  a windowed Gauss-Newton fit on the exact model; not privileged).
 * ``heading-p``: :func:`trailer_env.controllers.heading_policy`, the proportional
   baseline of Heading-v0 (servo mode only).
 * ``mpc``: :class:`agents.oracles.mpc_policy.MPCPolicy`, a sampling MPC on the nonlinear model
@@ -232,6 +235,14 @@ def recorded_policy(settings: EnvSettings, env_id: str, seed: int | None) -> Pol
     return RecordedPolicy(records, 0 if seed is None else seed, settings.action_dim)
 
 
+def _estimated(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
+    from agents.policies.estimator import EstimatingLQRPolicy
+
+    return EstimatingLQRPolicy(
+        settings, core_class_of(env_id), AdaptiveLQRPolicy(settings).controller
+    )
+
+
 def _mpc(settings: EnvSettings, env_id: str, seed: int | None) -> Policy:
     from agents.oracles.mpc_policy import MPCPolicy
 
@@ -290,6 +301,11 @@ BASELINES: dict[str, Baseline] = {
     "lqr-adaptive": Baseline(
         "the LQR re-designed for each episode's drawn parameters (privileged)",
         lambda settings, env_id, seed: AdaptiveLQRPolicy(settings),
+        fits_like="lqr",
+    ),
+    "lqr-estimated": Baseline(
+        "the LQR re-designed for parameters estimated online from the motion (least squares)",
+        _estimated,
         fits_like="lqr",
     ),
     "heading-p": Baseline(

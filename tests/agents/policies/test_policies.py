@@ -45,6 +45,7 @@ def test_baselines_are_batched_and_bounded() -> None:
         "random",
         "lqr",
         "lqr-adaptive",
+        "lqr-estimated",
         "heading-p",
         "mpc",
         "mpc-replay",
@@ -73,6 +74,7 @@ def test_a_new_baseline_is_one_record(monkeypatch: pytest.MonkeyPatch) -> None:
     )
     assert [name for name, baseline in BASELINES.items() if baseline.fits_like] == [
         "lqr-adaptive",
+        "lqr-estimated",
         "left",
     ]
 
