@@ -106,6 +106,17 @@ def check_count_options(
     problem = specialist_problem(args.specialist)
     if problem is not None:
         parser.error(f"argument --specialist: {problem}")
+    check_out_options(parser, args, outputs, episodes)
+
+
+def check_out_options(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, outputs: Sequence[str], episodes: int
+) -> None:
+    """Exit with status 2 (``parser.error``), before anything runs, on an --episodes out of
+    1 .. MAX_EPISODES, a --seed that ``episodes`` would carry past the seeds' range, or an
+    --out that cannot be written or holds ``outputs`` without --overwrite."""
+    if not 1 <= episodes <= limits.MAX_EPISODES:
+        parser.error(f"argument --episodes: must lie in 1..{limits.MAX_EPISODES}")
     problem = limits.seed_problem(args.seed, episodes) or files.writable_problem(
         args.out, folder=True
     )
@@ -242,8 +253,6 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; bad arguments exit with 2 before any episode runs."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if not 1 <= args.episodes <= limits.MAX_EPISODES:
-        parser.error(f"argument --episodes: must lie in 1..{limits.MAX_EPISODES}")
     check_count_options(parser, args, OUTPUTS, args.episodes)
     started = time.perf_counter()
     lines = rates_across_n(args.env, args.n, args.policy, args.specialist, args.episodes, args.seed)

@@ -26,8 +26,8 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from agents.artifacts import files, limits
-from agents.evaluation.across_n import parse_counts
+from agents.artifacts import files
+from agents.evaluation.across_n import check_out_options, parse_counts
 from agents.evaluation.metrics import wilson_interval
 from agents.evaluation.results import evaluate_policies
 from agents.policies.baselines import make_baseline
@@ -170,16 +170,7 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point; returns the exit status (bad arguments exit with 2)."""
     parser = build_parser()
     args = parser.parse_args(argv)
-    if not 1 <= args.episodes <= limits.MAX_EPISODES:
-        parser.error(f"argument --episodes: must lie in 1..{limits.MAX_EPISODES}")
-    problem = limits.seed_problem(args.seed, args.episodes) or files.writable_problem(
-        args.out, folder=True
-    )
-    if problem is not None:
-        parser.error(f"argument --seed or --out: {problem}")
-    existing = [name for name in OUTPUTS if (args.out / name).exists()]
-    if existing and not args.overwrite:
-        parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")
+    check_out_options(parser, args, OUTPUTS, args.episodes)
     started = time.perf_counter()
     found: dict[int, tuple[list[str], np.ndarray, dict[str, float]]] = {}
     for n in args.n:
