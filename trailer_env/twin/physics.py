@@ -2,8 +2,8 @@
 
 Each function restates, operation for operation where it matters, its compiled original:
 :func:`field` is :func:`dynamics._kernel.field_row` (the O(n) hitch recurrences of
-``_hitch_step``, ``_hitch_totals`` and ``_accelerations``), :func:`substep_counts` is
-:func:`trailer_env.substeps.auto_substeps_row`, :func:`guarded_accel` is
+``_hitch_step``, ``_hitch_totals`` and ``_accelerations``), :func:`substep_counts` calls
+:func:`trailer_env.substeps.auto_substeps` itself, :func:`guarded_accel` is
 :func:`trailer_env.actuator.guard_accel` and :func:`physics_step` is the pipeline of
 :func:`trailer_env.kernels.step_serial`. The package docstring says what the gradient
 does at their branches.
@@ -14,22 +14,12 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numpy as np
 import torch
 from torch import Tensor
 
-from dynamics.columns import ETA, ETA_DDOT, ETA_DOT, OMEGA, XI, XI_DDOT, XI_DOT, U
-from trailer_env.substeps import (
-    AUTO_CHAIN,
-    AUTO_DT,
-    AUTO_INV_X_SAFE,
-    AUTO_MASS_ACCEL,
-    AUTO_MASS_SPEED,
-    AUTO_MAX_SUBSTEPS,
-    AUTO_SCALE,
-    AUTO_SPEED_RATE,
-    AUTO_X_ONE,
-    HARD_MAX_SUBSTEPS,
-)
+from dynamics.columns import ETA, ETA_DOT, OMEGA, XI, XI_DDOT, XI_DOT, U
+from trailer_env.substeps import auto_substeps
 from trailer_env.twin.params import TwinParams
 
 #: The kernel's margin of the fold test (``dynamics._kernel._FOLD_MARGIN``).
@@ -172,24 +162,20 @@ def mass_accelerations(action: Tensor, act: Tensor, p: TwinParams) -> tuple[Tens
 
 @torch.no_grad()
 def substep_counts(z: Tensor, act: Tensor, p: TwinParams) -> Tensor:
-    """Substeps of every row (int64, (B,)): fixed, or :func:`auto_substeps_row`'s rule."""
+    """Substeps of every row (int64, (B,)): fixed, or the kernel's own auto rule
+    (:func:`trailer_env.substeps.auto_substeps`, run on a host copy: the count is
+    piecewise constant, so it carries no gradient, and the same compiled rule keeps the
+    twin's counts the kernel's)."""
     if p.substeps is not None:
         return torch.full((z.shape[0],), p.substeps, dtype=torch.int64, device=z.device)
-    s = p.auto
-    dt = s[AUTO_DT]
-    x_plain = dt * torch.maximum(z[:, U].abs() * s[AUTO_SPEED_RATE], z[:, OMEGA].abs())
-    mass = s[AUTO_MASS_SPEED] * (act[:, XI_DOT].abs() + act[:, ETA_DOT].abs()) + s[
-        AUTO_MASS_ACCEL
-    ] * torch.sqrt(act[:, XI_DDOT].abs() + act[:, ETA_DDOT].abs())
-    x = torch.maximum(s[AUTO_CHAIN] * x_plain, dt * mass)
-    inv_x_safe = s[AUTO_INV_X_SAFE]
-    one = ((x <= s[AUTO_X_ONE]) & (x_plain * inv_x_safe <= 1.0)) | ~torch.isfinite(x)
-    wanted = torch.ceil(s[AUTO_SCALE] * x**1.25)
-    accurate = torch.clamp(wanted, max=s[AUTO_MAX_SUBSTEPS])
-    stable = torch.ceil(x_plain * inv_x_safe)
-    chosen = torch.clamp(torch.maximum(accurate, stable), 1.0, HARD_MAX_SUBSTEPS)
-    chosen = torch.where(one, torch.ones_like(chosen), chosen)
-    return chosen.to(torch.int64)
+    counts = np.empty(z.shape[0], dtype=np.int64)
+    auto_substeps(
+        z.detach().cpu().numpy(),
+        act.detach().cpu().numpy(),
+        np.asarray(p.auto, dtype=np.float64),
+        counts,
+    )
+    return torch.from_numpy(counts).to(z.device)
 
 
 def _folded(z: Tensor, n: int, fold_angle: float) -> Tensor:
