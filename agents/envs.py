@@ -2,18 +2,23 @@
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 
-from trailer_env.json_types import JSONObject
 from trailer_env.mixed import is_trailer_range, mixed_settings
 from trailer_env.registry import ENVIRONMENTS, core_class_of, env_class_of
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 from trailer_env.vector import ConvoyVectorEnv
 
+if TYPE_CHECKING:
+    from trailer_env.sb3 import ConvoySB3VecEnv
+
 #: The headline scene: the commands' default environment.
 HEADLINE_ENV_ID = "trailer_env/Reverse-v1"
+#: The headline scenario's number of trailers (the main job's, the report's first table's).
+HEADLINE_N_TRAILERS = 2
 
 #: The registered ids, e.g. "trailer_env/Reverse-v0" (the scene table's order).
 ENV_IDS: tuple[str, ...] = tuple(ENVIRONMENTS)
@@ -56,29 +61,40 @@ def scene_baselines(env_id: str) -> tuple[str, ...]:
     return core_class_of(env_id).baselines
 
 
-def env_settings(env_kwargs: JSONObject | None = None) -> EnvSettings:
+#: ``gym.make`` keywords as a caller gives them: checked by the environment itself.
+MakeKwargs = Mapping[str, object]
+
+
+def make_keywords(env_kwargs: MakeKwargs | None) -> dict[str, Any]:
+    """``env_kwargs`` to pass on as ``gym.make(id, **keywords)`` (their types are the
+    settings' to check)."""
+    return dict(env_kwargs or {})
+
+
+def env_settings(env_kwargs: MakeKwargs | None = None) -> EnvSettings:
     """The settings that ``gym.make(id, **env_kwargs)`` would build (validated)."""
-    return settings_from_kwargs(**(env_kwargs or {}))
+    return settings_from_kwargs(**make_keywords(env_kwargs))
 
 
-def settings_by_count(env_kwargs: JSONObject) -> dict[int, EnvSettings]:
+def settings_by_count(env_kwargs: MakeKwargs) -> dict[int, EnvSettings]:
     """The validated settings of each n that ``env_kwargs`` asks for: one entry for one
     count, one per count of a range ``n_trailers=(low, high)`` (:mod:`trailer_env.mixed`)."""
-    if is_trailer_range(env_kwargs.get("n_trailers")):
-        return mixed_settings(env_kwargs)
-    settings = env_settings(env_kwargs)
+    keywords = make_keywords(env_kwargs)
+    if is_trailer_range(keywords.get("n_trailers")):
+        return mixed_settings(keywords)
+    settings = env_settings(keywords)
     return {settings.n_trailers: settings}
 
 
 def make_vector_env(
-    env_id: str, num_envs: int, env_kwargs: JSONObject | None = None
+    env_id: str, num_envs: int, env_kwargs: MakeKwargs | None = None
 ) -> ConvoyVectorEnv:
     """The native batched env (one kernel call per step for all ``num_envs``)."""
     envs = gym.make_vec(
         check_env_id(env_id),
         num_envs=num_envs,
         vectorization_mode="vector_entry_point",
-        **(env_kwargs or {}),
+        **make_keywords(env_kwargs),
     )
     native = envs.unwrapped
     if not isinstance(native, ConvoyVectorEnv):  # pragma: no cover - registration guarantees it
@@ -87,15 +103,15 @@ def make_vector_env(
 
 
 def make_sb3_env(
-    env_id: str, num_envs: int, env_kwargs: JSONObject | None = None, seed: int | None = None
-) -> Any:
+    env_id: str, num_envs: int, env_kwargs: MakeKwargs | None = None, seed: int | None = None
+) -> ConvoySB3VecEnv:
     """The SB3 ``VecEnv`` over the native batch (it records episode statistics itself).
 
     Environment ``i`` is seeded with ``seed + i`` at the first reset.
     """
     from trailer_env.sb3 import ConvoySB3VecEnv
 
-    venv = ConvoySB3VecEnv(check_env_id(env_id), num_envs=num_envs, **(env_kwargs or {}))
+    venv = ConvoySB3VecEnv(check_env_id(env_id), num_envs=num_envs, **make_keywords(env_kwargs))
     if seed is not None:
         venv.seed(seed)
     return venv

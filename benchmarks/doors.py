@@ -62,6 +62,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.envs import HEADLINE_ENV_ID
 from benchmarks._common import (
     machine_note,
     parse_command,
@@ -73,7 +74,7 @@ from benchmarks._common import (
     write_csv,
 )
 
-ENV_ID = "trailer_env/Reverse-v1"
+ENV_ID = HEADLINE_ENV_ID
 N_TRAILERS = 3
 SIZES = (1, 16, 256, 4096)
 QUICK_SIZES = (1, 16)

@@ -20,13 +20,14 @@ from typing import Any
 
 import numpy as np
 
+from agents.envs import HEADLINE_ENV_ID
 from agents.policies.baselines import AdaptiveLQRPolicy, LQRPolicy
 from benchmarks._common import one_thread, parse_command, report_written, write_csv
 from trailer_env.benchmark import rollout
 from trailer_env.controllers import regulator_gain
 from trailer_env.settings import settings_from_kwargs
 
-SCENE = "trailer_env/Reverse-v1"
+SCENE = HEADLINE_ENV_ID
 SEED = 1000
 FACTORS = (0.8, 1.2)
 PARAMETERS = ("M", "J0", "a", "m", "J", "l", "mu")

@@ -32,9 +32,10 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
+from agents.envs import HEADLINE_ENV_ID
 from benchmarks._common import machine_note, one_thread, parse_command, report_written, write_csv
 
-ENV_ID = "trailer_env/Reverse-v1"
+ENV_ID = HEADLINE_ENV_ID
 N_TRAILERS = 2
 
 

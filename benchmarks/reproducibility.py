@@ -95,15 +95,9 @@ BASELINES = ("zero", "lqr")
 
 def task_policies(env_id: str, n: int) -> list[str]:
     """The baselines and every committed model whose card names ``env_id`` and ``n``."""
-    from agents.artifacts.cards import read_card
-    from agents.artifacts.shipped import MODELS_DIR
+    from agents.artifacts.shipped import committed_models
 
-    models = []
-    for path in sorted(MODELS_DIR.glob("*.zip")):
-        card = read_card(path)
-        if card.get("env_id") == env_id and card.get("env_kwargs", {}).get("n_trailers") == n:
-            models.append(path.stem)
-    return [*BASELINES, *models]
+    return [*BASELINES, *(path.stem for path in committed_models(env_id, n))]
 
 
 def record(
@@ -244,9 +238,10 @@ def _markdown(rows: Sequence[dict[str, Any]], note: str) -> str:
 
 
 def run_targets(args: argparse.Namespace) -> int:
+    from agents.envs import HEADLINE_ENV_ID, HEADLINE_N_TRAILERS
     from trailer_env.benchmark import EPISODES, TASKS
 
-    tasks = [("trailer_env/Reverse-v1", 2)] if args.quick else list(TASKS)
+    tasks = [(HEADLINE_ENV_ID, HEADLINE_N_TRAILERS)] if args.quick else list(TASKS)
     episodes = 20 if args.quick else EPISODES
     targets = [REFERENCE, *[t for t in args.targets if t != REFERENCE]]
     started = time.perf_counter()

@@ -37,6 +37,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.artifacts import files
+from agents.envs import HEADLINE_ENV_ID, HEADLINE_N_TRAILERS
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -105,9 +106,9 @@ COMMANDS: tuple[Timed, ...] = (
             "-m",
             "agents.certify",
             "--env",
-            "trailer_env/Reverse-v1",
+            HEADLINE_ENV_ID,
             "--n-trailers",
-            "2",
+            str(HEADLINE_N_TRAILERS),
             "--seeds",
             "1000-1099",
             "--out",

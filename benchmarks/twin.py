@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.envs import HEADLINE_ENV_ID
 from benchmarks._common import (
     best_of_rounds,
     machine_note,
@@ -33,7 +34,7 @@ from benchmarks._common import (
 
 BATCH = 256
 N_TRAILERS = 3
-ENV_ID = "trailer_env/Reverse-v1"
+ENV_ID = HEADLINE_ENV_ID
 
 
 def cases(batch: int, n: int) -> dict[str, Callable[[], Any]]:

@@ -23,9 +23,8 @@ Each id has an ``entry_point`` (the single env, :mod:`trailer_env.scenes`) and a
         "trailer_env/Reverse-v1", num_envs=1024, vectorization_mode="vector_entry_point"
     )
 
-Keyword arguments: ``n_trailers``, any :class:`dynamics.ConvoyParams` field, ``dt``,
-``fidelity``, ``action_mode``, ``rail_accel_max``, ``servo_bandwidth``,
-``singular_band``, ``fold_angle`` (see :mod:`trailer_env.settings`). The
+Keyword arguments: :data:`trailer_env.settings.MAKE_KEYWORDS` (with their meanings in
+docs/generated/keywords.md) and any :class:`dynamics.ConvoyParams` field. The
 stable-baselines3 adapter lives in :mod:`trailer_env.sb3` (imported on demand), the
 benchmark protocol and its ``score`` in :mod:`trailer_env.benchmark`, and views in
 other libraries' conventions (safety-gymnasium's step, goal-conditioned ``Dict``
@@ -36,7 +35,7 @@ from the keyboard (needs a display and pygame).
 
 from __future__ import annotations
 
-__version__ = "0.3.0"
+__version__ = "0.4.0"
 
 from trailer_env.fidelity import Fidelity
 from trailer_env.registry import ENVIRONMENTS, register_scenes

@@ -3,6 +3,7 @@
     python -m trailer_env                              # one line per registered id
     python -m trailer_env --play trailer_env/Reverse-v1 --n-trailers 1
     python -m trailer_env --compile                    # compile the kernels (install does)
+    python -m trailer_env --keywords docs/generated/keywords.md   # the gym.make keywords
 
 Playing needs a display and pygame (``pip install 'trailer-env[rendering]'``; without
 either it exits 2 saying which is missing, before opening anything); the keys
@@ -21,6 +22,8 @@ import gymnasium as gym
 import numpy as np
 
 import trailer_env
+from trailer_env.benchmark import write_atomic
+from trailer_env.settings import keywords_markdown
 
 
 def registered_ids() -> list[str]:
@@ -61,8 +64,20 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="compile every kernel now (numba's disk cache), so that no first run waits",
     )
+    parser.add_argument(
+        "--keywords",
+        metavar="PATH",
+        type=Path,
+        help="write the table of gym.make's keywords (Markdown) to PATH",
+    )
     args = parser.parse_args(argv)
+    if args.keywords is not None and not args.keywords.parent.is_dir():
+        parser.error(f"argument --keywords: no folder {args.keywords.parent}")
     print(f"trailer-env {trailer_env.__version__}")
+    if args.keywords is not None:
+        write_atomic(args.keywords, keywords_markdown())
+        print(f"wrote {args.keywords}")
+        return 0
     if args.compile:
         from trailer_env.warmup import compile_kernels
 

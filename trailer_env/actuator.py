@@ -37,7 +37,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import Literal
 
 import numpy as np
 
@@ -209,7 +209,7 @@ class Actuator:
         mass_features: Observation entries that describe the mass (2 on the rail, 4 planar).
     """
 
-    row: Any
+    row: Callable[..., object]
     command_for_accel: Callable[..., np.ndarray]
     action_dim: int = 1
     planar: bool = False

@@ -13,7 +13,9 @@ their episode-statistics loop) costs only those.
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from typing import Any, overload
+from typing import overload
+
+import numpy as np
 
 
 class BatchInfos(Sequence[dict[str, object]]):
@@ -34,12 +36,12 @@ class BatchInfos(Sequence[dict[str, object]]):
         self._extras = extras
         self._count = count
         self._dicts: list[dict[str, object] | None] = [None] * count
-        self._lists: list[list[Any]] | None = None
+        self._lists: list[list[object]] | None = None
 
     def __len__(self) -> int:
         return self._count
 
-    def column(self, key: str) -> Any:
+    def column(self, key: str) -> object:
         """The step's values of ``key`` for every environment (the (N,) array, not a copy:
         read it, do not write it), without building any dict. Writes into the dicts of
         :meth:`__getitem__` are not seen here.
@@ -92,11 +94,11 @@ class BatchInfos(Sequence[dict[str, object]]):
         return f"BatchInfos({list(self)!r})"
 
 
-def _per_row(column: Any) -> list[Any]:
+def _per_row(column: object) -> list[object]:
     """A column's values per row: an array's Python scalars, or, for a dict of arrays
     (``params``), one dict of Python scalars per row."""
     if isinstance(column, dict):
         names = list(column)
-        values = [column[name].tolist() for name in names]
+        values = [np.asarray(column[name]).tolist() for name in names]
         return [dict(zip(names, row, strict=True)) for row in zip(*values, strict=True)]
-    return column.tolist()
+    return list(np.asarray(column).tolist())

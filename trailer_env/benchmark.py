@@ -53,7 +53,7 @@ from __future__ import annotations
 import json
 import os
 import tempfile
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -177,7 +177,7 @@ def rollout(
     env_id: str,
     episodes: int,
     seed: int,
-    env_kwargs: JSONObject | None = None,
+    env_kwargs: Mapping[str, object] | None = None,
     observe: Callable[[Any, np.ndarray], Any] | None = None,
 ) -> EpisodeResults:
     """Play ``episodes`` seeded episodes of ``policy`` at once on the native vector env.
@@ -213,7 +213,10 @@ def rollout(
             "trailer_env.observation.trailers_observation)"
         )
     made = gym.make_vec(
-        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
+        env_id,
+        num_envs=episodes,
+        vectorization_mode="vector_entry_point",
+        **(env_kwargs or {}),  # type: ignore[arg-type]  # the scene's keywords, checked there
     )
     envs = made.unwrapped
     if not isinstance(envs, ConvoyVectorEnv):  # pragma: no cover - registration guarantees it
@@ -239,13 +242,13 @@ def rollout(
         rows = running.copy()  # the environments whose episode this step belongs to
         returns[rows] += reward[rows]
         lengths[rows] += 1
-        margin = info["singular_margin"]
+        margin = np.asarray(info["singular_margin"])
         min_margin[rows] = np.minimum(min_margin[rows], margin[rows])
-        band_steps[rows] += info["cost"][rows] > 0.0
-        success[rows] = info["is_success"][rows]
-        work[rows] = info["actuator_work"][rows]
-        jackknifed[rows] = terminated[rows] & info["jackknifed"][rows]
-        failed[rows] = terminated[rows] & ~info["is_success"][rows]
+        band_steps[rows] += np.asarray(info["cost"])[rows] > 0.0
+        success[rows] = np.asarray(info["is_success"])[rows]
+        work[rows] = np.asarray(info["actuator_work"])[rows]
+        jackknifed[rows] = terminated[rows] & np.asarray(info["jackknifed"])[rows]
+        failed[rows] = terminated[rows] & ~np.asarray(info["is_success"])[rows]
         margins.append(margin[rows])
         running &= ~(terminated | truncated)
         if not running.any():
@@ -349,7 +352,12 @@ def _file_mode() -> int:
     return 0o666 & ~mask
 
 
-def _write_atomic(path: Path, text: str) -> None:
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and a rename (never half written).
+
+    Raises:
+        ValueError: If ``path`` is a symbolic link.
+    """
     if path.is_symlink():
         raise ValueError(f"{path} is a symbolic link; refusing to write through it")
     handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
@@ -444,7 +452,7 @@ def score(
         }
         folder.mkdir(parents=True, exist_ok=True)
         for file, text in texts.items():
-            _write_atomic(folder / file, text)
+            write_atomic(folder / file, text)
     return result
 
 

@@ -24,7 +24,6 @@ episodes from folding where the zero action folds them all.
 from __future__ import annotations
 
 import warnings
-from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -111,9 +110,12 @@ class LQRController:
         )
 
     @classmethod
-    def from_env(cls, env: Any) -> LQRController:
+    def from_env(cls, env: object) -> LQRController:
         """Build for a (possibly wrapped) single or vector environment of this package."""
-        return cls(env.unwrapped.settings)
+        settings = getattr(getattr(env, "unwrapped", None), "settings", None)
+        if not isinstance(settings, EnvSettings):
+            raise TypeError(f"{type(env).__name__} is not an environment of trailer_env")
+        return cls(settings)
 
     def gains(self, speed: np.ndarray) -> np.ndarray:
         """Interpolated gains (B, n+3) for forward speeds ``speed`` (B,)."""

@@ -86,41 +86,19 @@ from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 
-from dynamics.columns import ACT_WIDTH, ETA, ETA_DOT, XI
-from dynamics.jit import pack_params
+from dynamics.columns import ETA, ETA_DOT, XI
 from dynamics.params import bounded_real
-from trailer_env.core_infos import INFO_FIELDS, InfoMixin  # noqa: F401  (INFO_FIELDS: re-exported)
+from trailer_env.core_base import SceneFunction
+from trailer_env.core_infos import InfoMixin
 from trailer_env.core_physics import PhysicsMixin
 from trailer_env.core_retry import RetryMixin
-from trailer_env.fidelity import AccuracyWarning, RK4Integrator
+from trailer_env.fidelity import AccuracyWarning
 from trailer_env.generators import GeneratorBank, typed_generators
-from trailer_env.json_types import JSONObject
-from trailer_env.kernels import (
-    DIVERGENCE_BOUND,
-    OVER_BUDGET,
-    PARALLEL_MIN_ROWS,
-    StepConfig,
-    StepOutputs,
-    StepState,
-    clamp_rows_to_rail,
-    observe,
-    prepare_step,
-    step_parallel,
-    step_serial,
-)
-from trailer_env.randomize import (
-    MAX_FACTOR,
-    NAMES,
-    PARAMETERS,
-)
+from trailer_env.kernels import OVER_BUDGET
+from trailer_env.objective import Objective
+from trailer_env.randomize import MAX_FACTOR
 from trailer_env.settings import EnvSettings
 from trailer_env.shaping import penalty_vector, shaped_rewards
-from trailer_env.substeps import MAX_STEP_WORK
-
-
-class NonFiniteStateError(ValueError):
-    """The state holds NaN or infinite values."""
-
 
 #: Largest magnitude of a task value set by hand (``reset(options=...)``, ``set_state``):
 #: target positions in metres, headings in radians. Beyond it the observation's
@@ -147,23 +125,15 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
             not need it (rendering). The reduced state's trajectory is identical
             either way: the pose is appended to the state, it does not feed back.
 
-    Attributes (all arrays have leading axis B):
-        z: State (u, omega, alpha_1..alpha_n[, x, y, theta]).
-        act: Mass state (xi, eta, xi_dot, eta_dot, xi_ddot, eta_ddot); rail: xi = b.
-        obs: Observations, float32.
-        singular_margin, cost, jackknifed, energy, energy0: per environment.
-        reward, terminated, success: results of the last step.
-        substeps: Substeps used by the last step.
-        hitch_trig: sin(alpha_k) then cos(alpha_k) of every row's current state, float64
-            (B, 2n): computed once per step with the observation, read by scene formulas.
-        accuracy_exceeded: Rows whose last step's estimated error exceeded the fidelity's
-            tolerance because a substep cap bound (auto fidelity only; see the module
-            docstring).
+    Attributes: :class:`trailer_env.core_base.CoreBase`'s (the batch's arrays).
     """
 
     #: The scene's name and version: it is registered as ``trailer_env/{scene}-v{version}``.
     scene: ClassVar[str] = ""
     version: ClassVar[int] = 0
+    #: What the scene asks (to survive the episode or reach a goal): read by the
+    #: termination and by the agents' certification, witnesses and tables.
+    objective: ClassVar[Objective] = Objective.GOAL
     #: Truncation length registered for the scene (steps).
     max_episode_steps: ClassVar[int] = 400
     #: The rate the agents report first for this scene (a key of
@@ -176,10 +146,6 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
     #: the controllers of :mod:`trailer_env.controllers` and the trivial policies. The
     #: planners that apply too are the agents' business (``agents.oracles.scenes``).
     baselines: ClassVar[tuple[str, ...]] = ("zero", "random", "lqr")
-    #: Whether the scene itself needs the cart's pose (x, y, theta).
-    uses_pose: ClassVar[bool] = False
-    #: Number of task features appended to the observation.
-    n_task_features: ClassVar[int] = 0
     #: Signs of the task features in the convoy's mirror image (:meth:`mirror_signs`);
     #: None: the scene declares no mirror symmetry.
     mirror_task_signs: ClassVar[tuple[float, ...] | None] = ()
@@ -189,22 +155,6 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
     band_penalty: ClassVar[float] = 0.5
     #: Task values :meth:`set_task` accepts (``reset(options=...)`` keys beyond the state).
     task_keys: ClassVar[tuple[str, ...]] = ()
-    #: A jitted ``outcome(rows, outputs, scene)`` that writes ``reward``, ``terminated``
-    #: and ``success`` of ``rows`` after a step from ``scene`` (:meth:`_scene_arguments`)
-    #: and the step kernel's ``outputs``; and a jitted ``kernel(action, rows, prepare,
-    #: config, state, outputs, scene)`` that calls :func:`trailer_env.kernels.step_serial`
-    #: with its first six arguments, then ``outcome`` if no action was refused and no row
-    #: diverged, and returns the step's result: one call per step. Batches of
-    #: PARALLEL_MIN_ROWS rows or more call ``step_parallel`` and then ``outcome`` (two
-    #: calls: a cached function that calls a parallel one can crash numba when loaded from
-    #: its disk cache); an unfused step ("dopri5"), and a step whose diverged rows were
-    #: redone with more substeps, call ``outcome`` on every row stepped once the state is
-    #: final (so a refused step never wrote its results). None: the
-    #: Python hooks compute them. Assign both as ``staticmethod(function)``; ``config``,
-    #: ``state``, ``outputs`` and ``scene`` arrive as plain tuples of the named tuples'
-    #: fields (:mod:`trailer_env.kernels`).
-    scene_kernel: ClassVar[Any] = None
-    scene_outcome: ClassVar[Any] = None
     #: A jitted ``start(generators, picks, rows, z, task)`` that draws the starting state
     #: of every row ``rows[j]`` from ``generators[picks[j]]`` (a ``numba.typed.List``,
     #: :mod:`trailer_env.generators`) into ``z`` (zeroed) and the scene's task arrays
@@ -212,179 +162,16 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
     #: one call. None: :meth:`_reset_row` draws each row in Python. Either way a row draws
     #: the same numbers in the same order from its generator, so single and vector
     #: environments replay each other.
-    start_kernel: ClassVar[Any] = None
-    #: Parameters the scene's own formulas read as one value for the batch (Dock's hitch
-    #: positions use ``l``): a ``randomize`` dict that names one is refused; a preset
-    #: (``"mismatch10"``, ``"mismatch20"``) leaves them nominal and varies the others.
-    fixed_parameters: ClassVar[tuple[str, ...]] = ()
+    start_kernel: ClassVar[SceneFunction | None] = None
     #: Whether the scene's start is a perturbation of a size that :meth:`set_start_scale`
     #: can shrink or widen (a start curriculum); False: the method refuses.
     start_scalable: ClassVar[bool] = False
 
     def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
-        if (
-            isinstance(batch_size, bool)
-            or not isinstance(batch_size, (int, np.integer))
-            or batch_size < 1
-        ):
-            raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
-        # Refused before any array is allocated (module docstring, "Cost").
-        n, size, fidelity = settings.n_trailers, int(batch_size), settings.fidelity
-        if fidelity.uses_substeps:
-            work = fidelity.fixed_substeps * (n + 1) * size
-            if work > MAX_STEP_WORK:
-                what = f"fidelity.substeps = {fidelity.substeps}"
-                if fidelity.auto:
-                    what = "one substep each"
-                raise ValueError(
-                    f"{size} environment(s) of {n + 1} bodies (n_trailers = {n}) with {what} "
-                    f"need {work:.3g} body-substeps per control step, over the budget of "
-                    f"{MAX_STEP_WORK:.3g} (trailer_env.substeps.MAX_STEP_WORK); use fewer "
-                    "environments, trailers or substeps"
-                )
-        self.settings = settings
-        self.params = settings.params
-        self.n = settings.n_trailers
-        self.batch_size = int(batch_size)
-        self.with_pose = self.uses_pose or track_pose
-        actuator = settings.actuator
-        self.planar = actuator.planar
-        n, size = self.n, self.batch_size
-        self.n_common = 2 + 2 * n + actuator.mass_features
-        #: Where the parameter features start (``observe_params``): after the task's.
-        self.param_offset = self.n_common + self.n_task_features
-        self.n_param_features = len(PARAMETERS) if settings.observe_params else 0
-        self.obs_dim = self.param_offset + self.n_param_features
-        self.randomization = settings.randomize
-        if self.randomization is not None:
-            fixed = sorted(set(self.randomization.names) & set(self.fixed_parameters))
-            if fixed and self.randomization.preset is not None:
-                # A preset applies to every scene: it varies what this one allows.
-                self.randomization = self.randomization.without(fixed)
-            elif fixed:
-                raise ValueError(
-                    f"randomize: {type(self).__name__}'s formulas use {fixed} as one value for "
-                    f"the batch; it cannot be randomised in this scene (a preset varies the "
-                    f"other parameters)"
-                )
-        self.z = np.zeros((size, n + (5 if self.with_pose else 2)))
-        self.act = np.zeros((size, ACT_WIDTH))
-        self.act[:, XI] = self.params.b
-        fidelity = settings.fidelity
-        self.substeps = np.full(size, fidelity.fixed_substeps, dtype=np.int64)
-        self.obs = np.zeros((size, self.obs_dim), dtype=np.float32)
-        self.singular_margin = np.ones(size)
-        self.cost = np.zeros(size)
-        self.jackknifed = np.zeros(size, dtype=bool)
-        self.energy = np.zeros(size)
-        self.energy0 = np.zeros(size)
-        self.reward = np.zeros(size)
-        self.terminated = np.zeros(size, dtype=bool)
-        self.success = np.zeros(size, dtype=bool)
-        self.failed = np.zeros(size, dtype=bool)
-        self._info_arrays: list[tuple[str, np.ndarray | None]] | None = None
-        self.accuracy_exceeded = np.zeros(size, dtype=bool)
-        self._nonfinite = np.zeros(size, dtype=bool)
-        self._integrator = fidelity.make_integrator(self.params, self.with_pose)
-        # The built-in RK4 runs inside the step kernel; other integrators are called from here.
-        integrator = self._integrator
-        self._fused = type(integrator) is RK4Integrator
-        preserve_energy = isinstance(integrator, RK4Integrator) and integrator.preserve_energy
-        self._packed = pack_params(self.params)
-        #: The episode's factors per row, columns :data:`trailer_env.randomize.NAMES` (1 where
-        #: not randomised), and the parameters they give, columns ``PARAMETERS`` (B, 7).
-        self.factors = np.ones((size, len(NAMES)))
-        self.param_values = np.tile(self._packed, (size, 1))
-        # Parameters whose nominal value is 0: a factor leaves them 0, so the factor that
-        # holds, and is observed, is 1 (the draw still happens: the streams stay the same).
-        self._unscaled = np.flatnonzero(self._packed == 0.0)
-        # Per-row parameters reach the kernels only when a physical parameter is drawn: the
-        # shared vector keeps the kernels' shared (faster) specialisation otherwise.
-        per_row = self.randomization is not None and any(
-            name in PARAMETERS for name in self.randomization.names
-        )
-        pv = self.param_values if per_row else self._packed
-        self._all_rows = np.arange(size, dtype=np.int64)
-        self._z_backup = np.empty_like(self.z)
-        self._act_backup = np.empty_like(self.act)
-        self._dt = settings.dt
-        self._b = self.params.b
-        self._s_max = self.params.s_max
+        super().__init__(settings, batch_size, track_pose=track_pose)
         self._warned_accuracy = False
-        # The last entry bounds the values a row may hold: none for hand-built states, the
-        # divergence bound for a step's result (kernels.DIVERGENCE_BOUND).
-        observe_settings = np.array(
-            [
-                self._b,
-                self._s_max,
-                settings.rail_speed_max,
-                settings.singular_band,
-                settings.fold_angle,
-                np.inf,
-            ]
-        )
-        step_observe_settings = observe_settings.copy()
-        step_observe_settings[-1] = DIVERGENCE_BOUND
-        # Kernel arguments fixed for the core's life, packed once (a single env's step is a
-        # few microseconds).
-        nominal_auto = fidelity.auto_settings(
-            self.params,
-            settings.dt,
-            self.planar,
-            settings.rail_speed_max + settings.rail_accel_max * settings.dt,
-        )
-        self._nominal_auto = nominal_auto
-        self._row_auto = np.tile(nominal_auto, (size, 1))
-        self._draws: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        if self.randomization is not None:
-            self._draws = (self.randomization.drawn_columns(), *self.randomization.bounds())
-        self.step_config = StepConfig(
-            mode=actuator.code,
-            b=float(self._b),
-            s_max=float(self._s_max),
-            accel_max=float(settings.rail_accel_max),
-            dt=float(settings.dt),
-            frequency=float(settings.servo_frequency),
-            auto=bool(fidelity.auto),
-            auto_settings=self._row_auto if per_row else nominal_auto,
-            pv=pv,
-            n=n,
-            with_pose=self.with_pose,
-            preserve_energy=preserve_energy,
-            planar=self.planar,
-            obs_settings=step_observe_settings,
-        )
-        self.step_state = StepState(
-            z=self.z,
-            act=self.act,
-            substeps=self.substeps,
-            z_backup=self._z_backup,
-            act_backup=self._act_backup,
-            target_energy=np.full(size, np.nan),
-            exceeded=self.accuracy_exceeded,
-        )
-        #: sin(alpha_k), then cos(alpha_k), of every row's current state (float64, (B, 2n)).
-        self.hitch_trig = np.zeros((size, 2 * n))
-        self.step_outputs = StepOutputs(
-            obs=self.obs,
-            margin=self.singular_margin,
-            cost=self.cost,
-            jackknifed=self.jackknifed,
-            energy=self.energy,
-            nonfinite=self._nonfinite,
-            hitch_trig=self.hitch_trig,
-        )
-        # What the kernels are passed: the same fields as plain tuples, which numba unboxes
-        # faster (trailer_env.kernels' docstring).
-        self._config = tuple(self.step_config)
-        self._state = tuple(self.step_state)
-        self._outputs = tuple(self.step_outputs)
-        self._observe_args = (n, self.planar, observe_settings, pv, self._outputs)
-        # After an integrator outside the kernel ("dopri5"): the divergence bound applies.
-        self._step_observe_args = (n, self.planar, step_observe_settings, *self._observe_args[3:])
-        self._scene: tuple | None = None  # built on the first step (subclasses' arrays)
         self._saved: tuple[np.ndarray, ...] | None = None  # save_step's copies
-        self._start: tuple | None = None  # built on the first reset
+        self._start: tuple[object, ...] | None = None  # built on the first reset
         #: Factor on the size of the starting perturbation (:meth:`set_start_scale`).
         self.start_scale = 1.0
 
@@ -420,11 +207,6 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
             self._start = tuple(self._start_arguments())
         return self._start
 
-    def _scene_arguments(self) -> tuple:
-        """The scene kernel's last argument (a named tuple of the arrays and constants its
-        formulas read and write), built once; passed to the kernels as a plain tuple."""
-        return ()
-
     # ----------------------------------------------------------------- hooks
     def _reset_row(self, i: int, rng: np.random.Generator) -> None:
         """Sample row ``i``'s starting state into ``z[i]`` and the scene's task arrays
@@ -433,9 +215,6 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         ``z[i]`` and ``act[i]`` arrive zeroed (the mass at rest at the rail's centre).
         """
         raise NotImplementedError
-
-    def _update_task(self, rows: slice | np.ndarray) -> None:
-        """Recompute derived task quantities and ``obs[rows, n_common:]`` (rows index the batch)."""
 
     def _is_success(self) -> np.ndarray:
         """Boolean (B,): the task is achieved. Default: never."""
@@ -456,12 +235,12 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         return np.zeros(self.batch_size, dtype=bool)
 
     def _is_terminated(self) -> np.ndarray:
-        """Boolean (B,): the episode ends. Default: jackknife, success or failure.
-
-        A survival scene whose :meth:`_is_success` means "not failed so far" must
-        override it (``jackknifed | failed``): the default would end its episodes on
-        their first step, as successes (CONTRIBUTING.md, "Adding a scene").
+        """Boolean (B,): the episode ends. Default, from :attr:`objective`: a jackknife or
+        a failure in a survival scene (its success means "not failed so far"; the time
+        limit truncates its episodes), a jackknife, the goal or a failure in a goal scene.
         """
+        if self.objective is Objective.SURVIVAL:
+            return self.jackknifed | self.failed
         return self.jackknifed | self.success | self.failed
 
     def _reward(self) -> np.ndarray:
@@ -477,10 +256,6 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
 
     def _after_reset(self, rows: np.ndarray) -> None:
         """Initialise per-episode bookkeeping (potentials, counters) of ``rows`` after a reset."""
-
-    def _after_restore(self, rows: np.ndarray) -> None:
-        """Undo a refused step's per-step bookkeeping in ``rows``, back at their states before
-        it (a scene kernel's outcome has already run on the rows that did not diverge)."""
 
     def mirror_signs(self) -> tuple[np.ndarray, np.ndarray] | None:
         """The convoy's mirror image as signs: ``(observation signs (obs_dim,), action
@@ -512,13 +287,27 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         """Lower and upper bounds of the task features (default unbounded)."""
         return np.full(self.n_task_features, -np.inf), np.full(self.n_task_features, np.inf)
 
+    @property
+    def counts(self) -> tuple[int, ...]:
+        """The trailer counts of the batch's episodes: this core's one."""
+        return (self.n,)
+
+    @property
+    def trailers(self) -> np.ndarray:
+        """Each row's number of trailers (B,): this core's n."""
+        return np.full(self.batch_size, self.n, dtype=np.int64)
+
+    def count_cores(self) -> dict[int, ConvoyCore]:
+        """The core of each count: this one."""
+        return {self.n: self}
+
     def row_core(self, i: int) -> ConvoyCore:
         """The core holding row ``i``'s episode: this one (a mix of trailer counts holds
         one core per count, :meth:`trailer_env.mixed.MixedCore.row_core`)."""
         del i
         return self
 
-    def check_task(self, task: Mapping[str, object]) -> JSONObject:
+    def check_task(self, task: Mapping[str, object]) -> dict[str, object]:
         """The task values :meth:`set_task` would set, validated, changing nothing.
 
         Keys outside :attr:`task_keys` are refused; each given value is checked by
@@ -541,16 +330,16 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         :attr:`task_keys` overrides it)."""
         raise NotImplementedError(f"{type(self).__name__} does not check task value {key!r}")
 
-    def set_task(self, i: int, **task: Any) -> None:
+    def set_task(self, i: int, **task: object) -> None:
         """Set row ``i``'s task values by hand (e.g. a target; :meth:`check_task`): each
         key of :attr:`task_keys` is an array attribute with one entry per row."""
         for key, value in self.check_task(task).items():
             getattr(self, key)[i] = value
 
-    def task_values(self, i: int) -> JSONObject:
+    def task_values(self, i: int) -> dict[str, float | np.ndarray]:
         """Row ``i``'s task values as :meth:`set_task` takes them (copies): each key of
         :attr:`task_keys` is an array attribute of the scene's core, one entry per row."""
-        values: JSONObject = {}
+        values: dict[str, float | np.ndarray] = {}
         for key in self.task_keys:
             value = np.array(getattr(self, key)[i], dtype=np.float64)
             values[key] = float(value) if value.ndim == 0 else value
@@ -570,7 +359,7 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
             raise ValueError(f"z must have length {shown}, got shape {state.shape}")
         if not np.all(np.isfinite(state)) or not (np.isfinite(s) and np.isfinite(s_dot)):
             raise ValueError("z, s and s_dot must be finite")
-        s_max = self._s_max
+        s_max = self.params.s_max
         accel = self.settings.rail_accel_max
         if (
             abs(s) > s_max
@@ -581,7 +370,7 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         return state
 
     def set_row_state(
-        self, i: int, z: object, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
+        self, i: int, z: object, *, s: float = 0.0, s_dot: float = 0.0, **task: object
     ) -> None:
         """Put row ``i`` in a hand-built state and start a new episode there.
 
@@ -603,7 +392,7 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         self.z[i] = 0.0
         self.z[i, : state.shape[0]] = state
         self.act[i] = 0.0
-        self.act[i, XI] = self._b
+        self.act[i, XI] = self.params.b
         self.act[i, ETA] = s
         self.act[i, ETA_DOT] = s_dot
         self._begin_episodes(rows)
@@ -712,7 +501,9 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
             for i, rng in zip(rows.tolist(), rngs, strict=True):
                 self._reset_row(i, rng)
         else:
-            self.start_kernel(rngs, picks, rows, self.z, self._start_tuple())
+            start = self.start_kernel
+            assert start is not None  # picks come only with a start kernel (reset_rows)
+            start(rngs, picks, rows, self.z, self._start_tuple())
         if self._draws is not None:
             self._draw_physics(rows, rngs, picks)
         self._begin_episodes(rows)
@@ -729,58 +520,6 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         self.failed[rows] = False
         self._after_reset(rows)
         self.success[rows] = self._starting_success(rows)
-
-    def refresh(self, rows: np.ndarray | None = None) -> None:
-        """Recompute everything derived from the state of ``rows`` (int array; default all).
-
-        Call it after changing ``z`` or ``act`` by hand.
-        """
-        indices = self._all_rows if rows is None else np.asarray(rows, dtype=np.int64)
-        if observe(self.z, self.act, indices, *self._observe_args):
-            raise NonFiniteStateError("the state contains non-finite values (NaN or inf)")
-        self._update_task(slice(None) if rows is None else indices)
-
-    def _physics_step(
-        self, action: np.ndarray, rows: np.ndarray, prepare: bool, outcome: bool = True
-    ) -> tuple:
-        """One control step of ``rows``: ``(bad action row or -1, non-finite rows, over tol.)``;
-        with ``outcome``, the scene kernel's results too when no row diverged."""
-        if not self._fused:
-            return self._unfused_step(action, rows, prepare)
-        parallel = rows.size >= PARALLEL_MIN_ROWS
-        if self.scene_kernel is not None and outcome:
-            scene = self._scene_tuple()
-            if not parallel:
-                return self.scene_kernel(
-                    action, rows, prepare, self._config, self._state, self._outputs, scene
-                )
-            result = step_parallel(action, rows, prepare, self._config, self._state, self._outputs)
-            if result[0] == -1 and not result[1]:
-                self.scene_outcome(rows, self._outputs, scene)
-            return result
-        kernel = step_parallel if parallel else step_serial
-        return kernel(action, rows, prepare, self._config, self._state, self._outputs)
-
-    def _scene_tuple(self) -> tuple:
-        """:meth:`_scene_arguments` as the plain tuple the kernels take, built once."""
-        if self._scene is None:
-            self._scene = tuple(self._scene_arguments())
-        return self._scene
-
-    def _unfused_step(self, action: np.ndarray, rows: np.ndarray, prepare: bool) -> tuple:
-        over = 0
-        if prepare:
-            bad, over = prepare_step(action, rows, self._config, self._state)
-            if bad >= 0:
-                return bad, 0, 0
-        if rows.size == self.batch_size:
-            self._integrator.step(self.z, self.act, self._dt, self.substeps)
-        else:
-            z, act = self.z[rows], self.act[rows]
-            self._integrator.step(z, act, self._dt, self.substeps[rows])
-            self.z[rows], self.act[rows] = z, act
-        clamp_rows_to_rail(self.act, rows, self._b, self._s_max)
-        return -1, observe(self.z, self.act, rows, *self._step_observe_args), over
 
     def step(self, action: np.ndarray, rows: np.ndarray | None = None) -> None:
         """Advance every environment (or ``rows``, an int array) by ``dt`` under ``action``
@@ -822,8 +561,8 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         if self.scene_outcome is not None:
             # The same compiled formulas the fused step runs; it skipped them when a row
             # was redone (_retry_finer), so that a refused step leaves the results alone.
-            if not self._fused or nonfinite:
-                self.scene_outcome(stepped, self._outputs, self._scene_tuple())
+            if not self.settings.fidelity.fused or nonfinite:
+                self.scene_outcome(stepped, self.kernel_args.outputs_tuple, self._scene_tuple())
         else:
             self._advance()
             self.success[:] = self._is_success()
@@ -868,8 +607,8 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
             raise RuntimeError("undo_step needs save_step before the step")
         indices = np.asarray(rows, dtype=np.int64)
         # The step kernel's copies of the rows it stepped.
-        self.z[indices] = self._z_backup[indices]
-        self.act[indices] = self._act_backup[indices]
+        self.z[indices] = self.step_state.z_backup[indices]
+        self.act[indices] = self.step_state.act_backup[indices]
         records = tuple(zip(self._step_records(), self._saved, strict=True))
         for array, saved in records:  # the bookkeeping first: the task features read it
             array[indices] = saved[indices]

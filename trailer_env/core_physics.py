@@ -1,43 +1,24 @@
 """The core's per-row physics: the episode's drawn factors (``randomize``) and what they set.
 
 :class:`PhysicsMixin` is part of :class:`trailer_env.core.ConvoyCore`; the draws and the
-arithmetic are :mod:`trailer_env.randomize`'s compiled functions.
+arithmetic are :mod:`trailer_env.randomize`'s compiled functions. What ``info["params"]``
+reports of them is :mod:`trailer_env.core_infos`'.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from dynamics.params import ConvoyParams
+from trailer_env.core_base import CoreBase
 from trailer_env.generators import typed_generators
-from trailer_env.kernels import StepConfig
-from trailer_env.randomize import PARAMETERS, SPEED, apply_factors, apply_params, draw_factors
+from trailer_env.randomize import PARAMETERS, apply_factors, apply_params, draw_factors
 
 
-class PhysicsMixin:
+class PhysicsMixin(CoreBase):
     """Each row's physical parameters: drawn, set and reported (for ConvoyCore)."""
-
-    if TYPE_CHECKING:  # what the methods read of the core (set by ConvoyCore.__init__)
-        params: ConvoyParams
-        batch_size: int
-        planar: bool
-        z: np.ndarray
-        obs: np.ndarray
-        step_config: StepConfig
-        factors: np.ndarray
-        param_values: np.ndarray
-        param_offset: int
-        n_param_features: int
-        _draws: tuple[np.ndarray, np.ndarray, np.ndarray] | None
-        _unscaled: np.ndarray
-        _packed: np.ndarray
-        _nominal_auto: np.ndarray
-        _row_auto: np.ndarray
-        _b: float
-        _s_max: float
 
     def _draw_physics(
         self, rows: np.ndarray, rngs: Sequence[np.random.Generator], picks: np.ndarray | None
@@ -58,10 +39,10 @@ class PhysicsMixin:
             self.factors,
             self._packed,
             self.param_values,
-            self._nominal_auto,
-            self._row_auto,
-            float(self._b),
-            float(self._s_max),
+            self.kernel_args.nominal_auto,
+            self.kernel_args.row_auto,
+            float(self.params.b),
+            float(self.params.s_max),
             self.planar,
             self.z,
         )
@@ -105,10 +86,10 @@ class PhysicsMixin:
             indices,
             values,
             self.param_values,
-            self._nominal_auto,
-            self._row_auto,
-            float(self._b),
-            float(self._s_max),
+            self.kernel_args.nominal_auto,
+            self.kernel_args.row_auto,
+            float(self.params.b),
+            float(self.params.s_max),
             self.planar,
         )
         nominal = np.broadcast_to(self._packed, values.shape)
@@ -116,23 +97,7 @@ class PhysicsMixin:
             values, nominal, out=np.ones_like(values), where=nominal != 0.0
         )
 
-    def params_info(self, i: int) -> dict[str, float]:
-        """Row ``i``'s episode parameters (``info["params"]``): the seven randomisable
-        :class:`dynamics.ConvoyParams` fields' values and ``speed_factor``, the factor on
-        the start's speed (1 where not randomised)."""
-        values = self.param_values[i].tolist()
-        return {
-            **dict(zip(PARAMETERS, values, strict=True)),
-            "speed_factor": float(self.factors[i, SPEED]),
-        }
-
-    def params_batch(self) -> dict[str, np.ndarray]:
-        """:meth:`params_info` of every row as arrays (B,) (copies)."""
-        infos = {name: self.param_values[:, k].copy() for k, name in enumerate(PARAMETERS)}
-        infos["speed_factor"] = self.factors[:, SPEED].copy()
-        return infos
-
-    def params_of(self, i: int) -> Any:
+    def params_of(self, i: int) -> ConvoyParams:
         """Row ``i``'s episode parameters as a :class:`dynamics.ConvoyParams`."""
         values = dict(zip(PARAMETERS, self.param_values[i].tolist(), strict=True))
         return self.params.replace(**values)

@@ -8,41 +8,19 @@ times the substeps, else every stepped row is put back and FloatingPointError ra
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from dynamics.columns import OMEGA, U
-from trailer_env.kernels import OBS_BOUND, StepConfig
-from trailer_env.settings import EnvSettings
+from trailer_env.core_base import CoreBase
+from trailer_env.kernels import OBS_BOUND
 from trailer_env.substeps import GROWTH_LIMIT, MAX_STEP_WORK
 
 #: Substeps used to retry a step whose result was not finite (never seen with "auto").
 RETRY_FACTOR = 8
 
 
-class RetryMixin:
+class RetryMixin(CoreBase):
     """The retry and refusal paths of :class:`trailer_env.core.ConvoyCore`'s step."""
-
-    if TYPE_CHECKING:  # what the methods read of the core (set by ConvoyCore.__init__)
-        n: int
-        settings: EnvSettings
-        step_config: StepConfig
-        z: np.ndarray
-        act: np.ndarray
-        substeps: np.ndarray
-        accuracy_exceeded: np.ndarray
-        _nonfinite: np.ndarray
-        _z_backup: np.ndarray
-        _act_backup: np.ndarray
-
-        def _physics_step(
-            self, action: np.ndarray, rows: np.ndarray, prepare: bool, outcome: bool = True
-        ) -> tuple: ...
-
-        def refresh(self, rows: np.ndarray | None = None) -> None: ...
-
-        def _after_restore(self, rows: np.ndarray) -> None: ...
 
     def _refuse_over_budget(self, rows: np.ndarray) -> None:
         """Raise FloatingPointError for a step the auto rule priced over the work budget."""
@@ -65,9 +43,9 @@ class RetryMixin:
         Only the failed rows are redone; their substep counts are restored afterwards with
         fixed substeps (the auto rule recomputes them at every step anyway).
         """
-        rows = stepped[self._nonfinite[stepped]].astype(np.int64)
-        self.z[rows] = self._z_backup[rows]
-        self.act[rows] = self._act_backup[rows]
+        rows = stepped[self.step_outputs.nonfinite[stepped]].astype(np.int64)
+        self.z[rows] = self.step_state.z_backup[rows]
+        self.act[rows] = self.step_state.act_backup[rows]
         used = self.substeps[rows].copy()
         if float(used.sum()) * RETRY_FACTOR * (self.n + 1) > MAX_STEP_WORK:
             self._give_up(stepped, rows, "non-finite or beyond the divergence bound", retried=False)
@@ -78,7 +56,7 @@ class RetryMixin:
             if not self.settings.fidelity.auto:
                 self.substeps[rows] = used
         if nonfinite:
-            failed = rows[self._nonfinite[rows]]
+            failed = rows[self.step_outputs.nonfinite[rows]]
             values = self.z[failed]
             grew = (
                 self.accuracy_exceeded[failed].all()
@@ -103,8 +81,8 @@ class RetryMixin:
         self, stepped: np.ndarray, failed: np.ndarray, cause: str, *, retried: bool
     ) -> None:
         """Put every stepped row back at its state before the step and raise FloatingPointError."""
-        self.z[stepped] = self._z_backup[stepped]
-        self.act[stepped] = self._act_backup[stepped]
+        self.z[stepped] = self.step_state.z_backup[stepped]
+        self.act[stepped] = self.step_state.act_backup[stepped]
         self.refresh(stepped)
         self._after_restore(stepped)
         how = (

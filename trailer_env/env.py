@@ -11,7 +11,7 @@ import numbers
 import sys
 from collections.abc import Mapping, Sequence
 from types import FrameType
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -23,7 +23,13 @@ from dynamics.params import one_of, real_number
 from trailer_env.core import ConvoyCore
 from trailer_env.mixed import build_core, observation_view
 from trailer_env.observation import Observation
-from trailer_env.rendering import RENDER_MODES, PathTrace, core_frame, make_renderer
+from trailer_env.rendering import (
+    RENDER_MODES,
+    ConvoyRenderer,
+    PathTrace,
+    core_frame,
+    make_renderer,
+)
 from trailer_env.settings import EnvSettings
 
 #: Past cart positions kept for the rendered path.
@@ -80,7 +86,7 @@ def checked_seed(seed: object) -> int | None:
     return int(seed)
 
 
-def refuse_masked(value: object, name: str) -> Any:
+def refuse_masked(value: object, name: str) -> object:
     """``value`` itself, or its data if it is a numpy masked array with nothing masked.
 
     Raises:
@@ -135,7 +141,7 @@ def real_array(name: str, value: object, expected: str) -> np.ndarray:
         ValueError: For a ragged sequence, or a numpy masked array with masked entries.
     """
     if isinstance(value, np.ndarray):
-        array = refuse_masked(value, name)
+        array = np.asarray(refuse_masked(value, name))
     elif value is None or isinstance(value, (str, bytes, bool, np.bool_)):
         raise TypeError(f"{name} must be {expected}, got {type(value).__name__} {value!r}")
     else:
@@ -208,9 +214,8 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
 
     Args:
         render_mode: None, "human" or "rgb_array".
-        **kwargs: Settings: ``n_trailers``, ``params``, ``dt``, ``fidelity``,
-            ``action_mode``, ``rail_accel_max``, ``servo_bandwidth``, ``singular_band``,
-            ``fold_angle`` and any :class:`dynamics.ConvoyParams` field
+        **kwargs: Settings: the keywords of :data:`trailer_env.settings.MAKE_KEYWORDS`
+            and any :class:`dynamics.ConvoyParams` field
             (see :func:`trailer_env.settings.settings_from_kwargs`). ``n_trailers`` may
             be a range ``(low, high)``: each episode draws its n (:mod:`trailer_env.mixed`).
 
@@ -227,7 +232,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
     metadata = {"render_modes": RenderModes(RENDER_MODES), "render_fps": 20}  # noqa: RUF012
     core_class: ClassVar[type[ConvoyCore]]
 
-    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+    def __init__(self, render_mode: str | None = None, **kwargs: object) -> None:
         check_render_mode(render_mode)
         self.settings: EnvSettings
         self.settings, self.core = build_core(self.core_class, kwargs, 1, render_mode is not None)
@@ -241,7 +246,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         self._action = np.zeros((1, self.settings.action_dim))
         self._action_shape: tuple[int, ...] = (self.settings.action_dim,)
         self._path = PathTrace(1, PATH_LENGTH)
-        self._renderer: Any = None
+        self._renderer: ConvoyRenderer | None = None
         self._has_reset = False
         # set_state began an episode that the TimeLimit wrappers above have not seen yet
         self._restart_time_limits = False
@@ -351,7 +356,7 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         *,
         s: float = 0.0,
         s_dot: float = 0.0,
-        **task: Any,
+        **task: object,
     ) -> Observation:
         """Put the environment in a hand-built state and start a new episode there; returns
         the observation.
@@ -456,9 +461,9 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         return self.core.row_core(0).z[0].copy()
 
     def _record_path(self) -> None:
-        if self.core.with_pose:
-            n = self.core.n
-            self._path.record(self.core.z[:1, x_column(n) : theta_column(n)])
+        if self.core.with_pose:  # one count: row 0's core is the batch's
+            core = self.core.row_core(0)
+            self._path.record(core.z[:1, x_column(core.n) : theta_column(core.n)])
 
     def render(self) -> np.ndarray | None:  # type: ignore[override]
         """Draw the convoy (top-down) in a window ("human") or return an RGB array ("rgb_array")."""
@@ -468,8 +473,10 @@ class ConvoyEnv(gym.Env[Observation, np.ndarray]):
         if not self._has_reset:
             raise gym.error.ResetNeeded("call reset() before render()")
         if self._renderer is None:
-            self._renderer = make_renderer(self.core, self.render_mode, self.metadata["render_fps"])
-        return self._renderer.draw(core_frame(self.core, 0, self._path.path(0)))
+            self._renderer = make_renderer(
+                self.core.row_core(0), self.render_mode, self.metadata["render_fps"]
+            )
+        return self._renderer.draw(core_frame(self.core.row_core(0), 0, self._path.path(0)))
 
     def get_keys_to_action(self) -> dict[tuple[str, ...], np.ndarray]:
         """Keyboard map for :func:`gymnasium.utils.play.play` (no key: the action 0).

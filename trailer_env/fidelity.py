@@ -10,8 +10,8 @@ each control step of length ``dt`` takes:
 
 Integrators:
 
-* ``"rk4"``: :class:`dynamics.Stepper`, classical RK4 with the mass's quadratic
-  motion evaluated exactly inside each step.
+* ``"rk4"``: classical RK4 (that of :class:`dynamics.Stepper`, run inside the step
+  kernel) with the mass's quadratic motion evaluated exactly inside each step.
 * ``"rk4-energy"``: the same with the energy-preserving rescaling. The energy is
   conserved only when the actuator does no work, so this needs ``mu = 0``
   (a passive convoy; the action then has no effect).
@@ -33,14 +33,14 @@ divergence bound but not to the work budget (its own step control has its own li
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from dynamics import AdaptiveStepper, ConvoyParams, Stepper
+from dynamics import AdaptiveStepper, ConvoyParams
 from dynamics.adaptive import STATUS_OK
 from dynamics.params import bounded_integer, bounded_real
-from trailer_env.json_types import JSONObject
 from trailer_env.substeps import (
     HARD_MAX_SUBSTEPS,
     MAX_TOLERANCE,
@@ -52,14 +52,6 @@ from trailer_env.substeps import (
 #: Upper bound on fixed ``substeps`` (a control step's cost grows linearly with it; the
 #: measured costs are in benchmarks/README.md, "Auto fidelity").
 MAX_FIXED_SUBSTEPS = 10_000
-
-
-class RK4Integrator(Stepper):
-    """:class:`dynamics.Stepper` as the environments use it: the marker of the fused step.
-
-    Its RK4 runs inside the step kernel (:func:`trailer_env.kernels.step_serial`), never
-    through :meth:`step`; the core reads only ``preserve_energy``.
-    """
 
 
 class AdaptiveIntegrator:
@@ -170,7 +162,7 @@ class Fidelity:
         return self.substeps if isinstance(self.substeps, int) else 1
 
     @classmethod
-    def coerce(cls, value: Fidelity | JSONObject | str | int | None) -> Fidelity:
+    def coerce(cls, value: Fidelity | Mapping[str, object] | str | int | None) -> Fidelity:
         """Accept a Fidelity, a dict of its fields, an integrator name, "auto" or substeps.
 
         Raises:
@@ -198,23 +190,40 @@ class Fidelity:
             f"fidelity must be a Fidelity, dict, str or int, got {type(value).__name__} {value!r}"
         )
 
-    def make_integrator(
-        self, params: ConvoyParams, with_pose: bool
-    ) -> RK4Integrator | AdaptiveIntegrator:
-        """Build the named integrator for these parameters.
+    @property
+    def fused(self) -> bool:
+        """Whether the integrator runs inside the step kernel ("rk4", "rk4-energy":
+        :func:`trailer_env.kernels.step_serial`) rather than being called between kernels."""
+        return self.integrator != _ADAPTIVE
+
+    @property
+    def preserve_energy(self) -> bool:
+        """Whether the fused RK4 rescales each substep to conserve the energy ("rk4-energy")."""
+        return self.integrator == "rk4-energy"
+
+    def check_params(self, params: ConvoyParams) -> None:
+        """Refuse parameters the integrator cannot integrate.
 
         Raises:
             ValueError: If the integrator needs a conserved energy and ``params.mu > 0``.
         """
-        if self.integrator == _ADAPTIVE:
-            return AdaptiveIntegrator(params, with_pose, self.tolerance)
-        preserve_energy = self.integrator == "rk4-energy"
-        if preserve_energy and params.mu > 0.0:
+        if self.preserve_energy and params.mu > 0.0:
             raise ValueError(
                 f"fidelity.integrator {self.integrator!r} needs a conserved energy, i.e. mu = 0 "
                 f"(got mu = {params.mu}); the moving mass does work on the convoy"
             )
-        return RK4Integrator(params, with_pose=with_pose, preserve_energy=preserve_energy)
+
+    def outer_integrator(self, params: ConvoyParams, with_pose: bool) -> AdaptiveIntegrator | None:
+        """The integrator the core calls between kernels, or None where the step kernel
+        integrates (:attr:`fused`).
+
+        Raises:
+            ValueError: As :meth:`check_params`.
+        """
+        self.check_params(params)
+        if self.fused:
+            return None
+        return AdaptiveIntegrator(params, with_pose, self.tolerance)
 
     def auto_settings(
         self, params: ConvoyParams, dt: float, planar: bool, speed_floor: float = 0.0
@@ -228,5 +237,4 @@ __all__ = [
     "AccuracyWarning",
     "AdaptiveIntegrator",
     "Fidelity",
-    "RK4Integrator",
 ]

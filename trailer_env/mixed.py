@@ -51,29 +51,30 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TypeGuard
 
 import numpy as np
 
 from dynamics.jit import cached_njit
 from dynamics.params import MAX_TRAILERS, bounded_integer
 from trailer_env.actuator import first_non_finite_row
-from trailer_env.core import INFO_FIELDS, ConvoyCore
+from trailer_env.core import ConvoyCore
+from trailer_env.core_infos import INFO_FIELDS, Info
+from trailer_env.core_protocol import BatchCore
 from trailer_env.generators import GeneratorBank
-from trailer_env.json_types import JSONObject
 from trailer_env.observation import ObservationView
-from trailer_env.settings import EnvSettings, check_trailer_draw, settings_from_kwargs
+from trailer_env.settings import EnvSettings, settings_from_keywords
 
 #: Most trailer counts one environment may mix (one scene core each).
 MAX_COUNTS = 8
 
 
-def is_trailer_range(value: object) -> bool:
+def is_trailer_range(value: object) -> TypeGuard[tuple[object, ...] | list[object]]:
     """Whether ``n_trailers`` was given as a range (a tuple or list) rather than one count."""
     return isinstance(value, (tuple, list))
 
 
-def trailer_range(value: Any) -> tuple[int, int]:
+def trailer_range(value: object) -> tuple[int, int]:
     """``(low, high)`` from a 2-sequence of integers with 0 <= low < high <= 256 and at
     most :data:`MAX_COUNTS` counts.
 
@@ -155,8 +156,10 @@ class MixedCore:
         core_class: The scene's core.
         settings: Settings of each count (``{n: settings}``, consecutive counts).
         batch_size: B >= 1.
-        draw: "episode" (each episode draws its count) or "row" (row i runs the count
-            ``low + i mod count``); see the module's docstring.
+
+    How each episode gets its count is the settings' ``trailer_draw``: "episode" (each
+    episode draws it) or "row" (row i runs the count ``low + i mod count``); see the
+    module's docstring.
     """
 
     task_keys: tuple[str, ...] = ()
@@ -166,12 +169,11 @@ class MixedCore:
         core_class: type[ConvoyCore],
         settings: dict[int, EnvSettings],
         batch_size: int,
-        draw: str = "episode",
     ) -> None:
-        self.draw = check_trailer_draw(draw)
-        self.counts = sorted(settings)
+        self.counts = tuple(sorted(settings))
         self.low, self.n = self.counts[0], self.counts[-1]
         self.settings = settings[self.n]
+        self.draw = self.settings.trailer_draw
         self.cores = {n: core_class(settings[n], batch_size) for n in self.counts}
         #: The randomisation every count's core draws (the same for all; None: none).
         self.randomization = self.cores[self.n].randomization
@@ -308,15 +310,19 @@ class MixedCore:
             values[rows] = getattr(core, name)[rows]
 
     # -------------------------------------------------------------- infos
-    def info_batch(self) -> JSONObject:
+    def _info_arrays(self) -> dict[str, np.ndarray]:
+        """The :data:`INFO_FIELDS` of every row as arrays (B,) (copies)."""
+        return {
+            key: self._fields["energy"] - self.energy0
+            if name is None
+            else self._fields[name].copy()
+            for key, name in INFO_FIELDS
+        }
+
+    def info_batch(self) -> Info:
         """:meth:`ConvoyCore.info_batch` of every row (``params`` with ``randomize=``, a
         dict of arrays), and ``n_trailers``."""
-        infos: JSONObject = {}
-        for key, name in INFO_FIELDS:
-            if name is None:
-                infos[key] = self._fields["energy"] - self.energy0
-            else:
-                infos[key] = self._fields[name].copy()
+        infos: Info = dict(self._info_arrays())
         if self.randomization is not None:
             infos["params"] = self.params_batch()
         infos["n_trailers"] = self.trailers.copy()
@@ -331,24 +337,30 @@ class MixedCore:
                 batch.setdefault(name, np.empty(self.batch_size))[live] = values[live]
         return batch
 
-    def info_row(self, i: int) -> JSONObject:
+    def info_row(self, i: int) -> Info:
         """The info dict of environment ``i`` (Python scalars; ``params`` a dict of them)."""
         return self.info_rows()[i]
 
-    def info_rows(self) -> list[JSONObject]:
+    def info_rows(self) -> list[Info]:
         """One info dict per environment (Python scalars; ``params`` a dict of them)."""
-        batch = self.info_batch()
-        params = batch.pop("params", None)
-        columns = [values.tolist() for values in batch.values()]
-        rows = [dict(zip(batch, values, strict=True)) for values in zip(*columns, strict=True)]
-        if params is not None:
+        arrays = {**self._info_arrays(), "n_trailers": self.trailers}
+        columns = [values.tolist() for values in arrays.values()]
+        rows: list[Info] = [
+            dict(zip(arrays, values, strict=True)) for values in zip(*columns, strict=True)
+        ]
+        if self.randomization is not None:
+            params = self.params_batch()
             names = list(params)
-            values = zip(*(params[name].tolist() for name in names), strict=True)
-            for row, entry in zip(rows, values, strict=True):
+            entries = zip(*(params[name].tolist() for name in names), strict=True)
+            for row, entry in zip(rows, entries, strict=True):
                 row["params"] = dict(zip(names, entry, strict=True))
         return rows
 
     # ------------------------------------------------------ hand-built states
+    def count_cores(self) -> dict[int, ConvoyCore]:
+        """The scene core of each count."""
+        return self.cores
+
     def row_core(self, i: int) -> ConvoyCore:
         """The core of row ``i``'s running episode (that of its n): its ``z``, ``act`` and
         task values are the row's state."""
@@ -376,12 +388,12 @@ class MixedCore:
         """:meth:`ConvoyCore.check_row_state` of the count ``z``'s length names."""
         return self._core_for_state(z).check_row_state(z, s, s_dot)
 
-    def check_task(self, task: Mapping[str, object]) -> JSONObject:
+    def check_task(self, task: Mapping[str, object]) -> Info:
         """The scene's task values, checked as every count's core checks them."""
         return self.cores[self.n].check_task(task)
 
     def set_row_state(
-        self, i: int, z: object, *, s: float = 0.0, s_dot: float = 0.0, **task: Any
+        self, i: int, z: object, *, s: float = 0.0, s_dot: float = 0.0, **task: object
     ) -> None:
         """Start a new episode of row ``i`` in a hand-built state: the episode's n is the
         one ``z``'s length names (:meth:`_core_for_state`), the rest as
@@ -396,7 +408,7 @@ class MixedCore:
         self.energy0[i] = core.energy0[i]
 
 
-def mixed_settings(kwargs: JSONObject) -> dict[int, EnvSettings]:
+def mixed_settings(kwargs: Mapping[str, object]) -> dict[int, EnvSettings]:
     """Validated settings of every count of ``kwargs["n_trailers"]`` (a range).
 
     Raises:
@@ -407,12 +419,12 @@ def mixed_settings(kwargs: JSONObject) -> dict[int, EnvSettings]:
     rest = {key: value for key, value in kwargs.items() if key != "n_trailers"}
     if "params" in rest:
         raise ValueError("n_trailers as a range cannot be combined with params (one n each)")
-    return {n: settings_from_kwargs(n_trailers=n, **rest) for n in range(low, high + 1)}
+    return {n: settings_from_keywords({"n_trailers": n, **rest}) for n in range(low, high + 1)}
 
 
 def build_core(
-    core_class: type[ConvoyCore], kwargs: JSONObject, batch_size: int, track_pose: bool
-) -> tuple[EnvSettings, Any]:
+    core_class: type[ConvoyCore], kwargs: Mapping[str, object], batch_size: int, track_pose: bool
+) -> tuple[EnvSettings, BatchCore]:
     """The settings and the batch core the keywords ask for: a :class:`MixedCore` when
     ``n_trailers`` is a range, the scene's own core otherwise.
 
@@ -420,16 +432,16 @@ def build_core(
         TypeError, ValueError: On bad keywords, naming them; rendering with a range.
     """
     if not is_trailer_range(kwargs.get("n_trailers")):
-        settings = settings_from_kwargs(**kwargs)
+        settings = settings_from_keywords(kwargs)
         return settings, core_class(settings, batch_size, track_pose=track_pose)
     by_count = mixed_settings(kwargs)
     if track_pose:
         raise ValueError("rendering needs one number of trailers, not a range")
-    core = MixedCore(core_class, by_count, batch_size, kwargs.get("trailer_draw", "episode"))
+    core = MixedCore(core_class, by_count, batch_size)
     return core.settings, core
 
 
-def observation_view(core: ConvoyCore | MixedCore) -> ObservationView:
+def observation_view(core: BatchCore) -> ObservationView:
     """How the environments built on ``core`` (by :func:`build_core`) present its
     observations, as its settings' ``observation`` keyword asks
     (:mod:`trailer_env.observation`)."""
@@ -438,6 +450,6 @@ def observation_view(core: ConvoyCore | MixedCore) -> ObservationView:
         settings.observation,
         settings.max_trailers,
         core.n,
-        isinstance(core, MixedCore),
+        len(core.counts) > 1,
         core.observation_bounds(),
     )

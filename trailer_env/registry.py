@@ -11,9 +11,8 @@ the environment again.
 
 from __future__ import annotations
 
-from typing import Any
-
 import gymnasium as gym
+from gymnasium.vector import AutoresetMode
 
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
@@ -36,8 +35,17 @@ def _bound_vector_env(env_class: type[ConvoyEnv]) -> type[ConvoyVectorEnv]:
     name = env_class.__name__.removesuffix("Env") + "VectorEnv"
 
     class Bound(ConvoyVectorEnv):
-        def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:
-            super().__init__(core_class, num_envs, **kwargs)
+        def __init__(
+            self,
+            num_envs: int = 1,
+            max_episode_steps: int | None = None,
+            render_mode: str | None = None,
+            autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+            **kwargs: object,
+        ) -> None:
+            super().__init__(
+                core_class, num_envs, max_episode_steps, render_mode, autoreset_mode, **kwargs
+            )
 
     Bound.__name__ = Bound.__qualname__ = name
     Bound.__doc__ = f"The vector env of {env_id_of(env_class)} (``{core_class.__name__}``)."

@@ -44,7 +44,7 @@ from dynamics.params import bounded_integer
 from trailer_env.batch_infos import BatchInfos
 from trailer_env.episodes import count_episodes
 from trailer_env.generators import GeneratorBank
-from trailer_env.mixed import MixedCore, build_core, observation_view
+from trailer_env.mixed import build_core, observation_view
 from trailer_env.registry import core_class_of
 from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
 from trailer_env.start_replay import StartReplay
@@ -67,7 +67,7 @@ class ConvoySB3VecEnv(VecEnv):
     """
 
     def __init__(
-        self, env_id: str, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any
+        self, env_id: str, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: object
     ):
         num_envs = bounded_integer("num_envs", num_envs, 1, MAX_NUM_ENVS)
         core_class = core_class_of(env_id)
@@ -260,7 +260,7 @@ class PotentialShapingVecEnv(VecEnvWrapper):
             raise TypeError(
                 f"PotentialShapingVecEnv wraps a ConvoySB3VecEnv, got {type(venv).__name__}"
             )
-        if isinstance(venv.core, MixedCore):
+        if len(venv.core.counts) > 1:
             raise ValueError("PotentialShapingVecEnv needs one count of trailers, not a mix")
         if venv.settings.observation != "flat":
             raise ValueError(

@@ -14,6 +14,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import cast
 
@@ -38,6 +39,14 @@ DT_RANGE = (1e-5, 10.0)
 RATE_RANGE = (1e-6, 1e6)
 #: Speed (m/s) the settings must resolve: every scene starts its convoy at |u| <= 1.5 m/s.
 REFERENCE_SPEED = 2.0
+
+
+#: How an environment made with a range ``n_trailers=(low, high)`` gives each episode its
+#: count (:mod:`trailer_env.mixed`): "episode" (default) draws it from the episode's
+#: generator, uniformly; "row" fixes it by the batch row, ``low + i mod (high - low + 1)``
+#: for row i, so every count gets the same share of a batch's steps however long its
+#: episodes last.
+TRAILER_DRAWS = ("episode", "row")
 
 
 @dataclass(frozen=True)
@@ -91,20 +100,63 @@ class EnvSettings:
             do not depend on n, :mod:`trailer_env.observation`).
         max_trailers: Trailer slots of ``observation="trailers"``, an integer in
             ``n_trailers .. 256`` (default 8); None with "flat" (giving it is a ValueError).
+        trailer_draw: How an environment made with a range of ``n_trailers`` gives each
+            episode its count (:data:`TRAILER_DRAWS`, :mod:`trailer_env.mixed`); with one
+            count there is nothing to draw and it changes nothing.
+
+    Each field's ``metadata["keyword"]`` is its one-line meaning as a ``gym.make``
+    keyword (:data:`MAKE_KEYWORDS`).
     """
 
-    params: ConvoyParams = field(default_factory=ConvoyParams)
-    dt: float = 0.05
-    fidelity: Fidelity = field(default_factory=Fidelity)
-    action_mode: ActionMode = "servo"
-    rail_accel_max: float = 4.0
-    servo_bandwidth: float = 5.0
-    singular_band: float = 0.3
-    fold_angle: float = math.pi / 2
-    randomize: Randomization | None = None
-    observe_params: bool = False
-    observation: str = "flat"
-    max_trailers: int | None = None
+    params: ConvoyParams = field(
+        default_factory=ConvoyParams,
+        metadata={"keyword": "full physical parameters (dynamics.ConvoyParams), default its own"},
+    )
+    dt: float = field(default=0.05, metadata={"keyword": "control period, s (0.05)"})
+    fidelity: Fidelity = field(
+        default_factory=Fidelity,
+        metadata={
+            "keyword": "integrator and substeps (trailer_env.fidelity.Fidelity, a dict, "
+            "an integrator name or a substep count)"
+        },
+    )
+    action_mode: ActionMode = field(
+        default="servo", metadata={"keyword": '"servo" (default), "accel" or "planar"'}
+    )
+    rail_accel_max: float = field(
+        default=4.0, metadata={"keyword": "bound on the mass's acceleration, m/s^2 (4)"}
+    )
+    servo_bandwidth: float = field(
+        default=5.0, metadata={"keyword": "the position servo's natural frequency, rad/s (5)"}
+    )
+    singular_band: float = field(
+        default=0.3, metadata={"keyword": "singular margin below which a step is penalised (0.3)"}
+    )
+    fold_angle: float = field(
+        default=math.pi / 2, metadata={"keyword": "hitch angle of a jackknife, rad (pi/2)"}
+    )
+    randomize: Randomization | None = field(
+        default=None,
+        metadata={
+            "keyword": 'per-episode parameter factors: a dict of ranges or a preset ("mismatch20")'
+        },
+    )
+    observe_params: bool = field(
+        default=False, metadata={"keyword": "append the episode's parameter factors (False)"}
+    )
+    observation: str = field(
+        default="flat", metadata={"keyword": '"flat" (a Box, default) or "trailers" (a Dict)'}
+    )
+    max_trailers: int | None = field(
+        default=None, metadata={"keyword": 'trailer slots of observation="trailers" (8)'}
+    )
+    trailer_draw: str = field(
+        default="episode",
+        metadata={
+            "keyword": 'how a range of n_trailers gives each episode its count: "episode" '
+            '(default) or "row"'
+        },
+    )
 
     def __post_init__(self) -> None:
         if not isinstance(self.params, ConvoyParams):
@@ -116,6 +168,7 @@ class EnvSettings:
         for name in ("rail_accel_max", "servo_bandwidth"):
             object.__setattr__(self, name, bounded_real(name, getattr(self, name), *RATE_RANGE))
         one_of("action_mode", self.action_mode, ACTION_MODES)
+        one_of("trailer_draw", self.trailer_draw, TRAILER_DRAWS)
         if self.rail_accel_max * self.dt**2 > self.params.s_max:
             raise ValueError(
                 f"rail_accel_max * dt**2 = {self.rail_accel_max * self.dt**2:.4g} exceeds s_max = "
@@ -128,7 +181,7 @@ class EnvSettings:
         object.__setattr__(self, "fold_angle", fold)
         self._check_resolution()
         # Fail now rather than at the first step (e.g. "rk4-energy" with mu > 0).
-        self.fidelity.make_integrator(self.params, False)
+        self.fidelity.check_params(self.params)
         object.__setattr__(self, "observe_params", checked_observe_params(self.observe_params))
         object.__setattr__(self, "randomize", Randomization.coerce(self.randomize))
         if self.randomize is not None:
@@ -213,25 +266,6 @@ class EnvSettings:
         return self.actuator.action_dim
 
 
-#: How an environment made with a range ``n_trailers=(low, high)`` gives each episode its
-#: count (:mod:`trailer_env.mixed`): "episode" (default) draws it from the episode's
-#: generator, uniformly; "row" fixes it by the batch row, ``low + i mod (high - low + 1)``
-#: for row i, so every count gets the same share of a batch's steps however long its
-#: episodes last.
-TRAILER_DRAWS = ("episode", "row")
-
-
-def check_trailer_draw(value: object) -> str:
-    """``value`` if it is one of :data:`TRAILER_DRAWS`.
-
-    Raises:
-        TypeError: If it is not a str.
-        ValueError: If it is another str, naming the choices.
-    """
-    one_of("trailer_draw", value, TRAILER_DRAWS)
-    return str(value)
-
-
 def settings_from_kwargs(
     n_trailers: int | None = None,
     params: ConvoyParams | None = None,
@@ -258,9 +292,7 @@ def settings_from_kwargs(
         dt, fidelity, action_mode, rail_accel_max, servo_bandwidth: See :class:`EnvSettings`.
         singular_band, fold_angle, randomize, observe_params: See :class:`EnvSettings`.
         observation, max_trailers: See :class:`EnvSettings`.
-        trailer_draw: How a range of ``n_trailers`` assigns counts
-            (:data:`TRAILER_DRAWS`); checked here, used by
-            :class:`trailer_env.mixed.MixedCore`; with one count there is nothing to draw.
+        trailer_draw: See :class:`EnvSettings`.
         **param_overrides: ConvoyParams fields, e.g. ``mu=0.4``.
 
     Raises:
@@ -275,13 +307,9 @@ def settings_from_kwargs(
         # "unexpected keyword argument 'frameskip'"); every unknown name is listed.
         raise TypeError(
             "; ".join(f"unexpected keyword argument {name!r}" for name in unknown)
-            + "; valid: n_trailers, params, dt, fidelity, action_mode, rail_accel_max, "
-            "servo_bandwidth, singular_band, fold_angle, randomize, observe_params, "
-            "observation, max_trailers, trailer_draw and the "
-            "ConvoyParams fields "
-            f"{sorted(_PARAM_FIELDS - {'n_trailers'})}"
+            + f"; valid: {', '.join(name for name, _ in MAKE_KEYWORDS)} and the "
+            f"ConvoyParams fields {sorted(_PARAM_FIELDS - {'n_trailers'})}"
         )
-    check_trailer_draw(trailer_draw)
     count = (
         None if n_trailers is None else bounded_integer("n_trailers", n_trailers, 0, MAX_TRAILERS)
     )
@@ -310,4 +338,38 @@ def settings_from_kwargs(
         observe_params=observe_params,
         observation=observation,
         max_trailers=max_trailers,
+        trailer_draw=trailer_draw,
     )
+
+
+def settings_from_keywords(keywords: Mapping[str, object]) -> EnvSettings:
+    """:func:`settings_from_kwargs` of keywords as ``gym.make`` passes them on (untyped:
+    each is checked there, a wrong type being a TypeError naming it).
+
+    Raises:
+        TypeError, ValueError: As :func:`settings_from_kwargs`.
+    """
+    return settings_from_kwargs(**keywords)  # type: ignore[arg-type]
+
+
+#: The keywords ``gym.make`` and ``gym.make_vec`` take for every scene, with their one-line
+#: meanings: ``n_trailers``, then the fields of :class:`EnvSettings` (their
+#: ``metadata["keyword"]``); any :class:`dynamics.ConvoyParams` field is a keyword too.
+#: docs/generated/keywords.md is written from it (:func:`keywords_markdown`).
+MAKE_KEYWORDS: tuple[tuple[str, str], ...] = (
+    ("n_trailers", "number of trailers, 0-256 (2), or a range (low, high) drawn per episode"),
+    *((item.name, str(item.metadata["keyword"])) for item in dataclasses.fields(EnvSettings)),
+)
+
+
+def keywords_markdown() -> str:
+    """:data:`MAKE_KEYWORDS` as the Markdown table of docs/generated/keywords.md."""
+    lines = [
+        "<!-- written by `python -m trailer_env --keywords docs/generated/keywords.md` -->",
+        "",
+        "| keyword | meaning (default) |",
+        "|---|---|",
+        *(f"| `{name}` | {meaning} |" for name, meaning in MAKE_KEYWORDS),
+        "| any `dynamics.ConvoyParams` field | that parameter, e.g. `mu=0.4` |",
+    ]
+    return "\n".join(lines) + "\n"

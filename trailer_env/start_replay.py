@@ -29,6 +29,7 @@ import numpy as np
 
 from dynamics.params import bounded_integer, bounded_real
 from trailer_env.core import ConvoyCore, StartRecord
+from trailer_env.core_protocol import BatchCore
 
 #: Starts kept by default: about a hundred rollouts' failures of a 64-env batch.
 DEFAULT_CAPACITY = 4096
@@ -77,7 +78,7 @@ class StartReplay:
         self._current: StartRecord | None = None  # every row's running episode's start
         self._current_replays = np.zeros(0, dtype=np.int64)
         self._known = np.zeros(0, dtype=bool)
-        self._served: weakref.ref[ConvoyCore] | None = None  # the batch drawn for
+        self._served: weakref.ref[BatchCore] | None = None  # the batch drawn for
         self._layout: tuple[object, ...] | None = None  # its scene, size and state widths
         #: Episodes begun from the buffer, and those of them that succeeded.
         self.replayed = 0
@@ -96,7 +97,7 @@ class StartReplay:
         Raises:
             ValueError: Naming the reason.
         """
-        if not isinstance(core, ConvoyCore):
+        if not isinstance(core, BatchCore) or len(core.counts) > 1:
             raise ValueError("start replay needs one count of trailers, not a mix")
         if core.randomization is not None:
             raise ValueError("start replay does not record drawn physics (randomize)")
@@ -105,13 +106,14 @@ class StartReplay:
             raise ValueError(
                 "this StartReplay serves another batch; give each batch its own StartReplay"
             )
-        if self._layout is not None and self._layout != _layout(core):
+        layout = _layout(core.row_core(0))
+        if self._layout is not None and self._layout != layout:
             raise ValueError(
                 f"this StartReplay holds starts of {_describe(self._layout)}, not of "
-                f"{_describe(_layout(core))}; give each batch its own StartReplay"
+                f"{_describe(layout)}; give each batch its own StartReplay"
             )
 
-    def attach(self, core: ConvoyCore) -> None:
+    def attach(self, core: BatchCore) -> None:
         """Serve ``core`` from now on (:meth:`check_core` first; the buffer is kept).
 
         Raises:
@@ -122,7 +124,7 @@ class StartReplay:
             if self._served is not None:
                 self._current = None  # another batch's running episodes are not this one's
             self._served = weakref.ref(core)
-            self._layout = _layout(core)
+            self._layout = _layout(core.row_core(0))
 
     def detach(self) -> None:
         """Serve no batch any more (the buffer is kept): another batch may attach it."""
@@ -153,15 +155,16 @@ class StartReplay:
         if failed.size:
             self._store(_take(self._current, failed), self._current_replays[failed])
 
-    def starts_drawn(self, core: ConvoyCore, rows: np.ndarray) -> None:
+    def starts_drawn(self, batch: BatchCore, rows: np.ndarray) -> None:
         """After the scene drew the starts of ``rows``: begin a share of them from the
         buffer instead, and record every row's start.
 
         Raises:
             ValueError: As :meth:`check_core`, before anything changes.
         """
-        if self._served is None or self._served() is not core:
-            self.attach(core)
+        if self._served is None or self._served() is not batch:
+            self.attach(batch)
+        core = batch.row_core(0)  # one count (check_core): the batch's own core
         if self._current is None:
             self._current = core.start_records(np.arange(core.batch_size))
             self._known = np.zeros(core.batch_size, dtype=bool)

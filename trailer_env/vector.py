@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Mapping, Sequence
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -55,6 +54,7 @@ from gymnasium.vector.utils import batch_space
 from dynamics.columns import theta_column, x_column
 from dynamics.params import bounded_integer, one_of
 from trailer_env.core import ConvoyCore
+from trailer_env.core_infos import Info
 from trailer_env.env import (
     PATH_LENGTH,
     as_action_array,
@@ -65,10 +65,9 @@ from trailer_env.env import (
 )
 from trailer_env.episodes import count_step
 from trailer_env.generators import GeneratorBank
-from trailer_env.json_types import JSONObject
-from trailer_env.mixed import MixedCore, build_core, observation_view
+from trailer_env.mixed import build_core, observation_view
 from trailer_env.observation import Observation
-from trailer_env.rendering import PathTrace, core_frame, make_renderer
+from trailer_env.rendering import ConvoyRenderer, PathTrace, core_frame, make_renderer
 
 VECTOR_RENDER_MODES = ("rgb_array",)
 
@@ -232,7 +231,7 @@ class ConvoyVectorEnv(VectorEnv):
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
-        **kwargs: Any,
+        **kwargs: object,
     ) -> None:
         # "human" is refused: a window per environment is not offered.
         one_of("render_mode", render_mode, VECTOR_RENDER_MODES, none=True)
@@ -257,7 +256,7 @@ class ConvoyVectorEnv(VectorEnv):
             "render_fps": max(1, round(1.0 / self.settings.dt)),
         }
         self._paths = PathTrace(self.num_envs, PATH_LENGTH) if render_mode else None
-        self._renderer: Any = None
+        self._renderer: ConvoyRenderer | None = None
         self._warned_render = False
         self._view = observation_view(self.core)
         self.single_observation_space = self._view.space
@@ -281,7 +280,7 @@ class ConvoyVectorEnv(VectorEnv):
         *,
         seed: int | Sequence[int | None] | None = None,
         options: Mapping[str, object] | None = None,
-    ) -> tuple[Observation, JSONObject]:
+    ) -> tuple[Observation, dict[str, object]]:
         """Reset every environment, or those of ``options["reset_mask"]``.
 
         ``seed`` seeds environment i with ``seed + i`` (see the module docstring); with a
@@ -327,7 +326,7 @@ class ConvoyVectorEnv(VectorEnv):
             rows = np.flatnonzero(mask)
         states = None
         if "state" in options:
-            if isinstance(self.core, MixedCore):
+            if len(self.core.counts) > 1:
                 # One width for every row would name one count (the pose makes widths of
                 # two counts meet); the single env's set_state takes a state per episode.
                 raise ValueError("the state reset option needs one number of trailers, not a range")
@@ -358,7 +357,7 @@ class ConvoyVectorEnv(VectorEnv):
 
     def step(
         self, actions: object
-    ) -> tuple[Observation, np.ndarray, np.ndarray, np.ndarray, JSONObject]:
+    ) -> tuple[Observation, np.ndarray, np.ndarray, np.ndarray, dict[str, object]]:
         """Step every environment (autoreset as ``autoreset_mode`` says).
 
         Raises:
@@ -408,7 +407,7 @@ class ConvoyVectorEnv(VectorEnv):
         )
         if self._paths is not None:
             self._record_paths(self._all_rows)
-        final: JSONObject | None = None
+        final: dict[str, object] | None = None
         if ended is not None:
             self._start(ended)
             reward[ended] = 0.0
@@ -434,8 +433,8 @@ class ConvoyVectorEnv(VectorEnv):
 
     def _record_paths(self, rows: np.ndarray) -> None:
         assert self._paths is not None
-        n = self.core.n
-        self._paths.record(self.core.z[rows, x_column(n) : theta_column(n)], rows)
+        core = self.core.row_core(0)  # rendering needs one count: its core holds every row
+        self._paths.record(core.z[rows, x_column(core.n) : theta_column(core.n)], rows)
 
     def render(self) -> tuple[np.ndarray, ...] | None:  # type: ignore[override]
         """One ``(height, width, 3)`` uint8 frame per environment ("rgb_array") for the first
@@ -446,7 +445,9 @@ class ConvoyVectorEnv(VectorEnv):
         if self._generators is None:
             raise RuntimeError("call reset() before render()")
         if self._renderer is None:
-            self._renderer = make_renderer(self.core, self.render_mode, self.metadata["render_fps"])
+            self._renderer = make_renderer(
+                self.core.row_core(0), self.render_mode, self.metadata["render_fps"]
+            )
         count = min(self.num_envs, MAX_RENDER_ENVS)
         if count < self.num_envs and not self._warned_render:
             self._warned_render = True
@@ -456,25 +457,28 @@ class ConvoyVectorEnv(VectorEnv):
             )
         frames = []
         for i in range(count):
-            frames.append(self._renderer.draw(core_frame(self.core, i, self._paths.path(i))))
+            frame = self._renderer.draw(core_frame(self.core.row_core(i), i, self._paths.path(i)))
+            assert frame is not None  # "rgb_array", the one vector render mode
+            frames.append(frame)
         return tuple(frames)
 
-    def __getstate__(self) -> JSONObject:
+    def __getstate__(self) -> dict[str, object]:
         """Pickle (and deep-copy) everything but the renderer (it holds pygame objects); it
         is recreated by the next :meth:`render`."""
         state = self.__dict__.copy()
         state["_renderer"] = None
         return state
 
-    def close_extras(self, **kwargs: Any) -> None:
+    def close_extras(self, **kwargs: object) -> None:
         """Release the renderer, if any."""
-        if getattr(self, "_renderer", None) is not None:
-            self._renderer.close()
+        renderer = getattr(self, "_renderer", None)
+        if renderer is not None:
+            renderer.close()
             self._renderer = None
 
-    def _infos(self, mask: np.ndarray | None = None) -> JSONObject:
+    def _infos(self, mask: np.ndarray | None = None) -> Info:
         """The step's infos as arrays (copies), each key ``k`` with its mask ``_k``."""
-        infos: JSONObject = self.core.info_batch()
+        infos = self.core.info_batch()
         if mask is None:
             if self._info_masks is None:
                 self._info_masks = {f"_{key}": self._mask for key in infos}

@@ -19,14 +19,13 @@ Gymnasium's ``check_env`` accepts :class:`GoalConditioned`.
 
 from __future__ import annotations
 
-from typing import Any, SupportsFloat
+from typing import SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 
 from dynamics.columns import theta_column
 from trailer_env.env import ConvoyEnv
-from trailer_env.json_types import JSONObject
 from trailer_env.scenes.dock import SUCCESS_HEADING, SUCCESS_RADIUS, DockCore
 from trailer_env.scenes.heading import HEADING_TOLERANCE, HeadingCore
 from trailer_env.shaping import check_gamma, make_potential, shaped_return_step
@@ -57,7 +56,7 @@ def _convoy_env(wrapper: str, env: object) -> ConvoyEnv:
     return base
 
 
-class SafetyStep(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArgs):
+class SafetyStep(gym.Wrapper[object, object, object, object], gym.utils.RecordConstructorArgs):
     """safety-gymnasium's step signature: ``step`` returns the cost as its third value.
 
     ``reset`` is unchanged. The cost is ``info["cost"]`` (also left in ``info``).
@@ -67,19 +66,21 @@ class SafetyStep(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArg
             module docstring).
     """
 
-    def __init__(self, env: gym.Env[Any, Any]) -> None:
+    def __init__(self, env: gym.Env[object, object]) -> None:
         _convoy_env("SafetyStep", env)
         gym.utils.RecordConstructorArgs.__init__(self)
         gym.Wrapper.__init__(self, env)
 
     def step(  # type: ignore[override]
         self, action: object
-    ) -> tuple[Any, SupportsFloat, float, bool, bool, JSONObject]:
+    ) -> tuple[object, SupportsFloat, float, bool, bool, dict[str, object]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         return obs, reward, float(info["cost"]), terminated, truncated, info
 
 
-class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstructorArgs):
+class PotentialShaping(
+    gym.Wrapper[np.ndarray, np.ndarray, np.ndarray, np.ndarray], gym.utils.RecordConstructorArgs
+):
     """The scene's reward plus potential-based shaping, ``gamma Phi(s') - Phi(s)``
     (:func:`trailer_env.shaping.shaped_return_step`; ``Phi = 0`` on a terminal state).
 
@@ -102,7 +103,7 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
 
     def __init__(
         self,
-        env: gym.Env[Any, Any],
+        env: gym.Env[np.ndarray, np.ndarray],
         potential: str = "lqr",
         gamma: float = 0.99,
         **potential_kwargs: float,
@@ -115,20 +116,28 @@ class PotentialShaping(gym.Wrapper[Any, Any, Any, Any], gym.utils.RecordConstruc
             )
         gamma = check_gamma(gamma)
         self.potential = make_potential(potential, base.settings, **potential_kwargs)
-        recorded: JSONObject = {"potential": potential, "gamma": gamma, **potential_kwargs}
-        gym.utils.RecordConstructorArgs.__init__(self, **recorded)
+        # RecordConstructorArgs's keyword-only flag (a bool) makes mypy check every **
+        # value against it; these are the constructor's own arguments.
+        gym.utils.RecordConstructorArgs.__init__(
+            self,
+            potential=potential,
+            gamma=gamma,
+            **potential_kwargs,  # type: ignore[arg-type]
+        )
         gym.Wrapper.__init__(self, env)
         self.gamma = gamma
         self._previous = 0.0
 
     def reset(
-        self, *, seed: int | None = None, options: JSONObject | None = None
-    ) -> tuple[Any, JSONObject]:
+        self, *, seed: int | None = None, options: dict[str, object] | None = None
+    ) -> tuple[np.ndarray, dict[str, object]]:
         obs, info = self.env.reset(seed=seed, options=options)
         self._previous = float(self.potential(obs)[0])
         return obs, info
 
-    def step(self, action: object) -> tuple[Any, SupportsFloat, bool, bool, JSONObject]:
+    def step(
+        self, action: np.ndarray
+    ) -> tuple[np.ndarray, SupportsFloat, bool, bool, dict[str, object]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         after = self.potential(obs)
         shaped = shaped_return_step(
@@ -172,7 +181,8 @@ def goal_observation(core: DockCore | HeadingCore, obs: np.ndarray) -> dict[str,
 
 
 class GoalConditioned(
-    gym.Wrapper[dict[str, np.ndarray], Any, Any, Any], gym.utils.RecordConstructorArgs
+    gym.Wrapper[dict[str, np.ndarray], np.ndarray, np.ndarray, np.ndarray],
+    gym.utils.RecordConstructorArgs,
 ):
     """Dock-v0 or Heading-v0 as a goal-conditioned env with a sparse reward.
 
@@ -196,7 +206,7 @@ class GoalConditioned(
             of trailer counts), or with observation="trailers".
     """
 
-    def __init__(self, env: gym.Env[Any, Any]) -> None:
+    def __init__(self, env: gym.Env[np.ndarray, np.ndarray]) -> None:
         core = _convoy_env("GoalConditioned", env).core
         if not isinstance(core, (DockCore, HeadingCore)):
             raise ValueError(
@@ -281,12 +291,14 @@ class GoalConditioned(
         return array.astype(np.float64, copy=False)
 
     def reset(
-        self, *, seed: int | None = None, options: JSONObject | None = None
-    ) -> tuple[dict[str, np.ndarray], JSONObject]:
+        self, *, seed: int | None = None, options: dict[str, object] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, object]]:
         obs, info = self.env.reset(seed=seed, options=options)
         return self._observation(obs), info
 
-    def step(self, action: object) -> tuple[dict[str, np.ndarray], float, bool, bool, JSONObject]:
+    def step(
+        self, action: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], float, bool, bool, dict[str, object]]:
         obs, reward, terminated, truncated, info = self.env.step(action)
         goal_obs = self._observation(obs)
         info = {**info, "scene_reward": float(reward)}

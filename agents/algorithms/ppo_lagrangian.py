@@ -1,6 +1,6 @@
-"""PPO-Lagrangian: PPO under an episode cost limit on ``info["cost"]`` (safety-gym's convention).
+"""PPO-Lagrangian: PPO under an episode cost limit on ``info['cost']`` (safety-gym's convention).
 
-The constrained problem is: maximise the return subject to ``E[sum of info["cost"] over
+The constrained problem is: maximise the return subject to ``E[sum of info['cost'] over
 an episode] <= cost_limit``. Its Lagrangian relaxation turns it into a min-max over the
 policy and a multiplier ``lambda >= 0`` (Ray, Achiam and Amodei 2019, "Benchmarking Safe
 Exploration in Deep Reinforcement Learning"):
@@ -26,7 +26,7 @@ model and a resumed run continues with the saved ``lambda``.
 
 The penalty applies to the reward the agent sees: after ``VecNormalize``'s reward
 scaling when a hyperparameter file turns it on (the project's files leave it off), so
-``cost_limit`` stays in the units of the summed ``info["cost"]``: on the trailer_env
+``cost_limit`` stays in the units of the summed ``info['cost']``: on the trailer_env
 scenes, steps in the singular band per episode.
 
 Why on stable-baselines3 and not a safe-RL library: OmniSafe 0.5.0 (the latest, 2023)
@@ -149,7 +149,7 @@ class PPOLagrangian(PPO):
 
     Args:
         policy, env: As for :class:`stable_baselines3.PPO`.
-        cost_limit: The constraint's bound on the expected summed ``info["cost"]`` of an
+        cost_limit: The constraint's bound on the expected summed ``info['cost']`` of an
             episode (>= 0; trailer_env: steps in the singular band per episode).
         lambda_lr: The multiplier's learning rate (> 0).
         lambda_init: The multiplier's starting value (>= 0).

@@ -2,13 +2,19 @@
 
 * :mod:`~agents.artifacts.paths`: the names of a model's card, statistics, curve and
   checkpoints;
-* :mod:`~agents.artifacts.cards`: model cards and the JSON writer;
-* :mod:`~agents.artifacts.stats`: observation statistics as JSON (legacy pickles only
-  when trusted);
+* :mod:`~agents.artifacts.records`: the base of the typed JSON documents below
+  (frozen dataclasses read field by field, refused naming the field);
+* :mod:`~agents.artifacts.cards`: model cards and run records (``ModelCard``);
+* :mod:`~agents.artifacts.results`: the results document and the metrics summary
+  (``ResultsDocument``, ``Summary``);
+* :mod:`~agents.artifacts.stats`: observation statistics as JSON (``NormalizationStats``;
+  legacy pickles only when trusted);
 * :mod:`~agents.artifacts.sb3_zip`: stable-baselines3 zips loaded without unpickling;
 * :mod:`~agents.artifacts.rllib_files`: an RLlib run's pickle-free policy export;
 * :mod:`~agents.artifacts.curves`: learning curves (``evaluations.csv``);
-* :mod:`~agents.artifacts.certificates`: certificates of a scene's ceiling;
+* :mod:`~agents.artifacts.certificates`: certificates of a scene's ceiling (the typed
+  :class:`~agents.artifacts.certificates.Certificate` record);
+* :mod:`~agents.artifacts.action_records`: a certificate's action records in one archive;
 * :mod:`~agents.artifacts.run_folder`: a training's run folder;
 * :mod:`~agents.artifacts.shipped`: the models shipped in the package;
 * :mod:`~agents.artifacts.files`: atomic, link-refusing writes, bounded JSON reads and

@@ -14,12 +14,13 @@ import csv
 import io
 import math
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 
 from agents.artifacts import files
-from trailer_env.json_types import JSONObject
 
+#: The column every curve has: the environment steps (or labels) of each row.
+STEPS_COLUMN = "timesteps"
 #: Columns of evaluations.csv.
 CURVE_COLUMNS = (
     "timesteps",
@@ -107,7 +108,7 @@ def _parsed(
             if len(fields) != len(header):
                 raise ValueError(f"{len(fields)} fields, not {len(header)}")
             row = {key: float(value) for key, value in zip(header, fields, strict=True)}
-            if not math.isfinite(row["timesteps"]):
+            if not math.isfinite(row[STEPS_COLUMN]):
                 raise ValueError("timesteps is not finite")
         except (ValueError, csv.Error) as error:
             if cut:
@@ -118,7 +119,7 @@ def _parsed(
     return head, rows
 
 
-def _csv_text(rows: Sequence[JSONObject], fieldnames: Sequence[str], header: bool) -> str:
+def _csv_text(rows: Sequence[Mapping[str, object]], fieldnames: Sequence[str], header: bool) -> str:
     buffer = io.StringIO()
     writer = csv.DictWriter(
         buffer, fieldnames=list(fieldnames), lineterminator="\n", extrasaction="ignore"
@@ -131,7 +132,7 @@ def _csv_text(rows: Sequence[JSONObject], fieldnames: Sequence[str], header: boo
 
 def write_curve(
     path: Path,
-    rows: Sequence[JSONObject],
+    rows: Sequence[Mapping[str, object]],
     fieldnames: Sequence[str] = (*CURVE_COLUMNS, "iteration", "loss"),
 ) -> None:
     """Write a whole curve atomically (a CSV with ``fieldnames`` as its header)."""
@@ -139,7 +140,7 @@ def write_curve(
 
 
 def append_rows(
-    path: Path, rows: Sequence[JSONObject], fieldnames: Sequence[str] = CURVE_COLUMNS
+    path: Path, rows: Sequence[Mapping[str, object]], fieldnames: Sequence[str] = CURVE_COLUMNS
 ) -> None:
     """Append rows to a curve (with the header when the file starts).
 

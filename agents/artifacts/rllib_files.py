@@ -5,8 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from agents.artifacts import files, limits
-from agents.artifacts.cards import check_card
-from trailer_env.json_types import JSONObject
+from agents.artifacts.cards import ModelCard
 
 #: Files of the pickle-free policy export inside a checkpoint folder.
 POLICY_WEIGHTS = "policy_weights.pt"
@@ -22,8 +21,8 @@ def is_rllib_checkpoint(path: Path) -> bool:
     )
 
 
-def read_rllib_card(path: Path) -> JSONObject:
-    """The policy card of an RLlib checkpoint folder (empty when it has none).
+def read_rllib_card(path: Path) -> ModelCard:
+    """The policy card of an RLlib checkpoint folder (the empty card when it has none).
 
     Raises:
         ValueError: If it is too large, not a card, or asks for a network past the bound
@@ -31,9 +30,11 @@ def read_rllib_card(path: Path) -> JSONObject:
     """
     card_file = path / POLICY_CARD
     if not card_file.is_file():
-        return {}
-    card = check_card(files.read_json(card_file, "policy card", allow_nan=True), str(card_file))
-    hiddens = card.get("hyperparams", {}).get("fcnet_hiddens")
+        return ModelCard()
+    card = ModelCard.from_json(
+        files.read_json(card_file, "policy card", allow_nan=True), str(card_file)
+    )
+    hiddens = card.rllib_hiddens
     if hiddens is not None:
         problem = limits.network_problem(hiddens)
         if problem is not None:

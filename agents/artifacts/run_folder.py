@@ -11,7 +11,7 @@ link is refused (:func:`symlink_problem`), fresh, resumed or overwritten. While 
 writes its folder it holds ``<run>/.lock`` (:class:`agents.artifacts.files.RunLock`).
 
 A run that is resumed is checked whole before anything is written: its record
-(:func:`read_record`) must match the resumed run's in every setting that shapes it
+(:func:`read_run_record`) must match the resumed run's in every setting that shapes it
 (:func:`record_differences`), and every file the resume reads back must be readable
 (:func:`resume_problem`); a refusal names the file, or the setting with its old and new
 value, and leaves the folder as it was.
@@ -20,18 +20,16 @@ value, and leaves the folder as it was.
 from __future__ import annotations
 
 import contextlib
-import json
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
 from agents.artifacts import files
-from agents.artifacts.cards import check_card, read_card
+from agents.artifacts.cards import RECORD_KEYS, ModelCard, read_model_card
 from agents.artifacts.curves import CURVE_COLUMNS, read_curve
 from agents.artifacts.files import write_json
 from agents.artifacts.paths import card_path, curve_path, export_files, stats_path
 from agents.envs import scene_of
-from trailer_env.json_types import JSONObject
 
 #: The run's record (:meth:`agents.training.config.TrainConfig.document`).
 CONFIG_FILE = "config.json"
@@ -170,23 +168,24 @@ def clear_run(folder: Path, everything: bool = True) -> None:
             path.unlink()
 
 
-def write_config(run_dir: Path, record: dict[str, object]) -> Path:
-    """Write the run's ``config.json``."""
-    return write_json(run_dir / CONFIG_FILE, record)
+def write_config(run_dir: Path, record: ModelCard) -> Path:
+    """Write the run's ``config.json`` that :func:`read_run_record` reads.
+
+    Raises:
+        TypeError: If ``record`` is not a :class:`~agents.artifacts.cards.ModelCard`.
+    """
+    if not isinstance(record, ModelCard):
+        raise TypeError(f"write_config takes a ModelCard, got {type(record).__name__}")
+    return write_json(run_dir / CONFIG_FILE, record.to_json())
 
 
-#: Keys every run's record has.
-RECORD_KEYS = ("algo", "env_id", "env_kwargs", "seed")
-
-
-def read_record(run_dir: Path) -> JSONObject:
+def read_run_record(run_dir: Path) -> ModelCard:
     """The run's record (its ``config.json``), read bounded and checked: a JSON object with
-    :data:`RECORD_KEYS`, the keys a model card has of their types
-    (:func:`agents.artifacts.cards.check_card`).
+    :data:`RECORD_KEYS`, read by :class:`~agents.artifacts.cards.ModelCard`.
 
     Raises:
         ValueError: Naming the file and what is wrong: missing, unreadable, not JSON, not
-            a JSON object, a key missing or of another type.
+            a JSON object, a key missing, unknown or of another type.
     """
     path = run_dir / CONFIG_FILE
     if not path.is_file():
@@ -198,7 +197,7 @@ def read_record(run_dir: Path) -> JSONObject:
     if missing:
         raise ValueError(f"run record {path} lacks {', '.join(map(repr, missing))}")
     try:
-        return check_card(record, str(path))
+        return ModelCard.from_json(record, str(path))
     except ValueError as error:
         raise ValueError(str(error).replace("model card", "run record", 1)) from None
 
@@ -216,21 +215,22 @@ def comparable_hyperparams(value: object) -> object:
 
 
 def record_differences(
-    saved: JSONObject, wanted: JSONObject, free: tuple[str, ...] = ()
+    saved: ModelCard, wanted: ModelCard, free: tuple[str, ...] = ()
 ) -> list[tuple[str, object, object]]:
     """The settings whose values differ between a run's ``saved`` record and the record
-    of its continuation ``wanted`` (as JSON: tuples are lists), as ``(key, old, new)``;
-    a nested setting as ``a.b``; a key absent on one side has the value None. Keys in
+    of its continuation ``wanted`` (as JSON), as ``(key, old, new)``; a nested setting as
+    ``a.b``; a setting at its default (absent from the JSON) has the value None. Keys in
     ``free`` (either ``a`` or ``a.b``) may differ.
     """
-    wanted = json.loads(json.dumps(wanted, default=str))
-    saved = {**saved, "hyperparams": comparable_hyperparams(saved.get("hyperparams"))}
-    wanted["hyperparams"] = comparable_hyperparams(wanted.get("hyperparams"))
+    hyperparams = "hyperparams"  # compared as the hyperparameter files give them
+    kept, asked = saved.to_json(), wanted.to_json()
+    for document in (kept, asked):
+        document[hyperparams] = comparable_hyperparams(document.get(hyperparams))
     differing: list[tuple[str, object, object]] = []
-    for key in sorted(set(saved) | set(wanted)):
+    for key in sorted(set(kept) | set(asked)):
         if key in free:
             continue
-        old, new = saved.get(key), wanted.get(key)
+        old, new = kept.get(key), asked.get(key)
         if isinstance(old, dict) and isinstance(new, dict):
             differing += [
                 (f"{key}.{sub}", old.get(sub), new.get(sub))
@@ -249,7 +249,7 @@ def resume_problem(run_dir: Path) -> str | None:
     when that model was selected) is unreadable."""
     try:
         read_curve(run_dir / CURVE_FILE, CURVE_COLUMNS, header=CURVE_COLUMNS)
-        read_card(run_dir / BEST_MODEL)
+        read_model_card(run_dir / BEST_MODEL)
     except ValueError as error:
         return str(error)
     return None

@@ -30,7 +30,6 @@ from gymnasium.spaces import Dict, flatdim
 from agents.algorithms import ALGOS, algo_class, algorithm
 from agents.artifacts import files, limits
 from agents.artifacts.files import UnsafeFileError
-from trailer_env.json_types import JSONObject
 
 #: Entries of an SB3 ``data`` that hold runtime state, rebuilt by SB3 when they are None.
 _RUNTIME_STATE = (
@@ -80,7 +79,7 @@ def check_zip(path: Path) -> None:
         )
 
 
-def read_sb3_data(path: Path) -> JSONObject:
+def read_sb3_data(path: Path) -> dict[str, object]:
     """The JSON ``data`` entry of an SB3 zip, as text values (nothing unpickled).
 
     Raises:
@@ -164,7 +163,7 @@ def _class_text(cls: type) -> str:
 
 def safe_policy_kwargs(
     path: Path, entry: Mapping[str, object], extractors: Mapping[str, type] | None = None
-) -> JSONObject:
+) -> dict[str, object]:
     """A pickled ``policy_kwargs`` entry rebuilt from its JSON text (nothing unpickled).
 
     SB3 writes beside the pickle each item as JSON, or as its ``str`` when it is not
@@ -187,7 +186,7 @@ def safe_policy_kwargs(
     activations = {
         _class_text(getattr(torch.nn, name)): getattr(torch.nn, name) for name in _ACTIVATIONS
     }
-    kwargs: JSONObject = {}
+    kwargs: dict[str, object] = {}
     for key, value in entry.items():
         if key in (":type:", ":serialized:"):
             continue
@@ -212,7 +211,7 @@ def safe_custom_objects(
     action_space: Any,
     algo_kwargs: Mapping[str, object] | None = None,
     extractors: Mapping[str, type] | None = None,
-) -> JSONObject:
+) -> dict[str, object]:
     """Replacements for every ``:serialized:`` entry of an SB3 zip (SB3's ``custom_objects``).
 
     Args:
@@ -254,7 +253,7 @@ def safe_custom_objects(
     # A Dict observation (observation="trailers") needs the algorithm's MultiInputPolicy,
     # recorded under the same module.
     policy = "MultiInputPolicy" if isinstance(observation_space, Dict) else "MlpPolicy"
-    replacements: JSONObject = {
+    replacements: dict[str, object] = {
         "policy_class": algo_class(algo).policy_aliases[policy],
         "observation_space": observation_space,
         "action_space": action_space,

@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from agents.artifacts.cards import read_card
+from agents.artifacts.cards import read_model_card
 
 #: Where shipped models live (inside the installed package, not the working directory).
 MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
@@ -34,11 +34,8 @@ def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR)
     """Models under ``directory`` whose card names ``env_id`` and ``n_trailers``."""
     found = []
     for path in sorted(directory.glob("*.zip")):
-        card = read_card(path)
-        if (
-            card.get("env_id") == env_id
-            and card.get("env_kwargs", {}).get("n_trailers") == n_trailers
-        ):
+        card = read_model_card(path)
+        if card.env_id == env_id and card.n_trailers == n_trailers:
             found.append(path)
     return found
 
@@ -50,15 +47,13 @@ def models_covering(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) 
     trained under randomised physics is left out: it is not that scenario's policy."""
     found = committed_models(env_id, n_trailers, directory)
     for path in sorted(directory.glob("*.zip")):
-        card = read_card(path)
-        env_kwargs = card.get("env_kwargs", {})
-        counts = env_kwargs.get("n_trailers")
+        card = read_model_card(path)
+        counts = card.n_trailers
         if (
-            card.get("env_id") == env_id
-            and isinstance(counts, list)
-            and len(counts) == 2
+            card.env_id == env_id
+            and isinstance(counts, tuple)
             and counts[0] <= n_trailers <= counts[1]
-            and env_kwargs.get("randomize") is None
+            and card.env_kwargs.randomize is None
         ):
             found.append(path)
     return found

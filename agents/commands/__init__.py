@@ -1,5 +1,10 @@
 """The command-line programs (argument parsing only; the work is in the layers below).
 
-``python -m agents.train``, ``agents.evaluate``, ``agents.certify``, ``agents.imitate``,
-``agents.report``, ``agents.main`` and ``agents.model_files`` run these modules' ``main``.
+``python -m agents.<name>`` runs ``agents.commands.<name>``'s ``main`` (``agents/<name>.py``
+imports it): the main job, ``train``, ``evaluate``, ``certify``, ``imitate``, ``report``,
+``tune``, ``curves``, ``reproduce`` and the analyses ``across_n``, ``gains``,
+``estimation``, ``by_stroke``, ``rl_from_reward`` and ``time_to_ceiling`` (their
+computations in :mod:`agents.evaluation`); ``agents.model_files`` runs
+:mod:`agents.commands.convert_stats`. Their shared options, number and range parsers are
+:mod:`agents.commands.options`.
 """

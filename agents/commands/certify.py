@@ -1,4 +1,4 @@
-"""``python -m agents.certify``: certify a scene's ceiling (:mod:`agents.oracles.certify`).
+"""``python -m agents.certify``: certify a scene's ceiling (:mod:`agents.certification.certify`).
 
 Limits (checked before any start is screened; :mod:`agents.artifacts.limits`):
 
@@ -10,22 +10,22 @@ argument              bound
 ``--samples``         2 .. 1,024 candidates per start
 ``--iterations``      1 .. 100
 ``--restarts``        0 .. 100
-``--planner``         mpc (Reverse, the default there) or ilqr (Dock, Coast, the
-                      default there); the other planner is refused for a scene
+``--planner``         the planner of the scene's objective: mpc (survival:
+                      Reverse) or ilqr (goal: Dock, Coast); the other is refused
 ``--closed-loop``     dopri5 (goal scenes only)
 ``--randomize``       a preset (mismatch10, mismatch20) or a JSON object of
-                      factor ranges; the sampling planner's scenes only
+                      factor ranges; survival scenes only
 ====================  ===================================================
 
 ``--randomize PRESET_OR_JSON`` certifies randomised physics (:mod:`trailer_env.randomize`):
 each start's parameters are drawn from its seed as ``gym.make(..., randomize=...)``
 draws them, and the screen, the planner, the witnesses and the replays use them. The
-default witnesses then include ``lqr-adaptive``. Refused for Dock and Coast (iLQR).
+default witnesses then include ``lqr-adaptive``. Refused for the goal scenes (iLQR).
 
 ``--witnesses SPEC ...`` (default: the scene's baselines and every committed model of
 that env and n) are then tried on the starts the planner leaves open, and a record of
 theirs that replays to success makes the start feasible with that ``source``
-(:mod:`agents.evaluation.witnesses`); ``--no-witnesses`` keeps the planner's records
+(:mod:`agents.certification.witnesses`); ``--no-witnesses`` keeps the planner's records
 only. ``--from-certificate PATH`` skips the planner and adds witnesses to an existing
 certificate (its records beside it). ``--witness-samples K`` then plays every model
 witness K more times on each start still open, its actions sampled from its
@@ -43,51 +43,62 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import dataclass
+from collections.abc import Mapping
 from pathlib import Path
 
 from agents.artifacts import files, limits
+from agents.artifacts.action_records import read_actions
 from agents.artifacts.certificates import (
+    CertificateEnv,
+    Certified,
     markdown,
-    read_actions,
     read_certificate,
     records_beside,
     write_certificate,
     write_problem,
 )
-from agents.commands import options as cli
-from agents.envs import ENV_IDS, check_env_id, env_settings, scene_of
-from agents.evaluation.witnesses import (
+from agents.certification.certify import (
+    PLANNERS,
+    certify,
+    certifying_planner,
+    planner_problem,
+    randomize_kwarg,
+)
+from agents.certification.replays import check_records
+from agents.certification.search import CLOSED_LOOP_INTEGRATORS
+from agents.certification.warm_start import repeated_labels, warm_start
+from agents.certification.witnesses import (
     MAX_WITNESS_SAMPLES,
     add_witnesses,
-    check_records,
     committed_witnesses,
     default_witnesses,
-    repeated_labels,
-    warm_start,
 )
-from agents.oracles.certify import DEFAULT_RESTARTS, certify, randomize_kwarg
-from agents.oracles.certify_goals import (
-    CLOSED_LOOP_INTEGRATORS,
-    DEFAULT_GOAL_RESTARTS,
-    GOAL_SCENES,
-    certify_goals,
-    is_goal_scene,
+from agents.commands import options as cli
+from agents.envs import (
+    ENV_IDS,
+    HEADLINE_ENV_ID,
+    HEADLINE_N_TRAILERS,
+    MakeKwargs,
+    check_env_id,
+    env_settings,
+    scene_of,
 )
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
 from agents.policies.registry import load_policy
-from trailer_env.json_types import JSONObject
 from trailer_env.randomize import PRESETS
 
 #: The defaults of --env, --n-trailers and --seeds.
-DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = "trailer_env/Reverse-v1", 2, "1000-1099"
+DEFAULT_ENV, DEFAULT_N, DEFAULT_SEEDS = HEADLINE_ENV_ID, HEADLINE_N_TRAILERS, "1000-1099"
 #: The folder the default ``--out`` lies in.
 DEFAULT_OUT_ROOT = Path("out") / "certify"
 
+#: ``--randomize``'s value: a preset's name or factor ranges.
+RandomizeValue = str | Mapping[str, object]
+
 
 def default_out(
-    env_id: str, n_trailers: int, randomize: str | JSONObject | None, witnessed: bool
+    env_id: str, n_trailers: int, randomize: RandomizeValue | None, witnessed: bool
 ) -> Path:
     """``--out``'s default: ``out/certify/<scene>[_<preset>]_n<n>`` (the committed
     certificates' names, :func:`agents.artifacts.certificates.certificate_path`; custom
@@ -102,92 +113,21 @@ def default_out(
     return DEFAULT_OUT_ROOT / name
 
 
-@dataclass(frozen=True)
-class Certifier:
-    """A planner ``--planner`` names (a record of :data:`PLANNERS`).
-
-    Attributes:
-        goal: It certifies the goal scenes, by reaching their success
-            (:mod:`agents.oracles.certify_goals`), rather than the survival scenes, by
-            surviving the episode (:mod:`agents.oracles.certify`); a scene's kind is its
-            record's (:data:`agents.oracles.scenes.SCENE_ORACLES`).
-        refusal: Why it does not certify a scene of the other kind (``{env_id}`` is
-            filled in).
-    """
-
-    goal: bool
-    refusal: str
-
-
-#: The planners ``--planner`` names: the sampling planner (survival) and iLQR (goals).
-PLANNERS: dict[str, Certifier] = {
-    "mpc": Certifier(
-        goal=False,
-        refusal="the sampling planner (mpc) keeps a convoy safe but does not steer it to "
-        "{env_id}'s goal; certify it with --planner ilqr",
-    ),
-    "ilqr": Certifier(
-        goal=True,
-        refusal="{env_id} is certified by surviving the full episode with the sampling "
-        "planner; use --planner mpc (ilqr certifies the goal scenes "
-        + " and ".join(GOAL_SCENES)
-        + ")",
-    ),
-}
-
-
-def planner_problem(env_id: str, planner: str | None) -> str | None:
-    """Why ``planner`` cannot certify ``env_id`` (None if it can, or if None: the scene's
-    default, the planner of :data:`PLANNERS` for its kind: mpc for Reverse, ilqr for Dock
-    and Coast)."""
-    if planner is None:
-        return None
-    if planner not in PLANNERS:
-        return f"unknown planner {planner!r}; choose one of {list(PLANNERS)}"
-    certifier = PLANNERS[planner]
-    if certifier.goal != is_goal_scene(env_id):
-        return certifier.refusal.format(env_id=env_id)
-    return None
-
-
 def parse_seeds(text: str, maximum: int = limits.MAX_CERTIFY_SEEDS) -> list[int]:
-    """ "1000-1099" -> [1000, ..., 1099]; "5" -> [5]; "1,4,9" -> [1, 4, 9].
+    """ "1000-1099" -> [1000, ..., 1099]; "5" -> [5]; "1,4,9" -> [1, 4, 9]
+    (:func:`agents.commands.options.integer_list`).
 
     Raises:
         ValueError: On no seeds at all (an empty text); a malformed, empty or repeated
             seed, one outside 0 .. 2**32 - 1, or more than ``maximum`` seeds (counted
             before any list is built).
     """
-    if not text.strip():
-        raise ValueError("no seeds given (e.g. 1000-1099)")
-    seeds: list[int] = []
-    for part in text.split(","):
-        part = part.strip()
-        try:
-            if "-" in part[1:]:
-                first, last = part.split("-", 1) if not part.startswith("-") else ("", "")
-                low, high = int(first), int(last)
-            else:
-                low = high = int(part)
-        except ValueError:
-            raise ValueError(f"bad seed or seed range {part[:40]!r} (e.g. 1000-1099)") from None
-        if high < low:
-            raise ValueError(f"empty seed range {part[:40]!r}")
-        if low < 0 or high > limits.MAX_SEED:
-            raise ValueError(
-                f"seeds must lie in 0..{limits.MAX_SEED} (2**32 - 1), got {part[:40]!r}"
-            )
-        if len(seeds) + high - low + 1 > maximum:
-            raise ValueError(f"more than {maximum:,} seeds in {text[:60]!r}")
-        seeds.extend(range(low, high + 1))
-    if len(set(seeds)) != len(seeds):
-        raise ValueError(f"a seed appears twice in {text[:60]!r}")
-    return seeds
+    return cli.integer_list(text, 0, limits.MAX_SEED, max_count=maximum)
 
 
-def randomize_value(text: str) -> str | JSONObject:
+def randomize_value(text: str) -> RandomizeValue:
     """``--randomize``: a preset name, or a JSON object of factor ranges (checked later
-    against the scene, :func:`agents.oracles.certify.randomize_kwarg`)."""
+    against the scene, :func:`agents.certification.certify.randomize_kwarg`)."""
     if text in PRESETS:
         return text
     depth = files.json_depth(text.encode("utf-8", "surrogateescape"))
@@ -212,6 +152,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=cli.program("agents.certify"), description="Certify a scene's ceiling over seeds."
     )
+    _add_scene_options(parser)
+    _add_planner_options(parser)
+    _add_witness_options(parser)
+    parser.set_defaults(env=None, n_trailers=None, seeds=None)
+    return parser
+
+
+def _add_scene_options(parser: argparse.ArgumentParser) -> None:
+    """--env, --n-trailers, --seeds, --randomize, --out and --overwrite."""
     parser.add_argument(
         "--env",
         default=DEFAULT_ENV,
@@ -226,6 +175,15 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"e.g. 1000-1099 (default) or 1,4,9; at most {limits.MAX_CERTIFY_SEEDS:,} seeds",
     )
     parser.add_argument(
+        "--randomize",
+        type=randomize_value,
+        default=None,
+        metavar="PRESET_OR_JSON",
+        help=f"randomised physics: a preset ({', '.join(sorted(PRESETS))}) or a JSON object "
+        "of factor ranges; each start's drawn parameters are planned with and replayed "
+        "(survival scenes only)",
+    )
+    parser.add_argument(
         "--out",
         type=Path,
         default=None,
@@ -234,12 +192,16 @@ def build_parser() -> argparse.ArgumentParser:
         "the same name ending in _witnessed)",
     )
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
+
+
+def _add_planner_options(parser: argparse.ArgumentParser) -> None:
+    """--planner, --closed-loop, --samples, --iterations and --restarts."""
     parser.add_argument(
         "--planner",
         choices=tuple(PLANNERS),
         default=None,
-        help="mpc (the sampling planner; the default for Reverse) or ilqr (the default "
-        "for Dock and Coast, which are certified by reaching their goal)",
+        help="the planner of the scene's objective, the default: mpc (the sampling planner) "
+        "certifies the survival scenes, ilqr the goal scenes (by reaching their goal)",
     )
     parser.add_argument(
         "--closed-loop",
@@ -247,15 +209,6 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="goal scenes: also re-plan every start on a plant with this integrator "
         "(rtol = atol = 1e-8) and record whether it still reaches the goal",
-    )
-    parser.add_argument(
-        "--randomize",
-        type=randomize_value,
-        default=None,
-        metavar="PRESET_OR_JSON",
-        help=f"randomised physics: a preset ({', '.join(sorted(PRESETS))}) or a JSON object "
-        "of factor ranges; each start's drawn parameters are planned with and replayed "
-        "(the sampling planner's scenes only)",
     )
     parser.add_argument(
         "--samples",
@@ -275,12 +228,17 @@ def build_parser() -> argparse.ArgumentParser:
         type=cli.at_least(0, 100),
         default=None,
         help="plan the starts not kept safe (mpc: with new planner seeds, default "
-        f"{DEFAULT_RESTARTS}) or not at the goal (ilqr: longer horizon, more iterations, "
-        f"default {DEFAULT_GOAL_RESTARTS}; --warm-start: default 1) again, up to this many "
-        "times",
+        f"{PLANNERS['mpc'].restarts}) or not at the goal (ilqr: longer horizon, more "
+        f"iterations, default {PLANNERS['ilqr'].restarts}; --warm-start: default 1) again, "
+        "up to this many times",
     )
+
+
+def _add_witness_options(parser: argparse.ArgumentParser) -> None:
+    """The witnesses group: --witnesses, --no-witnesses, --from-certificate, --warm-start,
+    --witness-samples and --sample-seed."""
     witnesses = parser.add_argument_group(
-        "witnesses", "other sources of action records (agents.evaluation.witnesses)"
+        "witnesses", "other sources of action records (agents.certification.witnesses)"
     )
     witnesses.add_argument(
         "--witnesses",
@@ -324,15 +282,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=0,
         help="seed of --witness-samples' draws (default 0)",
     )
-    parser.set_defaults(env=None, n_trailers=None, seeds=None)
-    return parser
 
 
-def load_certificate(path: Path) -> JSONObject:
-    """A certificate file and its action records (``actions``), checked and replayed.
+def load_certificate(path: Path) -> Certified:
+    """A certificate file and its action records, checked and replayed.
 
     The records are replayed on the certificate's own scene, n and physics
-    (:func:`agents.evaluation.witnesses.check_records`) before anything is built on
+    (:func:`agents.certification.replays.check_records`) before anything is built on
     them: a record that does not replay to its start's stated outcome is refused.
 
     Raises:
@@ -342,45 +298,55 @@ def load_certificate(path: Path) -> JSONObject:
             names the start).
     """
     certificate = read_certificate(path)
-    check_env_id(certificate["env_id"])
+    check_env_id(certificate.env_id)
     try:
-        env_settings(certificate["env_kwargs"])
+        env_settings(certificate.env_kwargs.kwargs())
     except (TypeError, ValueError) as error:
         raise ValueError(f"{path}: env_kwargs: {error}") from None
     records_path = records_beside(path)
     if not records_path.is_file():
         raise ValueError(f"{path}: its action records {records_path} are missing")
-    loaded = {**certificate, "actions": read_actions(records_path)}
+    loaded = Certified(certificate, read_actions(records_path))
     check_records(loaded, str(path))
     return loaded
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status (bad arguments exit with 2)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    base: JSONObject | None = None
-    if args.from_certificate is not None:
-        if args.seeds is not None:
-            parser.error("argument --seeds: not with --from-certificate (its seeds are kept)")
-        try:
-            base = load_certificate(args.from_certificate)
-        except (OSError, ValueError) as error:
-            parser.error(f"argument --from-certificate: {error}")
-        for given, key, value in (
-            (args.env, "--env", base["env_id"]),
-            (args.n_trailers, "--n-trailers", base["env_kwargs"]["n_trailers"]),
-        ):
-            if given is not None and given != value:
-                parser.error(f"argument {key}: {given} is not the certificate's {value}")
-        args.env, args.n_trailers = base["env_id"], base["env_kwargs"]["n_trailers"]
-    env_id = check_env_id(args.env or DEFAULT_ENV)
+def _base(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Certified | None:
+    """``--from-certificate``'s certificate (None without it); its env and n become
+    ``args.env`` and ``args.n_trailers`` (exits 2 when the given ones differ)."""
+    if args.from_certificate is None:
+        return None
+    if args.seeds is not None:
+        parser.error("argument --seeds: not with --from-certificate (its seeds are kept)")
+    try:
+        base = load_certificate(args.from_certificate)
+    except (OSError, ValueError) as error:
+        parser.error(f"argument --from-certificate: {error}")
+    kept_env, kept_n = base.certificate.env_id, base.certificate.n_trailers
+    for given, key, value in (
+        (args.env, "--env", kept_env),
+        (args.n_trailers, "--n-trailers", kept_n),
+    ):
+        if given is not None and given != value:
+            parser.error(f"argument {key}: {given} is not the certificate's {value}")
+    args.env, args.n_trailers = kept_env, kept_n
+    return base
+
+
+def _physics(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    env_id: str,
+    base: Certified | None,
+) -> CertificateEnv:
+    """The ``gym.make`` keywords of the certificate: ``n_trailers`` and, with
+    ``--randomize`` (or a randomised ``--from-certificate``), ``randomize``."""
     n_trailers = DEFAULT_N if args.n_trailers is None else args.n_trailers
     try:
         env_settings({"n_trailers": n_trailers})
     except (TypeError, ValueError) as error:
         parser.error(f"argument --n-trailers: {error}")
-    randomize: str | JSONObject | None = None
+    randomize: RandomizeValue | None = None
     if args.randomize is not None:
         try:
             randomize = randomize_kwarg(env_id, args.randomize)
@@ -388,83 +354,130 @@ def main(argv: list[str] | None = None) -> int:
         except (TypeError, ValueError) as error:
             parser.error(f"argument --randomize: {error}")
     if base is not None:
-        kept = base["env_kwargs"].get("randomize")
+        given = base.certificate.env_kwargs.randomize
+        kept = given if given is None or isinstance(given, str) else dict(given)
         if args.randomize is not None and randomize != kept:
             parser.error(f"argument --randomize: {randomize!r} is not the certificate's {kept!r}")
         randomize = kept
-    env_kwargs: JSONObject = {"n_trailers": n_trailers}
-    if randomize is not None:
-        env_kwargs["randomize"] = randomize
-    try:
-        seeds = parse_seeds(DEFAULT_SEEDS if args.seeds is None else args.seeds)
-    except ValueError as error:
-        parser.error(f"argument --seeds: {error}")
+    return CertificateEnv(n_trailers=n_trailers, randomize=randomize)
+
+
+def _witness_specs(
+    parser: argparse.ArgumentParser,
+    args: argparse.Namespace,
+    env_id: str,
+    environment: CertificateEnv,
+    base: Certified | None,
+) -> tuple[list[str], list[str]]:
+    """The witnesses' and the warm start's policy specs (defaults filled in); exits 2 on
+    options that do not go together."""
     if args.no_witnesses and (args.witnesses is not None or args.warm_start is not None):
         parser.error("argument --no-witnesses: not with --witnesses or --warm-start")
     if args.no_witnesses and args.witness_samples:
         parser.error("argument --no-witnesses: not with --witness-samples")
     if args.no_witnesses and base is not None:
         parser.error("argument --no-witnesses: --from-certificate only adds witnesses")
-    if args.warm_start is not None and not is_goal_scene(env_id):
+    if args.warm_start is not None and not _certified_by_ilqr(env_id):
         parser.error(f"argument --warm-start: goal scenes only (iLQR), not {env_id}")
+    n_trailers = environment.n_trailers
     specs = [] if args.no_witnesses else args.witnesses
     if specs is None:
-        specs = default_witnesses(env_id, n_trailers, randomized=randomize is not None)
-    warm = args.warm_start
-    if warm == []:
+        randomized = environment.randomize is not None
+        specs = default_witnesses(env_id, n_trailers, randomized=randomized)
+    warm = args.warm_start or []
+    if args.warm_start == []:
         warm = [str(path) for path in committed_witnesses(env_id, n_trailers)]
+    return specs, warm
+
+
+def _certified_by_ilqr(env_id: str) -> bool:
+    try:
+        return certifying_planner(env_id) == "ilqr"
+    except ValueError:
+        return False
+
+
+def _planner_config(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, env_id: str
+) -> PlannerConfig | ILQRConfig:
+    """The settings of the planner that certifies ``env_id``; exits 2 when ``--planner``
+    or ``--closed-loop`` do not fit the scene."""
     problem = planner_problem(env_id, args.planner)
     if problem is not None:
         parser.error(f"argument --planner: {problem}")
-    goal = is_goal_scene(env_id)
+    goal = certifying_planner(env_id) == "ilqr"
     if args.closed_loop is not None and not goal:
         parser.error(f"argument --closed-loop: only for the goal scenes, not {env_id}")
     try:
         if goal:
             iterations = ILQRConfig.iterations if args.iterations is None else args.iterations
-            ilqr_config = ILQRConfig(iterations=iterations)
-        else:
-            config = PlannerConfig(
-                samples=args.samples,
-                iterations=PlannerConfig.iterations if args.iterations is None else args.iterations,
-                elites=min(PlannerConfig.elites, max(1, args.samples // 4)),
-            )
+            return ILQRConfig(iterations=iterations)
+        return PlannerConfig(
+            samples=args.samples,
+            iterations=PlannerConfig.iterations if args.iterations is None else args.iterations,
+            elites=min(PlannerConfig.elites, max(1, args.samples // 4)),
+        )
     except ValueError as error:
         parser.error(str(error))
+
+
+def _check_policies(
+    parser: argparse.ArgumentParser,
+    specs: list[str],
+    warm: list[str],
+    env_id: str,
+    env_kwargs: MakeKwargs,
+) -> None:
+    """Exits 2 unless every witness and warm-start spec loads for the env."""
+    repeated = repeated_labels(warm)
+    if repeated:
+        parser.error(f"argument --warm-start: two specs of one label: {repeated}")
+    for spec in [*specs, *warm]:
+        try:
+            load_policy(spec, env_id, env_kwargs)
+        except (OSError, ValueError) as error:
+            parser.error(f"argument --witnesses: {error}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments exit with 2)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    base = _base(parser, args)
+    env_id = check_env_id(args.env or DEFAULT_ENV)
+    environment = _physics(parser, args, env_id, base)
+    try:
+        seeds = parse_seeds(DEFAULT_SEEDS if args.seeds is None else args.seeds)
+    except ValueError as error:
+        parser.error(f"argument --seeds: {error}")
+    specs, warm = _witness_specs(parser, args, env_id, environment, base)
+    config = _planner_config(parser, args, env_id)
+    n_trailers, randomize = environment.n_trailers, environment.randomize
     if args.out is None:
         args.out = default_out(env_id, n_trailers, randomize, witnessed=base is not None)
     problem = write_problem(args.out, args.overwrite)
     if problem is not None:
         parser.error(f"argument --out: {problem}")
-    repeated = repeated_labels(warm or [])
-    if repeated:
-        parser.error(f"argument --warm-start: two specs of one label: {repeated}")
-    for spec in [*specs, *(warm or [])]:
-        try:
-            load_policy(spec, env_id, env_kwargs)
-        except (OSError, ValueError) as error:
-            parser.error(f"argument --witnesses: {error}")
-    if base is not None:
-        certificate = base
-    elif goal:
-        restarts = DEFAULT_GOAL_RESTARTS if args.restarts is None else args.restarts
-        certificate = certify_goals(
-            env_id, n_trailers, seeds, ilqr_config, restarts, args.closed_loop
-        )
-    else:
-        restarts = DEFAULT_RESTARTS if args.restarts is None else args.restarts
-        certificate = certify(
-            env_id, n_trailers, seeds, config, restarts=restarts, randomize=randomize
-        )
+    _check_policies(parser, specs, warm, env_id, environment.kwargs())
+    certified = base or certify(
+        env_id,
+        n_trailers,
+        seeds,
+        config,
+        args.restarts,
+        randomize=randomize,
+        closed_loop=args.closed_loop,
+    )
     if specs:
-        certificate = add_witnesses(
-            certificate, specs, samples=args.witness_samples, sample_seed=args.sample_seed
+        certified = add_witnesses(
+            certified, specs, samples=args.witness_samples, sample_seed=args.sample_seed
         )
     if warm:
         warm_restarts = 1 if args.restarts is None else args.restarts
-        certificate = warm_start(certificate, warm, config=ilqr_config, restarts=warm_restarts)
-    write_certificate(certificate, args.out, args.overwrite)
-    print(markdown(certificate).split("\n\n| seed")[0])
+        ilqr_config = config if isinstance(config, ILQRConfig) else None
+        certified = warm_start(certified, warm, config=ilqr_config, restarts=warm_restarts)
+    written = write_certificate(certified, args.out, args.overwrite)
+    print(markdown(written).split("\n\n| seed")[0])
     print(f"wrote {args.out / 'certificate.json'}")
     return 0
 

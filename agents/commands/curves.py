@@ -124,7 +124,7 @@ def levels_of(
             committed_certificate(key[0], counts) if ceiling and isinstance(counts, int) else None
         )
         if certificate is not None:
-            lines[CEILING] = float(certificate["ceiling"])
+            lines[CEILING] = certificate.ceiling
         lines.update(given)
         levels[key] = lines
     return levels

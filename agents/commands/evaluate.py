@@ -150,10 +150,10 @@ def env_from_cards(specs: list[str]) -> tuple[str | None, int | None, str | None
             card = model_card(spec)
         except (ValueError, FileNotFoundError, OSError):
             continue
-        env_id = card.get("env_id")
+        env_id = card.env_id
         if env_id in ENV_IDS:
-            n = card.get("env_kwargs", {}).get("n_trailers")
-            return env_id, n if isinstance(n, int) and not isinstance(n, bool) else None, spec
+            n = card.n_trailers
+            return env_id, n if isinstance(n, int) else None, spec
     return None, None, None
 
 
@@ -247,7 +247,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument --policy: {error}")
     args.out.mkdir(parents=True, exist_ok=True)
     document = results_document(evaluations, env_id, env_kwargs, args.episodes, args.seed)
-    files.write_json(args.out / "results.json", document)
+    files.write_json(args.out / "results.json", document.to_json())
     table = markdown_table(evaluations, curve_metric(env_id))
     files.atomic_write_text(
         args.out / "results.md",

@@ -9,13 +9,13 @@ argument                   bound
 ``--episodes``             1 .. 4,096 convoys (one batch)
 ``--iterations``           1 .. 1,000
 ``--epochs``               1 .. 10,000
-``--expert``               an expert of :data:`agents.policies.teachers.DAGGER_EXPERTS`
+``--expert``               an expert of :data:`agents.policies.experts.EXPERTS`
                            that fits the scene (and the n, and ``--randomize``)
 ``--planner-samples``      2 .. 1,024 (``mpc`` only)
 ``--planner-iterations``   1 .. 100 (CEM or iLQR iterations)
 ``--planner-horizon``      1 .. 200 (``ilqr`` only)
-``--teacher``              policy specs with ``{n}``, ``COUNTS=`` before all but one
-                           (``specialists`` only)
+``--expert-policy``        policy specs with ``{n}``, ``COUNTS=`` before all but one
+                           (``specialists`` only; ``--teacher`` is the same option)
 ``--net-arch``             10,000,000 parameters, 64 layers
 ``--seed``                 training seeds below 2**32
 ``--n-trailers``           one count N, or a range LOW-HIGH (a generalist)
@@ -29,10 +29,10 @@ The expert (``--expert``): ``mpc`` (the sampling planner; the default on Reverse
 does not fit). A refused combination (``mpc`` on Dock, ``ilqr`` with a range of n or
 randomised parameters, a planner option the expert does not take) exits with status 2
 before anything is written. ``specialists`` (any scene, any range of n): trained
-policies, one per n (``--teacher``, default ``dagger_reverse_v1_n{n}``), label each row
-by its own n: policy distillation (:mod:`agents.policies.teachers`). A run with another
-expert than the scene's default gets the expert's name at the end of its default run
-folder (``..._dagger_s0_ilqr``).
+policies, one per n (``--expert-policy``, default ``dagger_reverse_v1_n{n}``), label each row
+by its own n: policy distillation (:class:`agents.policies.experts.PolicyExpert`). A run
+with another expert than the scene's default gets the expert's name at the end of its
+default run folder (``..._dagger_s0_ilqr``).
 
 A generalist (``--n-trailers 1-3 --randomize mismatch20``, ``mpc`` only): the env
 draws each episode's n and physics; the expert (one planner per n) plans with the
@@ -45,7 +45,7 @@ to ``--max-trailers``; its default run folder ends in ``_trailers``.
 
 The run folder and ``--export`` are checked as by ``agents.train`` (writable, no
 symbolic link, locked while the run writes it). ``--resume`` first checks every file the
-run reads back (:func:`agents.training.imitate.read_saved_run`: the checkpoint, the
+run reads back (:func:`agents.training.imitation_checkpoint.read_saved_run`: the checkpoint, the
 record, the data set, the learning curve, the models and their statistics): a damaged
 one exits with status 2 naming it, and the folder is left as it was.
 """
@@ -66,17 +66,12 @@ from agents.artifacts.run_folder import (
 )
 from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID
-from agents.oracles.experts import default_expert
 from agents.policies.convoy_order import CONVOY_DIRECTIONS
+from agents.policies.experts import EXPERTS, default_expert
 from agents.policies.sb3 import limit_torch_threads
-from agents.policies.teachers import DAGGER_EXPERTS
-from agents.training.imitate import (
-    CHECKPOINT_FILE,
-    CheckpointError,
-    ImitationConfig,
-    imitate,
-    read_saved_run,
-)
+from agents.training.imitate import imitate
+from agents.training.imitation_checkpoint import CHECKPOINT_FILE, CheckpointError, read_saved_run
+from agents.training.imitation_config import ImitationConfig
 from dynamics.params import MAX_TRAILERS
 from trailer_env.observation import OBSERVATIONS
 
@@ -113,10 +108,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument(
         "--expert",
-        choices=list(DAGGER_EXPERTS),
+        choices=list(EXPERTS),
         default=None,
         help="the expert that labels: "
-        + "; ".join(f"{name}: {expert.summary}" for name, expert in DAGGER_EXPERTS.items())
+        + "; ".join(f"{name}: {expert.summary}" for name, expert in EXPERTS.items())
         + " (default: the scene's first that fits)",
     )
     parser.add_argument(
@@ -138,12 +133,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="ilqr's planned steps (default the scene's: 60, Dock 100)",
     )
     parser.add_argument(
-        "--teacher",
+        "--expert-policy",
+        "--teacher",  # the name that committed cards' commands use (agents.reproduce)
         default=None,
         metavar="SPEC",
-        help="the specialists of --expert specialists: a policy spec with {n} where the "
-        "count goes (default dagger_reverse_v1_n{n}), or several, comma-separated, each "
-        "but one after its counts: 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}",
+        help="the expert policies of --expert specialists (also --teacher): a spec with {n} "
+        "where the count goes (default dagger_reverse_v1_n{n}), or several, comma-separated, "
+        "each but one after its counts: 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}",
     )
     parser.add_argument(
         "--observation",
@@ -195,7 +191,7 @@ def main(argv: list[str] | None = None) -> int:
         if problem is not None:
             parser.error(f"argument --net-arch: {problem}")
     try:
-        expert = DAGGER_EXPERTS[args.expert or default_expert(args.env)]
+        expert = EXPERTS[args.expert or default_expert(args.env)]
         problem = expert.problem(args.env, args.n_trailers, args.randomize)
         if problem is not None:
             raise ValueError(problem)
@@ -203,7 +199,7 @@ def main(argv: list[str] | None = None) -> int:
             samples=args.planner_samples,
             iterations=args.planner_iterations,
             horizon=args.planner_horizon,
-            policy=args.teacher,
+            policy=args.expert_policy,
         )
     except (TypeError, ValueError) as error:
         parser.error(f"argument --expert: {error}")

@@ -15,7 +15,7 @@ Run with ``python -m agents.main [--out DIR] [--episodes K] [--planner | --no-pl
    no planning); ``--planner`` re-plans every episode instead (``mpc``, the
    expensive oracle), ``--no-planner`` leaves both out.
 3. Print the comparison table and the ceiling (the certified share of these starts,
-   :func:`agents.oracles.certify.ceiling_note`), and write ``results.json``, ``results.md``,
+   :func:`agents.evaluation.ceiling.ceiling_note`), and write ``results.json``, ``results.md``,
    ``margins.png``, ``frames.png`` and ``curves.png`` to ``--out`` (default ``out/main``).
 
 Progress goes to standard error, the table to standard output; the measured times
@@ -37,7 +37,8 @@ from agents.artifacts.paths import export_files, model_stem
 from agents.artifacts.run_folder import clear_run, export_model, symlink_problem
 from agents.artifacts.shipped import committed_models
 from agents.commands import options as cli
-from agents.envs import env_settings
+from agents.envs import HEADLINE_ENV_ID, HEADLINE_N_TRAILERS, env_settings
+from agents.evaluation.ceiling import ceiling_note
 from agents.evaluation.pictures import write_pictures
 from agents.evaluation.results import (
     curve_metric,
@@ -46,15 +47,12 @@ from agents.evaluation.results import (
     results_document,
 )
 from agents.evaluation.tables import markdown_table, table_legend
-from agents.oracles.certify import ceiling_note
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import duration, plural
 from agents.seeds import TEST_SEED
 
-ENV_ID = "trailer_env/Reverse-v1"
-
-
-N_TRAILERS = 2
+#: The main job's scenario: the headline one.
+ENV_ID, N_TRAILERS = HEADLINE_ENV_ID, HEADLINE_N_TRAILERS
 
 
 #: Budget of the fallback training: DAgger iterations and convoys per iteration (about
@@ -118,7 +116,8 @@ def train_short(
 def _imitate_short(
     out: Path, run_dir: Path, iterations: int, episodes: int, seed: int, overwrite: bool
 ) -> Path:
-    from agents.training.imitate import ImitationConfig, imitate
+    from agents.training.imitate import imitate
+    from agents.training.imitation_config import ImitationConfig
 
     reason = "--retrain" if committed_models(ENV_ID, N_TRAILERS) else "no committed agent"
     print(
@@ -207,8 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     document = results_document(evaluations, ENV_ID, env_kwargs, args.episodes, TEST_SEED)
     ceiling = ceiling_note(ENV_ID, N_TRAILERS, args.episodes, TEST_SEED)
-    document["ceiling"] = ceiling
-    files.write_json(args.out / "results.json", document)
+    files.write_json(args.out / "results.json", document.replace(ceiling=ceiling).to_json())
     table = markdown_table(evaluations, curve_metric(ENV_ID))
     print(
         f"\n{ENV_ID}, n = {N_TRAILERS}: {plural(args.episodes, 'episode')}, seeds "

@@ -16,11 +16,14 @@ import json
 import math
 import re
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import TypeVar
 
 from agents.artifacts import files, limits
 from agents.envs import ENV_IDS
+
+T = TypeVar("T")
 
 
 def program(module: str) -> str:
@@ -109,7 +112,7 @@ def plateau_rule(text: str) -> tuple[int, float]:
 
 def start_curriculum(text: str) -> tuple[float, int]:
     """``FROM,STEPS``: a start scale in (0, 1) and a step count >= 1 ("4e6" too), the
-    schedule of :class:`agents.training.callbacks.StartCurriculum`."""
+    schedule of :class:`agents.algorithms.options.start_curriculum.StartCurriculum`."""
     low_text, comma, steps_text = text.partition(",")
     try:
         low = float(low_text)
@@ -154,23 +157,81 @@ def add_env(parser: argparse.ArgumentParser, default: str | None = None) -> None
     )
 
 
+def integer_range(
+    text: str, minimum: int, maximum: int | None = None, *, proper: bool = False
+) -> tuple[int, int]:
+    """``N`` or ``LOW-HIGH`` as ``(low, high)`` (``N`` is ``(N, N)``), the one reader of
+    "N-M" ranges (trailer counts, seeds): ``minimum <= LOW <= HIGH <= maximum`` (no upper
+    bound when ``maximum`` is None); ``proper`` asks ``LOW < HIGH`` of a written range.
+
+    Raises:
+        ValueError: One line quoting ``text``: not ``N`` or ``LOW-HIGH`` of integers (a
+            negative number included), ``LOW`` over ``HIGH``, or a bound crossed.
+    """
+    low_text, dash, high_text = text.strip().partition("-")
+    example = f"{max(minimum, 1)}-{max(minimum, 1) + 2}"
+    try:
+        low = int(low_text)
+        high = int(high_text) if dash else low
+    except ValueError:
+        raise ValueError(
+            f"expected N or a range LOW-HIGH such as {example}, got {text[:40]!r}"
+        ) from None
+    top = "" if maximum is None else f" <= {maximum:,}"
+    order = "<" if proper and dash else "<="
+    if high < low or (order == "<" and high == low):
+        raise ValueError(
+            f"a range LOW-HIGH needs {minimum} <= LOW {order} HIGH{top}, got {text[:40]!r}"
+        )
+    if low < minimum or (maximum is not None and high > maximum):
+        bounds = f">= {minimum}" if maximum is None else f"in {minimum}..{maximum:,}"
+        raise ValueError(f"must be {bounds}, got {text[:40]!r}")
+    return low, high
+
+
+def integer_list(
+    text: str, minimum: int, maximum: int, *, max_count: int, distinct: bool = True
+) -> list[int]:
+    """Comma-separated ``N`` and ``LOW-HIGH`` items (:func:`integer_range`) as one list in
+    the order written: ``"1,4-6"`` -> ``[1, 4, 5, 6]``.
+
+    Raises:
+        ValueError: An empty text or item, a malformed item (:func:`integer_range`), more
+            than ``max_count`` integers (counted before any list is built), or with
+            ``distinct`` an integer written twice.
+    """
+    if not text.strip():
+        raise ValueError(f"nothing given (e.g. {minimum}-{minimum + 2})")
+    ranges = [integer_range(item, minimum, maximum) for item in text.split(",")]
+    if sum(high - low + 1 for low, high in ranges) > max_count:
+        raise ValueError(f"more than {max_count:,} integers in {text[:60]!r}")
+    values = [value for low, high in ranges for value in range(low, high + 1)]
+    if distinct and len(set(values)) != len(values):
+        raise ValueError(f"an integer appears twice in {text[:60]!r}")
+    return values
+
+
+def argument_type(parse: Callable[[str], T], name: str) -> Callable[[str], T]:
+    """``parse`` as an argparse ``type``: its ValueError becomes the argument's message
+    (exit status 2 naming the option), ``name`` the type's name in argparse's messages."""
+
+    def parse_argument(text: str) -> T:
+        try:
+            return parse(text)
+        except ValueError as error:
+            raise argparse.ArgumentTypeError(str(error)) from None
+
+    parse_argument.__name__ = name
+    return parse_argument
+
+
 def trailer_counts(text: str) -> int | tuple[int, int]:
     """``--n-trailers``: ``N`` (>= 0) or ``LOW-HIGH`` (0 <= LOW < HIGH)."""
-    low, dash, high = text.partition("-")
     try:
-        if not dash:
-            value = int(text)
-            if value < 0:
-                raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
-            return value
-        bounds = (int(low), int(high))
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected a count N or a range LOW-HIGH such as 1-3, got {text[:40]!r}"
-        ) from None
-    if not 0 <= bounds[0] < bounds[1]:
-        raise argparse.ArgumentTypeError(f"a range LOW-HIGH needs 0 <= LOW < HIGH, got {text!r}")
-    return bounds
+        low, high = integer_range(text, 0, proper=True)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return (low, high) if "-" in text.strip() else low
 
 
 def add_n_trailers(
@@ -349,3 +410,64 @@ def open_share(text: str) -> float:
     if not 0.0 < share < 1.0:
         raise argparse.ArgumentTypeError(f"expected a number in (0, 1), got {text[:40]!r}")
     return share
+
+
+#: The most trailers ``--n`` of the analyses drawn n by n takes.
+MAX_ANALYSIS_TRAILERS = 16
+
+
+def trailer_list(text: str) -> list[int]:
+    """``--n`` of the analyses drawn n by n: ``"1-6"``, ``"1,2,4"`` or both (``"1-3,6"``)
+    as a sorted list of distinct counts in 1 .. :data:`MAX_ANALYSIS_TRAILERS`."""
+    try:
+        counts = integer_list(
+            text, 1, MAX_ANALYSIS_TRAILERS, max_count=MAX_ANALYSIS_TRAILERS**2, distinct=False
+        )
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(f"counts of trailers: {error}") from None
+    return sorted(set(counts))
+
+
+def add_count_options(parser: argparse.ArgumentParser, policies: list[str], out: str) -> None:
+    """The options of the analyses drawn n by n: --env, --n, --policy, --specialist,
+    --out (default ``out/<out>``) and --overwrite."""
+    from agents.envs import HEADLINE_ENV_ID
+
+    add_env(parser, HEADLINE_ENV_ID)
+    parser.add_argument("--n", type=trailer_list, default=trailer_list("1-6"), help="e.g. 1-6")
+    parser.add_argument("--policy", nargs="+", default=policies, metavar="SPEC")
+    parser.add_argument(
+        "--specialist",
+        default=None,
+        metavar="SPEC",
+        help="one model per n: {n} in the spec, or several comma-separated, each but one "
+        "after its counts (1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n})",
+    )
+    parser.add_argument("--out", type=Path, default=OUT_ROOT / out)
+    add_overwrite(parser, "replace an earlier run's files")
+
+
+def check_count_options(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, outputs: Sequence[str], episodes: int
+) -> None:
+    """Exit 2, before anything runs, on a --specialist that names no model per n, then as
+    :func:`check_out_options`."""
+    from agents.evaluation.across_n import specialist_problem
+
+    problem = specialist_problem(args.specialist)
+    if problem is not None:
+        parser.error(f"argument --specialist: {problem}")
+    check_out_options(parser, args, outputs, episodes)
+
+
+def check_out_options(
+    parser: argparse.ArgumentParser, args: argparse.Namespace, outputs: Sequence[str], episodes: int
+) -> None:
+    """Exit 2, before anything runs, on a --seed that ``episodes`` would carry past the
+    seeds' range, or an --out that cannot be written or holds ``outputs`` without
+    --overwrite."""
+    check_seeds(parser, args.seed, episodes)
+    check_out_folder(parser, args.out, files_in=tuple(outputs))
+    existing = [name for name in outputs if (args.out / name).exists()]
+    if existing and not args.overwrite:
+        parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")

@@ -7,7 +7,7 @@ evaluates the scene's baselines, its oracle (the ``mpc`` planner, where the scen
 one; ``--no-planner`` leaves it out) and every committed model (``agents/models/``,
 with its training seeds from ``agents/models/seeds/``) on the same seeded episodes
 (seeds 1000 ..), prints one Markdown table per scene with its ceiling line
-(:func:`agents.oracles.certify.ceiling_note`), and writes ``<out>/tables.md``,
+(:func:`agents.evaluation.ceiling.ceiling_note`), and writes ``<out>/tables.md``,
 ``<out>/results.json`` and the pictures ``agents_curves.png`` (learning curves of all
 committed agents), ``agents_margins_reverse_v1_n2.png`` and
 ``agents_frames_reverse_v1_n2.png`` to ``<out>/img``, and the leaderboard in pictures
@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 from agents.artifacts import files
+from agents.artifacts.results import ResultsDocument
 from agents.artifacts.shipped import models_covering
 from agents.commands import options as cli
 from agents.evaluation import leaderboard, plots
@@ -39,6 +40,7 @@ from agents.evaluation.pictures import write_pictures
 from agents.evaluation.report import (
     HEADLINE,
     SCENARIOS,
+    CurvePanel,
     authority_table,
     curve_panel,
     report_order,
@@ -56,7 +58,6 @@ from agents.policies.baselines import BASELINES, applicable_baselines
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import Progress, duration
 from agents.seeds import FRESH_SEED, TEST_SEED
-from trailer_env.json_types import JSONObject
 
 #: The oracles the report evaluates by default: the sampling planner and the replay of the
 #: certificate's records (seconds a scenario); iLQR takes minutes a scenario (``--oracle``).
@@ -110,15 +111,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def write_leaderboards(documents: list[JSONObject], img: Path) -> list[Path]:
+def write_leaderboards(documents: list[ResultsDocument], img: Path) -> list[Path]:
     """The leaderboard of every scenario (``agents_leaderboard.png``, the results page's
     first picture) and of the headline scene alone (``agents_leaderboard_reverse_v1.png``,
     the README's), from the report's results documents."""
     panels = leaderboard.ordered(
         [leaderboard.panel_of(document) for document in documents], HEADLINE[0]
     )
-    episodes = documents[0]["episodes"] if documents else 0
-    seeds = documents[0]["seeds"] if documents else [TEST_SEED, TEST_SEED]
+    episodes = documents[0].episodes if documents else 0
+    seeds = documents[0].seeds if documents else (TEST_SEED, TEST_SEED)
     every = leaderboard.plot_leaderboard(
         panels,
         img / "agents_leaderboard.png",
@@ -134,6 +135,64 @@ def write_leaderboards(documents: list[JSONObject], img: Path) -> list[Path]:
             headline, img / "agents_leaderboard_reverse_v1.png", small=True
         ),
     ]
+
+
+def report_scenario(
+    args: argparse.Namespace, env_id: str, n: int, img: Path
+) -> tuple[str, ResultsDocument, CurvePanel]:
+    """One scenario of the report: its section of the tables (printed), its results
+    document (with the fresh starts unless ``--no-fresh``) and its learning-curve panel;
+    the headline scenario's margins and frames are written under ``img``."""
+    env_kwargs = {"n_trailers": n}
+    oracles = [] if args.no_planner else list(applicable_baselines(env_id))
+    oracles = [
+        name for name in oracles if name not in default_baselines(env_id) and name in args.oracle
+    ]
+    models = [str(path) for path in models_covering(env_id, n)]
+    specs = [*default_baselines(env_id), *oracles, *models]
+    evaluations = evaluate_policies(
+        specs, env_id, env_kwargs, args.episodes, TEST_SEED, progress=False
+    )
+    fresh = None
+    if not args.no_fresh:
+        # Fresh starts check the learned policies and the baselines against
+        # over-fitting the test starts; the oracles read the exact state (nothing
+        # to over-fit) and the certificate's records exist for the test starts only.
+        fresh_specs = [*default_baselines(env_id), *models]
+        fresh = evaluate_policies(
+            fresh_specs,
+            env_id,
+            env_kwargs,
+            args.episodes,
+            FRESH_SEED,
+            with_seeds=False,
+            progress=False,
+        )
+    document = results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
+    slug = scenario_slug(env_id, n)
+    leaderboard.plot_leaderboard(
+        [leaderboard.panel_of(document)], img / "results" / f"{slug}.png", columns=1
+    )
+    section = scenario_section(
+        env_id, n, evaluations, args.episodes, fresh=fresh, picture=f"img/results/{slug}.png"
+    )
+    if fresh is not None:
+        document = document.replace(
+            fresh=results_document(fresh, env_id, env_kwargs, args.episodes, FRESH_SEED)
+        )
+    print(section, flush=True)
+    if (env_id, n) == HEADLINE:
+        for path in write_pictures(
+            evaluations, env_id, env_kwargs, img, TEST_SEED, prefix="agents_"
+        ):
+            if path.name == "agents_curves.png":
+                path.unlink()  # replaced by the grid of every scenario below
+                continue
+            final = path.with_name(path.stem + "_reverse_v1_n2.png")
+            files.refuse_symlink(final)
+            path.replace(final)
+            print(f"wrote {final}")
+    return section, document, curve_panel(env_id, n, evaluations)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -156,69 +215,15 @@ def main(argv: list[str] | None = None) -> int:
     started = time.perf_counter()
     args.out.mkdir(parents=True, exist_ok=True)
     img.mkdir(parents=True, exist_ok=True)
-    sections, documents, panels = [], [], []
+    sections: list[str] = []
+    documents: list[ResultsDocument] = []
+    panels: list[CurvePanel] = []
     with Progress(len(SCENARIOS) + 1, "report") as bar:
         for env_id, n in report_order(SCENARIOS):
-            env_kwargs = {"n_trailers": n}
-            oracles = [] if args.no_planner else list(applicable_baselines(env_id))
-            oracles = [
-                name
-                for name in oracles
-                if name not in default_baselines(env_id) and name in args.oracle
-            ]
-            models = [str(path) for path in models_covering(env_id, n)]
-            specs = [*default_baselines(env_id), *oracles, *models]
-            evaluations = evaluate_policies(
-                specs, env_id, env_kwargs, args.episodes, TEST_SEED, progress=False
-            )
-            fresh = None
-            if not args.no_fresh:
-                # Fresh starts check the learned policies and the baselines against
-                # over-fitting the test starts; the oracles read the exact state (nothing
-                # to over-fit) and the certificate's records exist for the test starts only.
-                fresh_specs = [*default_baselines(env_id), *models]
-                fresh = evaluate_policies(
-                    fresh_specs,
-                    env_id,
-                    env_kwargs,
-                    args.episodes,
-                    FRESH_SEED,
-                    with_seeds=False,
-                    progress=False,
-                )
-            document = results_document(evaluations, env_id, env_kwargs, args.episodes, TEST_SEED)
-            slug = scenario_slug(env_id, n)
-            leaderboard.plot_leaderboard(
-                [leaderboard.panel_of(document)], img / "results" / f"{slug}.png", columns=1
-            )
-            sections.append(
-                scenario_section(
-                    env_id,
-                    n,
-                    evaluations,
-                    args.episodes,
-                    fresh=fresh,
-                    picture=f"img/results/{slug}.png",
-                )
-            )
-            if fresh is not None:
-                document["fresh"] = results_document(
-                    fresh, env_id, env_kwargs, args.episodes, FRESH_SEED
-                )
+            section, document, panel = report_scenario(args, env_id, n, img)
+            sections.append(section)
             documents.append(document)
-            panels.append(curve_panel(env_id, n, evaluations))
-            print(sections[-1], flush=True)
-            if (env_id, n) == HEADLINE:
-                for path in write_pictures(
-                    evaluations, env_id, env_kwargs, img, TEST_SEED, prefix="agents_"
-                ):
-                    if path.name == "agents_curves.png":
-                        path.unlink()  # replaced by the grid of every scenario below
-                        continue
-                    final = path.with_name(path.stem + "_reverse_v1_n2.png")
-                    files.refuse_symlink(final)
-                    path.replace(final)
-                    print(f"wrote {final}")
+            panels.append(panel)
             bar.advance(f"{env_id}, n = {n}")
         sweep = authority_table(args.episodes)
         bar.advance("actuator sweep")
@@ -234,7 +239,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"wrote {path}")
     tables = tables_document(sections, [env_id for env_id, _ in SCENARIOS])
     files.atomic_write_text(args.out / "tables.md", tables)
-    files.write_json(args.out / "results.json", documents)
+    files.write_json(args.out / "results.json", [document.to_json() for document in documents])
     print(f"wrote {args.out / 'tables.md'} and results.json")
     if args.docs is not None:
         generated = args.docs / "generated"

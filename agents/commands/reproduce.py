@@ -13,11 +13,11 @@ it. :class:`Recipe` reads that card into a typed record: its kind (``train``: an
 algorithm from the scene's reward, ``agents.train``; ``imitate``: DAgger from a planner,
 ``agents.imitate``; ``distill``: DAgger from trained specialists), algorithm, scene,
 number of trailers, budget (steps for ``train``, iterations for the others), seed, and
-what it learns from (the hyperparameter folder, the planner, the teachers). The command
+what it learns from (the hyperparameter folder, the planner, the expert policies). The command
 runs the recipe in-process into the folder ``--out`` names (the run's ``--run-dir``): the
 rebuilt model is ``<out>/best_model.zip``, beside its card and learning curve.
 
-A recipe is rebuilt from committed files only. One that needs anything else (a teacher,
+A recipe is rebuilt from committed files only. One that needs anything else (an expert policy,
 a checkpoint or a hyperparameter folder that is not in the package) or whose files no
 longer give the card's settings (the hyperparameter file now holds other values, the
 card's iterations differ from its command's) says so in ``--list`` and is refused.
@@ -48,10 +48,10 @@ from pathlib import Path
 from typing import NoReturn
 
 from agents.artifacts import files
+from agents.artifacts.cards import ModelCard
 from agents.artifacts.run_folder import BEST_MODEL, comparable_hyperparams
 from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR
 from agents.commands import options as cli
-from trailer_env.json_types import JSONObject
 
 #: The recipe kinds, in the order ``--list`` and the docs name them.
 KINDS = ("train", "imitate", "distill")
@@ -64,6 +64,10 @@ PACKAGE_PARENT = MODELS_DIR.parent.parent
 
 #: The page :func:`recipes_page` writes (relative to the repository root).
 DOCS_PAGE = Path("docs/generated/reproduce.md")
+
+#: SB3's keywords of the policy's network (in a card's ``hyperparams``).
+POLICY_KWARGS = "policy_kwargs"
+NET_ARCH = "net_arch"
 
 #: What the card's command may name for the run folder: the reproduction sets it.
 _RUN_FLAGS = ("--run-dir", "--export")
@@ -109,7 +113,7 @@ class Recipe:
         arguments: The command's arguments after ``python -m <module>``, without a run
             folder or an export target.
         source: What it learns from: the hyperparameter folder (``train``), the planner
-            (``imitate``) or the teachers' spec (``distill``).
+            (``imitate``) or the expert policies' spec (``distill``).
         problem: Why it cannot be rebuilt from committed files; None when it can.
     """
 
@@ -182,12 +186,8 @@ class Recipe:
         """
         card = _read(card_path)
         model = card_path.stem
-        command = card.get("command")
-        if (
-            not isinstance(command, list)
-            or len(command) < 3
-            or not all(isinstance(item, str) for item in command)
-        ):
+        command = list(card.command)
+        if len(command) < 3:
             raise RecipeError(f"model card {card_path}: field command must be a list of strings")
         if command[:2] != ["python", "-m"] or command[2] not in set(MODULES.values()):
             raise RecipeError(
@@ -201,11 +201,11 @@ class Recipe:
                     f"model card {card_path}: field command names {flag}; the reproduction "
                     "sets the run folder"
                 )
-        for name in ("env_id", "algo"):
-            if not isinstance(card.get(name), str):
+        for name, value in (("env_id", card.env_id), ("algo", card.algo)):
+            if value is None:
                 raise RecipeError(f"model card {card_path}: field {name} must be a str")
-        seed = card.get("seed")
-        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        seed = card.seed
+        if seed is None or seed < 0:
             raise RecipeError(f"model card {card_path}: field seed must be an int >= 0")
         read = _train_recipe if command[2] == "agents.train" else _imitation_recipe
         try:
@@ -263,15 +263,23 @@ class Recipe:
         return ["python", "-m", self.module, *arguments, *tail]
 
 
-def _read(card_path: Path) -> JSONObject:
-    """The card at ``card_path`` as a JSON object."""
+def _read(card_path: Path) -> ModelCard:
+    """The card at ``card_path`` (:class:`~agents.artifacts.cards.ModelCard`).
+
+    Raises:
+        RecipeError: If it cannot be read, is no JSON object, or a field is unknown or
+            of the wrong type (naming it).
+    """
     try:
-        card = files.read_json(card_path, "model card", allow_nan=True)
+        document = files.read_json(card_path, "model card", allow_nan=True)
     except (OSError, ValueError) as error:
         raise RecipeError(f"model card {card_path}: {error}") from None
-    if not isinstance(card, dict):
+    if not isinstance(document, dict):
         raise RecipeError(f"model card {card_path}: not a JSON object")
-    return card
+    try:
+        return ModelCard.from_json(document, str(card_path))
+    except ValueError as error:
+        raise RecipeError(str(error)) from None
 
 
 def _package_path(item: str) -> str:
@@ -312,7 +320,7 @@ def _committed_path(text: str) -> Path | None:
 
 
 def _train_recipe(
-    model: str, card_path: Path, card: JSONObject, arguments: tuple[str, ...]
+    model: str, card_path: Path, card: ModelCard, arguments: tuple[str, ...]
 ) -> Recipe:
     """The recipe of an ``agents.train`` card; the hyperparameter file's settings must be
     the card's."""
@@ -333,22 +341,23 @@ def _train_recipe(
         parsed = train.build_parser()
         config = train.config_from_args(parsed, _parse(parsed, resolved), ["python"])
         document = config.document()
+        written = card.to_json()
         for key in _TRAIN_KEYS:
             given, recorded = (
                 comparable_hyperparams(document.get(key)),
-                comparable_hyperparams(card.get(key)),
+                comparable_hyperparams(written.get(key)),
             )
             if given != recorded:
                 problem = f"{folder} now gives {key} {given!r:.60}, the card {recorded!r:.60}"
                 break
-    budget = card.get("budget")
-    if isinstance(budget, bool) or not isinstance(budget, int):
+    budget = card.budget
+    if budget is None:
         raise RecipeError(f"model card {card_path}: field budget must be an int")
     return Recipe(
         model=model,
         card=card_path,
         kind="train",
-        algorithm=str(card["algo"]),
+        algorithm=str(card.algo),
         env_id=str(args.env),
         n_trailers=args.n_trailers,
         seed=int(args.seed),
@@ -359,23 +368,25 @@ def _train_recipe(
     )
 
 
-def _student_problem(card: JSONObject, env_id: str, net_arch: list[int] | None) -> str | None:
+def _student_problem(card: ModelCard, env_id: str, net_arch: list[int] | None) -> str | None:
     """Why the student's network and PPO settings (``agents/hyperparams/ppo.yml``'s entry of
     the scene, which ``agents.imitate`` reads) are no longer the card's; None when they are."""
     from agents.training.config import jsonable, load_hyperparams, parse_policy_kwargs
 
-    recorded = card.get("hyperparams")
-    if not isinstance(recorded, dict) or not isinstance(recorded.get("policy_kwargs"), dict):
+    recorded = card.hyperparams
+    policy_kwargs = recorded.get(POLICY_KWARGS)
+    if not isinstance(policy_kwargs, dict):
         raise ValueError("field hyperparams must be an object with policy_kwargs")
     hp = load_hyperparams("ppo", env_id)
-    given = jsonable(
-        {"n_envs": hp.n_envs, **{k: v for k, v in hp.algo_kwargs.items() if k != "policy_kwargs"}}
+    given: dict[str, object] = {
+        "n_envs": hp.n_envs,
+        **{str(k): jsonable(v) for k, v in hp.algo_kwargs.items() if k != POLICY_KWARGS},
+    }
+    given[NET_ARCH] = net_arch or parse_policy_kwargs(hp.algo_kwargs.get(POLICY_KWARGS, {})).get(
+        NET_ARCH
     )
-    given["net_arch"] = net_arch or parse_policy_kwargs(
-        hp.algo_kwargs.get("policy_kwargs", {})
-    ).get("net_arch")
-    card_values = {k: v for k, v in recorded.items() if k != "policy_kwargs"}
-    card_values["net_arch"] = recorded["policy_kwargs"].get("net_arch")
+    card_values = {k: v for k, v in recorded.items() if k != POLICY_KWARGS}
+    card_values[NET_ARCH] = policy_kwargs.get(NET_ARCH)
     for key in sorted(set(given) | set(card_values)):
         if given.get(key) != card_values.get(key):
             return (
@@ -386,18 +397,17 @@ def _student_problem(card: JSONObject, env_id: str, net_arch: list[int] | None) 
 
 
 def _imitation_recipe(
-    model: str, card_path: Path, card: JSONObject, arguments: tuple[str, ...]
+    model: str, card_path: Path, card: ModelCard, arguments: tuple[str, ...]
 ) -> Recipe:
     """The recipe of an ``agents.imitate`` card (DAgger from a planner, or distillation
     from specialists, which must be committed models)."""
     from agents.commands import imitate
-    from agents.oracles.experts import default_expert
-    from agents.policies.teachers import TeacherConfig
+    from agents.policies.experts import PolicyExpertConfig, default_expert
 
     args = _parse(imitate.build_parser(), arguments)
     expert = args.expert or default_expert(args.env)
-    imitation = card.get("imitation")
-    if not isinstance(imitation, dict):
+    imitation = card.imitation
+    if imitation is None:
         raise RecipeError(f"model card {card_path}: field imitation must be an object")
     problem = None
     if args.resume:
@@ -411,30 +421,39 @@ def _imitation_recipe(
         "imitation.epochs": args.epochs,
         "imitation.mirror": args.mirror,
     }
+    recorded_values = {
+        "seed": card.seed,
+        "expert": card.expert,
+        "env_id": card.env_id,
+        "imitation.iterations": imitation.iterations,
+        "imitation.episodes": imitation.episodes,
+        "imitation.epochs": imitation.epochs,
+        "imitation.mirror": imitation.mirror,
+    }
     for key, value in given.items():
-        recorded = imitation.get(key.split(".")[1]) if "." in key else card.get(key)
-        if key == "imitation.mirror":
-            recorded = bool(recorded)
+        recorded = recorded_values[key]
         if problem is None and recorded != value:
             problem = f"the card's {key} is {recorded!r}, its command's {value!r}"
     if problem is None:
         problem = _student_problem(card, args.env, args.net_arch)
     source = f"planner {expert}"
     if expert == "specialists":
-        teachers = TeacherConfig(args.teacher) if args.teacher else TeacherConfig()
-        source = f"teachers {teachers.policy}"
+        experts = (
+            PolicyExpertConfig(args.expert_policy) if args.expert_policy else PolicyExpertConfig()
+        )
+        source = f"expert policies {experts.policy}"
         low, high = (
             args.n_trailers if isinstance(args.n_trailers, tuple) else (args.n_trailers,) * 2
         )
         for n in range(low, high + 1):
-            spec = teachers.spec(n)
+            spec = experts.spec(n)
             committed = (
                 (MODELS_DIR / f"{spec}.zip").is_file()
                 if "/" not in spec and not Path(spec).suffix
                 else _committed_path(spec) is not None
             )
             if problem is None and not committed:
-                problem = f"teacher {spec} not committed"
+                problem = f"expert policy {spec} not committed"
     return Recipe(
         model=model,
         card=card_path,

@@ -1,76 +1,98 @@
 """Where policies lose: the headline rate against how much of the rail each start needs.
 
-Usage::
-
-    python -m agents.evaluation.by_stroke --env trailer_env/Reverse-v1 --n-trailers 3 \\
-        --policy ppo_reverse_v1_n3 dagger_reverse_v1_n3 lqr --edges 0.5,0.6,0.7 \\
-        [--out FOLDER] [--overwrite]
-
 The starts are the committed certificate's (the test seeds of a Reverse scene: the goal
-scenes' certificates are not screened), each with its screen stroke:
-the smallest share of the rail's stroke that recovers it under the linearisation
+scenes' certificates are not screened), each with its screen stroke: the smallest share
+of the rail's stroke that recovers it under the linearisation
 (:mod:`agents.oracles.screen`), a measure of how hard the start is that no policy
-influences. Every ``--policy`` plays the same starts (one batched rollout each); the
-table counts, per band of stroke (``--edges``, shares of ``s_max``), the starts, those
-the certificate proves feasible, and those each policy saves (the scene's headline
-outcome: safe on Reverse, success on the goal scenes). Below it, the starts that every
-policy loses. Printed, and with ``--out`` written as ``by_stroke.md`` and
-``by_stroke.json``, atomically (existing files are replaced only with ``--overwrite``).
+influences. Every policy plays the same starts (one batched rollout each); the table
+counts, per band of stroke (shares of ``s_max``), the starts, those the certificate
+proves feasible, and those each policy saves (the scene's headline outcome: safe on a
+survival scene, success on a goal scene). Below it, the starts that every policy loses.
+The program is :mod:`agents.commands.by_stroke` (``python -m agents.by_stroke``).
 """
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import itertools
-import sys
 from collections.abc import Mapping, Sequence
-from pathlib import Path
-from typing import TypedDict, cast
+from typing import ClassVar, Literal
 
 import numpy as np
 
-from agents.artifacts import files
-from agents.artifacts.certificates import FEASIBLE, committed_certificate
-from agents.envs import ENV_IDS, headline_metric
+from agents.artifacts.certificates import Certificate, committed_certificate
+from agents.artifacts.records import JSONPart, JSONRecord
 from agents.evaluation.metrics import rollout
 from agents.policies.registry import load_policy, policy_label
-from trailer_env.json_types import JSONObject
+from trailer_env.objective import Objective
+from trailer_env.registry import core_class_of
 
+#: The files the program writes.
 OUTPUTS = ("by_stroke.md", "by_stroke.json")
 
 
-class StrokeBand(TypedDict):
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class StrokeBand(JSONPart):
     """One band of screen stroke ``[low, high)`` (None: open) and its counts of starts."""
 
     low: float | None
     high: float | None
     starts: int
     feasible: int
-    saved: dict[str, int]
+    #: Policy label -> the starts of the band it saves.
+    saved: Mapping[str, int]
+
+    @property
+    def name(self) -> str:
+        """The band as a column title: ``< 0.5``, ``0.5 - 0.6``, ``>= 0.7``."""
+        if self.low is None:
+            return f"< {self.high:g}"
+        if self.high is None:
+            return f">= {self.low:g}"
+        return f"{self.low:g} - {self.high:g}"
 
 
-def certificate_strokes(certificate: JSONObject) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+@dataclasses.dataclass(frozen=True, kw_only=True)
+class ByStroke(JSONRecord):
+    """by_stroke.json: every policy's saved starts, band by band, and the starts all lose."""
+
+    DOCUMENT: ClassVar[str] = "by-stroke table"
+
+    env_id: str
+    n_trailers: int
+    seeds: tuple[int, int]
+    outcome: Literal["safe", "success"]
+    edges: tuple[float, ...]
+    policies: tuple[str, ...]
+    bands: tuple[StrokeBand, ...]
+    lost_by_all: tuple[int, ...]
+    lost_by_all_strokes: tuple[float, ...]
+
+    def markdown(self) -> str:
+        """The table (a column per band of stroke, a row per count: the starts, the
+        feasible ones, each policy's saved ones) and the line naming the starts every
+        policy loses."""
+        return markdown(self.bands, self.policies, self.lost_by_all, self.lost_by_all_strokes)
+
+
+def certificate_strokes(certificate: Certificate) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(seeds, screen stroke fractions, feasible)`` of a certificate's starts.
 
     Raises:
         ValueError: If the seeds are not consecutive or a start lacks its screen stroke.
     """
-    starts = certificate["starts"]
-    seeds = np.array([int(start["seed"]) for start in starts])
+    starts = certificate.starts
+    seeds = np.array([start.seed for start in starts])
     if seeds.size == 0 or np.any(np.diff(seeds) != 1):
         raise ValueError("the certificate's seeds are not one consecutive range")
-    unscreened = [
-        int(start["seed"])
-        for start in starts
-        if not files.is_number(start.get("screen_stroke_fraction"))
-    ]
+    unscreened = [start.seed for start in starts if start.screen_stroke_fraction is None]
     if unscreened:
         raise ValueError(
             f"{len(unscreened)} starts of the certificate (from seed {unscreened[0]}) have no "
             "screen stroke: only the Reverse scenes' certificates are screened"
         )
-    strokes = np.array([float(start["screen_stroke_fraction"]) for start in starts])
-    feasible = np.array([start["status"] == FEASIBLE for start in starts])
+    strokes = np.array([start.screen_stroke_fraction for start in starts], dtype=np.float64)
+    feasible = np.array([start.feasible for start in starts])
     return seeds, strokes, feasible
 
 
@@ -87,24 +109,15 @@ def band_rows(
     for low, high in itertools.pairwise(bounds):
         inside = (strokes >= low) & (strokes < high)
         rows.append(
-            {
-                "low": None if np.isinf(low) else float(low),
-                "high": None if np.isinf(high) else float(high),
-                "starts": int(inside.sum()),
-                "feasible": int((inside & feasible).sum()),
-                "saved": {label: int((inside & won).sum()) for label, won in saved.items()},
-            }
+            StrokeBand(
+                low=None if np.isinf(low) else float(low),
+                high=None if np.isinf(high) else float(high),
+                starts=int(inside.sum()),
+                feasible=int((inside & feasible).sum()),
+                saved={label: int((inside & won).sum()) for label, won in saved.items()},
+            )
         )
     return rows
-
-
-def _band_name(row: StrokeBand) -> str:
-    low, high = row["low"], row["high"]
-    if low is None:
-        return f"< {high:g}"
-    if high is None:
-        return f">= {low:g}"
-    return f"{low:g} - {high:g}"
 
 
 def markdown(
@@ -116,13 +129,13 @@ def markdown(
     """The table (a column per band of stroke, a row per count: the starts, the feasible
     ones, each policy's saved ones) and the line naming the starts every policy loses."""
     lines = [
-        "| screen stroke (share of s_max) | " + " | ".join(_band_name(row) for row in rows) + " |",
+        "| screen stroke (share of s_max) | " + " | ".join(row.name for row in rows) + " |",
         "|---" * (1 + len(rows)) + "|",
-        "| starts | " + " | ".join(str(row["starts"]) for row in rows) + " |",
-        "| certified feasible | " + " | ".join(str(row["feasible"]) for row in rows) + " |",
+        "| starts | " + " | ".join(str(row.starts) for row in rows) + " |",
+        "| certified feasible | " + " | ".join(str(row.feasible) for row in rows) + " |",
     ]
     for label in labels:
-        counts = [row["saved"][label] for row in rows]
+        counts = [row.saved[label] for row in rows]
         lines.append(f"| saved by {label} | " + " | ".join(str(count) for count in counts) + " |")
     lost = ", ".join(
         f"{seed} ({stroke:.2f})" for seed, stroke in zip(lost_by_all, strokes_of_lost, strict=True)
@@ -133,7 +146,7 @@ def markdown(
 
 def by_stroke(
     env_id: str, n_trailers: int, policies: Sequence[str], edges: Sequence[float]
-) -> JSONObject:
+) -> ByStroke:
     """Play ``policies`` on the committed certificate's starts and band them by stroke.
 
     Raises:
@@ -144,95 +157,29 @@ def by_stroke(
     if certificate is None:
         raise ValueError(f"{env_id} with n = {n_trailers} has no committed certificate")
     seeds, strokes, feasible = certificate_strokes(certificate)
-    kwargs: JSONObject = {"n_trailers": n_trailers}
+    kwargs: dict[str, object] = {"n_trailers": n_trailers}
     loaded = {
         policy_label(spec): load_policy(spec, env_id, kwargs, seed=int(seeds[0]))
         for spec in policies
     }
-    outcome = "safe" if headline_metric(env_id) == "safe_rate" else "success"
+    survival = core_class_of(env_id).objective is Objective.SURVIVAL
+    outcome: Literal["safe", "success"] = "safe" if survival else "success"
     saved: dict[str, np.ndarray] = {}
     for label, policy in loaded.items():
         results = rollout(policy, env_id, seeds.size, int(seeds[0]), kwargs)
         saved[label] = np.asarray(getattr(results, outcome), dtype=bool)
     lost = ~np.logical_or.reduce(list(saved.values()))
-    return {
-        "env_id": env_id,
-        "n_trailers": n_trailers,
-        "seeds": [int(seeds[0]), int(seeds[-1])],
-        "outcome": outcome,
-        "edges": [float(edge) for edge in edges],
-        "policies": list(saved),
-        "bands": cast(list[JSONObject], band_rows(strokes, feasible, saved, edges)),
-        "lost_by_all": [int(seed) for seed in seeds[lost]],
-        "lost_by_all_strokes": [float(stroke) for stroke in strokes[lost]],
-    }
-
-
-def _edges(text: str) -> list[float]:
-    try:
-        edges = [float(part) for part in text.split(",")]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected numbers separated by commas; got {text!r}"
-        ) from None
-    if not all(np.isfinite(edges)) or any(b <= a for a, b in itertools.pairwise(edges)):
-        raise argparse.ArgumentTypeError(f"the edges must be finite and increasing; got {text!r}")
-    return edges
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.evaluation.by_stroke",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+    return ByStroke(
+        env_id=env_id,
+        n_trailers=n_trailers,
+        seeds=(int(seeds[0]), int(seeds[-1])),
+        outcome=outcome,
+        edges=tuple(float(edge) for edge in edges),
+        policies=tuple(saved),
+        bands=tuple(band_rows(strokes, feasible, saved, edges)),
+        lost_by_all=tuple(int(seed) for seed in seeds[lost]),
+        lost_by_all_strokes=tuple(float(stroke) for stroke in strokes[lost]),
     )
-    parser.add_argument(
-        "--env",
-        default="trailer_env/Reverse-v1",
-        choices=ENV_IDS,
-        metavar="ENV_ID",
-        help=f"one of {', '.join(ENV_IDS)} (default trailer_env/Reverse-v1)",
-    )
-    parser.add_argument("--n-trailers", type=int, required=True)
-    parser.add_argument(
-        "--policy", nargs="+", required=True, help="policy specs, as agents.evaluate's"
-    )
-    parser.add_argument(
-        "--edges", type=_edges, default=[0.5, 0.6, 0.7], help="band edges (default 0.5,0.6,0.7)"
-    )
-    parser.add_argument(
-        "--out", type=Path, default=None, help="also write the table and figures here"
-    )
-    parser.add_argument(
-        "--overwrite", action="store_true", help="replace by_stroke.md and .json in --out"
-    )
-    return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.out is not None and not args.overwrite:
-        existing = [name for name in OUTPUTS if (args.out / name).exists()]
-        if existing:
-            parser.error(f"{args.out} already holds {', '.join(existing)}: pass --overwrite")
-    try:
-        document = by_stroke(args.env, args.n_trailers, args.policy, args.edges)
-    except ValueError as error:
-        parser.error(str(error))
-    text = markdown(
-        cast(list[StrokeBand], document["bands"]),
-        document["policies"],
-        document["lost_by_all"],
-        document["lost_by_all_strokes"],
-    )
-    sys.stdout.write(text)
-    if args.out is not None:
-        args.out.mkdir(parents=True, exist_ok=True)
-        files.atomic_write_text(args.out / OUTPUTS[0], text)
-        files.write_json(args.out / OUTPUTS[1], document)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+__all__ = ["OUTPUTS", "ByStroke", "StrokeBand", "band_rows", "by_stroke", "certificate_strokes"]

@@ -1,25 +1,18 @@
 """The estimating baseline under mismatched physics: its estimation error against time,
-and its safe rate beside the LQR designed for nominal and for the true parameters.
+and its safe rate beside the LQR designed for nominal and for the true parameters (the
+program: :mod:`agents.commands.estimation`).
 
-Usage::
-
-    python -m agents.evaluation.estimation --n 1-3 --episodes 100 --out docs/generated/estimation
-
-For each n, one episode of Reverse-v1 with ``randomize="mismatch20"`` (seed ``--seed``)
-is driven by ``lqr-estimated`` (:mod:`agents.policies.estimator`), and after every step
-the relative error of each parameter's estimate, ``|estimate / truth - 1|``, is kept.
-Then ``lqr``, ``lqr-adaptive`` (which reads the true parameters) and ``lqr-estimated``
-are scored on the same ``--episodes`` seeded episodes under the same draws (the test
-seeds by default). Writes ``estimation.md`` (the rates and the error at chosen steps),
-``estimation.json`` (every figure) and ``estimation.png`` (the error against time, one
-panel per n) into ``--out``, atomically; existing files are replaced only with
-``--overwrite``.
+For each n, one episode of the headline scene with ``randomize="mismatch20"`` is driven
+by ``lqr-estimated`` (:mod:`agents.policies.estimator`), and after every step the
+relative error of each parameter's estimate, ``|estimate / truth - 1|``, is kept. Then
+``lqr``, ``lqr-adaptive`` (which reads the true parameters) and ``lqr-estimated`` are
+scored on the same seeded episodes under the same draws. :func:`write_estimation` writes
+``estimation.md`` (the rates and the error at chosen steps), ``estimation.json`` (every
+figure) and ``estimation.png`` (the error against time, one panel per n), atomically.
 """
 
 from __future__ import annotations
 
-import argparse
-import time
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -27,15 +20,13 @@ import gymnasium as gym
 import numpy as np
 
 from agents.artifacts import files
-from agents.evaluation.across_n import check_out_options, parse_counts
+from agents.envs import HEADLINE_ENV_ID, scene_title
 from agents.evaluation.metrics import wilson_interval
 from agents.evaluation.results import evaluate_policies
 from agents.policies.baselines import make_baseline
-from agents.progress import duration
-from agents.seeds import TEST_SEED
-from trailer_env.json_types import JSONObject
 
-ENV_ID = "trailer_env/Reverse-v1"
+#: The scene of the analysis: the headline scene, whose ``lqr-estimated`` baseline fits.
+ENV_ID = HEADLINE_ENV_ID
 RANDOMIZE = "mismatch20"
 POLICIES = ("lqr", "lqr-adaptive", "lqr-estimated")
 OUTPUTS = ("estimation.md", "estimation.json", "estimation.png")
@@ -75,7 +66,7 @@ def rates(n: int, episodes: int, seed: int) -> dict[str, float]:
     evaluations = evaluate_policies(
         list(POLICIES), ENV_ID, kwargs, episodes, seed, with_seeds=False, progress=False
     )
-    return {evaluation.label: float(evaluation.summary["safe_rate"]) for evaluation in evaluations}
+    return {evaluation.label: evaluation.summary.safe_rate for evaluation in evaluations}
 
 
 def markdown(
@@ -87,8 +78,8 @@ def markdown(
 ) -> str:
     """The rates table, then the error table of each n."""
     lines = [
-        f"Reverse-v1 with `randomize={RANDOMIZE}`, safe % on {episodes} episodes from seed "
-        f"{seed} (95 % Wilson interval):",
+        f"{scene_title(ENV_ID)} with `randomize={RANDOMIZE}`, safe % on {episodes} episodes "
+        f"from seed {seed} (95 % Wilson interval):",
         "",
         "| n | " + " | ".join(POLICIES) + " |",
         "|---|" + "---|" * len(POLICIES),
@@ -136,7 +127,7 @@ def draw(found: dict[int, tuple[list[str], np.ndarray, dict[str, float]]], out: 
         names, errors, _ = found[n]
         for column, name in enumerate(names):
             axis.semilogy(np.maximum(100 * errors[:, column], 1e-6), label=name)
-        axis.set_title(f"Reverse-v1, n = {n}, {RANDOMIZE}", fontsize=10)
+        axis.set_title(f"{scene_title(ENV_ID)}, n = {n}, {RANDOMIZE}", fontsize=10)
         axis.set_xlabel("step")
         axis.grid(alpha=0.3)
     axes[0][0].set_ylabel("|estimate / truth - 1| (%)")
@@ -147,59 +138,34 @@ def draw(found: dict[int, tuple[list[str], np.ndarray, dict[str, float]]], out: 
     return out
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The command-line interface."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.evaluation.estimation",
-        description=(__doc__ or "").split("\n")[0],
-    )
-    parser.add_argument("--n", type=parse_counts, default=parse_counts("1-3"), help="e.g. 1-3")
-    parser.add_argument(
-        "--episodes", type=int, default=100, help="episodes per policy and n (default 100)"
-    )
-    parser.add_argument("--seed", type=int, default=TEST_SEED, help="first episode's seed")
-    parser.add_argument(
-        "--error-seed", type=int, default=TEST_SEED, help="the episode whose error is drawn"
-    )
-    parser.add_argument("--out", type=Path, default=Path("out") / "estimation")
-    parser.add_argument("--overwrite", action="store_true", help="replace an earlier run's files")
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the exit status (bad arguments exit with 2)."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    check_out_options(parser, args, OUTPUTS, args.episodes)
-    started = time.perf_counter()
+def write_estimation(
+    out: Path, counts: Sequence[int], episodes: int, seed: int, error_seed: int
+) -> str:
+    """Measure every n of ``counts`` (the error on the episode of ``error_seed``, the rates
+    on ``episodes`` from ``seed``), write :data:`OUTPUTS` into ``out`` atomically and
+    return the table."""
     found: dict[int, tuple[list[str], np.ndarray, dict[str, float]]] = {}
-    for n in args.n:
-        names, errors = error_against_time(n, args.error_seed)
-        found[n] = (names, errors, rates(n, args.episodes, args.seed))
-    table = markdown(args.n, found, args.episodes, args.seed, args.error_seed)
-    document: JSONObject = {
+    for n in counts:
+        names, errors = error_against_time(n, error_seed)
+        found[n] = (names, errors, rates(n, episodes, seed))
+    table = markdown(counts, found, episodes, seed, error_seed)
+    document: dict[str, object] = {
         "env_id": ENV_ID,
         "randomize": RANDOMIZE,
-        "episodes": args.episodes,
-        "seed": args.seed,
-        "error_seed": args.error_seed,
+        "episodes": episodes,
+        "seed": seed,
+        "error_seed": error_seed,
         "by_n": {
             str(n): {
                 "rates": found[n][2],
                 "parameters": found[n][0],
                 "relative_error": found[n][1].tolist(),
             }
-            for n in args.n
+            for n in counts
         },
     }
-    args.out.mkdir(parents=True, exist_ok=True)
-    files.atomic_write_text(args.out / OUTPUTS[0], table)
-    files.write_json(args.out / OUTPUTS[1], document)
-    draw(found, args.out / OUTPUTS[2])
-    print(table, end="")
-    print(f"wrote {args.out} in {duration(time.perf_counter() - started)}")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())
+    out.mkdir(parents=True, exist_ok=True)
+    files.atomic_write_text(out / OUTPUTS[0], table)
+    files.write_json(out / OUTPUTS[1], document)
+    draw(found, out / OUTPUTS[2])
+    return table

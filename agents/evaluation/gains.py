@@ -1,52 +1,35 @@
-"""The gains a policy applies at the straight convoy, trailer by trailer, n by n.
-
-Usage::
-
-    python -m agents.evaluation.gains --env trailer_env/Reverse-v1 --n 1-6 \\
-        --policy lqr distill_reverse_v1_sequence16 distill_reverse_v1_sequence \\
-        --specialist "1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}" --out docs/generated/gains
+"""The gains a policy applies at the straight convoy, trailer by trailer, n by n (the
+program: :mod:`agents.commands.gains`).
 
 Near the straight convoy a stabilising policy acts about linearly on the hitch angles, so
 its gains ``g_k = d action / d alpha_k`` (k = 1 the trailer behind the cart) say what it
 has learned about each trailer, and they can be compared with the linear regulator's
 (whose gains come from the model's Riccati equation at every n) and across n. Each gain is
 a central difference (``alpha_k = +-`` :data:`STEP` rad, one at a time) of the policy's
-action on one observation: the start ``--seed`` of the scene with every hitch angle set to
+action on one observation: the start of a seed of the scene with every hitch angle set to
 zero, the rest (speed, turning rate, mass, task) as it started. A policy that stabilises
 the convoy at n has gains of alternating sign whose size grows with n; what a policy
 trained on fewer trailers does at an n it never saw is read off its row.
 
-``--policy`` specs are evaluated at every n they accept (a cell says why when refused);
-``--specialist`` names one model per n as :mod:`agents.evaluation.across_n` takes it.
-Writes ``gains.md`` (one table per n), ``gains.json`` (every gain) and ``gains.png`` (one
-panel per n, gain against trailer) into ``--out``, atomically;
-existing files are replaced only with ``--overwrite``.
+Policy specs are evaluated at every n they accept (a cell says why when refused); a
+specialist spec names one model per n as :mod:`agents.evaluation.across_n` takes it. The
+outputs: ``gains.md`` (one table per n), ``gains.json`` (every gain) and ``gains.png``
+(one panel per n, gain against trailer).
 """
 
 from __future__ import annotations
 
-import argparse
-import time
 from collections.abc import Sequence
-from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from agents.artifacts import files
 from agents.envs import make_vector_env, scene_title
-from agents.evaluation.across_n import (
-    SPECIALIST,
-    add_count_options,
-    check_count_options,
-    specialist_of,
-    write_outputs,
-)
+from agents.evaluation.across_n import SPECIALIST, specialist_of
 from agents.evaluation.results import policy_label
 from agents.policies.registry import load_policy
 from agents.progress import Progress
-from agents.seeds import TEST_SEED
-from trailer_env.json_types import JSONObject
 from trailer_env.observation import flat_observation
 
 OUTPUTS = ("gains.md", "gains.json", "gains.png")
@@ -172,40 +155,3 @@ def plot(lines: Gains, counts: Sequence[int], out: Path, title: str) -> Path:
         fig.savefig(temporary, dpi=90)
     plt.close(fig)
     return out
-
-
-def build_parser() -> argparse.ArgumentParser:
-    """The command-line interface."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.evaluation.gains",
-        description="The gains policies apply at the straight convoy, trailer by trailer, "
-        "n by n (table, JSON, chart)",
-    )
-    add_count_options(parser, ["lqr"], "gains")
-    parser.add_argument(
-        "--seed", type=int, default=TEST_SEED, help="the start whose other features are used"
-    )
-    return parser
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; bad arguments exit with 2 before any policy is loaded."""
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    check_count_options(parser, args, OUTPUTS, episodes=1)
-    started = time.perf_counter()
-    lines = gains_across_n(args.env, args.n, args.policy, args.specialist, args.seed)
-    fields: JSONObject = {
-        "env_id": args.env,
-        "seed": args.seed,
-        "step": STEP,
-        "meaning": "d action / d alpha_k at the straight convoy, k = 1 behind the cart",
-    }
-    title = f"{scene_title(args.env)}: gains at the straight convoy (start {args.seed})"
-    draw = partial(plot, lines, args.n, title=title)
-    write_outputs(args.out, OUTPUTS, lines, fields, markdown(lines, args.n), draw, started)
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,23 +1,27 @@
 """The leaderboard in pictures: who stands where, per scene and number of trailers.
 
-One panel per scenario (a results document of :func:`agents.evaluation.results.results_document`):
-every policy's headline rate (safe episodes on Reverse, successful ones elsewhere) as a
-dot with its 95 % Wilson interval, against two lines, the certified ceiling (the share of
-the episodes' starts that the committed certificate proves feasible) and the LQR. The
-headline scene comes first (:data:`agents.evaluation.report.HEADLINE`'s scene), then the
-scene table's order, then n. ``python -m agents.report`` writes it.
+One panel per scenario (a :class:`~agents.artifacts.results.ResultsDocument`): every
+policy's headline rate (safe episodes on Reverse, successful ones elsewhere) as a dot with
+its 95 % Wilson interval, against two lines, the certified ceiling (the share of the
+episodes' starts that the committed certificate proves feasible) and the LQR. The oracles
+are the baselines whose record has an oracle note
+(:class:`agents.policies.baselines.Baseline`). The headline scene comes first
+(:data:`agents.envs.HEADLINE_ENV_ID`), then the scene table's order, then n.
+``python -m agents.report`` writes it.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from agents.artifacts.results import PolicyResult, ResultsDocument
 from agents.envs import ENV_IDS, headline_metric, scene_title
+from agents.evaluation.ceiling import ceiling_fraction
 from agents.evaluation.metrics import wilson_interval
-from agents.oracles.certify import ceiling_fraction
+from agents.policies.baselines import BASELINES
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -33,8 +37,8 @@ RATE_COLUMN = 106.0
 #: again): the picture is as wide as the site's column, so the page shows it at 100 %.
 LEADERBOARD_FONT_PT = 10
 
-#: Oracles: they read the exact state (not comparable to a policy, shown for the ceiling).
-ORACLES = frozenset({"mpc", "mpc-replay", "ilqr"})
+#: The baseline drawn as a line beside the ceiling.
+LQR = "lqr"
 
 
 @dataclass(frozen=True)
@@ -65,34 +69,37 @@ class Panel:
         return f"{scene_title(self.env_id)}, n = {self.n_trailers}"
 
 
-def _kind(policy: Mapping[str, Any]) -> str:
-    if policy["kind"] in ("model", "callable"):
+def _kind(policy: PolicyResult) -> str:
+    """The policy's key of :data:`KIND_COLOURS`: oracles (they read the exact state, not
+    comparable to a policy, shown for the ceiling) are the baselines with an oracle note."""
+    if policy.kind != "baseline":
         return "learned"
-    if policy["name"] in ORACLES:
+    baseline = BASELINES.get(policy.name)
+    if baseline is not None and baseline.oracle_note is not None:
         return "oracle"
-    return "lqr" if policy["name"] == "lqr" else "other"
+    return "lqr" if policy.name == LQR else "other"
 
 
-def panel_of(document: Mapping[str, Any]) -> Panel:
-    """The panel of one results document (``results_document``'s dict, as in results.json).
+def panel_of(document: ResultsDocument) -> Panel:
+    """The panel of one results document.
 
     Raises:
-        KeyError: If the document lacks a field results_document writes.
+        ValueError: If the document's ``n_trailers`` is not one count.
     """
-    env_id = str(document["env_id"])
-    n = int(document["env_kwargs"]["n_trailers"])
-    episodes = int(document["episodes"])
-    metric = headline_metric(env_id)
+    n = document.n_trailers
+    if not isinstance(n, int):
+        raise ValueError(f"a leaderboard panel needs one count of trailers, got {n!r}")
+    metric = headline_metric(document.env_id)
     standings = []
     lqr = None
-    for policy in document["policies"]:
-        rate = float(policy[metric])
-        low, high = wilson_interval(round(rate * episodes), episodes)
-        standings.append(Standing(str(policy["name"]), _kind(policy), rate, low, high))
-        if policy["name"] == "lqr":
+    for policy in document.policies:
+        rate = policy.summary.rate(metric)
+        low, high = wilson_interval(round(rate * document.episodes), document.episodes)
+        standings.append(Standing(policy.name, _kind(policy), rate, low, high))
+        if policy.name == LQR:
             lqr = rate
-    ceiling = ceiling_fraction(env_id, n, episodes, int(document["seeds"][0]))
-    return Panel(env_id, n, metric, tuple(standings), ceiling, lqr)
+    ceiling = ceiling_fraction(document.env_id, n, document.episodes, document.seeds[0])
+    return Panel(document.env_id, n, metric, tuple(standings), ceiling, lqr)
 
 
 def ordered(panels: Sequence[Panel], headline_env: str) -> list[Panel]:

@@ -41,9 +41,9 @@ from pathlib import Path
 
 import numpy as np
 
-from agents.algorithms import recipe_name
+from agents.algorithms.recipes import recipe_name
 from agents.artifacts import files
-from agents.artifacts.cards import is_count_range
+from agents.artifacts.cards import ModelCard
 from agents.artifacts.curves import read_curve
 from agents.artifacts.run_folder import CONFIG_FILE, CURVE_FILE
 from agents.envs import headline_metric, scene_title
@@ -357,26 +357,25 @@ def read_run(run_dir: Path) -> RunCurve:
     for path in (config_path, curve_path):
         if not path.is_file():
             raise ValueError(f"{run_dir} is not a run folder: it has no {path.name}")
-    config = files.read_json(config_path, "run configuration")
-    try:
-        env_id = str(config["env_id"])
-        if "algo" not in config:
-            raise KeyError("algo")
-        algo = recipe_name(config)  # gSDE and shaping are recipes of their own
-        n_trailers, seed = config["env_kwargs"]["n_trailers"], config["seed"]
-        metric = headline_metric(env_id)
-    except (KeyError, TypeError, ValueError) as error:
-        raise ValueError(
-            f"{config_path} lacks the run's environment, n, algorithm or seed: {error}"
-        ) from None
+    config = ModelCard.from_json(
+        files.read_json(config_path, "run configuration"), str(config_path)
+    )
+    env_id, n_trailers, seed = config.env_id, config.n_trailers, config.seed
+    missing = [
+        name
+        for name, value in (("env_id", env_id), ("algo", config.algo), ("n_trailers", n_trailers))
+        if value is None
+    ]
+    if env_id is None or missing:
+        raise ValueError(f"{config_path} lacks the run's environment, n, algorithm: {missing}")
+    algo = recipe_name(config.to_json())  # gSDE and shaping are recipes of their own
+    metric = headline_metric(env_id)
     counts: TrailerCounts
-    if is_count_range(n_trailers):
-        counts = (int(n_trailers[0]), int(n_trailers[1]))
-    elif files.is_integer(n_trailers, 1):
-        counts = int(n_trailers)
+    if isinstance(n_trailers, tuple) or (isinstance(n_trailers, int) and n_trailers >= 1):
+        counts = n_trailers
     else:
         raise ValueError(f"{config_path}: n_trailers must be an integer or a range [low, high]")
-    if not files.is_integer(seed, 0):
+    if seed is None or seed < 0:
         raise ValueError(f"{config_path}: seed must be an integer")
     rows = read_curve(curve_path, ("wall_s", metric))
     if not rows:

@@ -6,10 +6,9 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from agents.artifacts.paths import curve_path
-from agents.envs import env_settings
+from agents.envs import MakeKwargs, env_settings
 from agents.evaluation.results import Evaluation, curve_metric
 from agents.policies.registry import is_model_spec, load_policy
-from trailer_env.json_types import JSONObject
 
 
 def learning_curve(evaluation: Evaluation) -> Path | None:
@@ -27,7 +26,7 @@ def baseline_levels(evaluations: Sequence[Evaluation], metric: str) -> dict[str,
     against (zero and the controllers do).
     """
     return {
-        e.label: e.summary[metric]
+        e.label: e.summary.rate(metric)
         for e in evaluations
         if not is_model_spec(e.spec) and e.label != "random"
     }
@@ -36,7 +35,7 @@ def baseline_levels(evaluations: Sequence[Evaluation], metric: str) -> dict[str,
 def write_pictures(
     evaluations: Sequence[Evaluation],
     env_id: str,
-    env_kwargs: JSONObject,
+    env_kwargs: MakeKwargs,
     out: Path,
     seed: int,
     prefix: str = "",
@@ -63,7 +62,7 @@ def write_pictures(
         # state across calls (the random generator, a replay's step count).
         policy = evaluation.policy if is_model_spec(evaluation.spec) else None
         policy = policy or load_policy(evaluation.spec, env_id, env_kwargs, seed=seed)
-        rows[evaluation.label] = plots.render_frames(env_id, policy, seed, env_kwargs)
+        rows[evaluation.label] = plots.render_frames(env_id, policy, seed, dict(env_kwargs))
     if rows:
         frames_title = (
             f"{env_id}, n = {n}, episode seed {seed}\ngreen: outside the singular band, red: in it"

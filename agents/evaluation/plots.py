@@ -7,19 +7,21 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from types import ModuleType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from agents.artifacts import files
-from agents.artifacts.curves import read_curve
+from agents.artifacts.curves import STEPS_COLUMN, read_curve
+from agents.envs import MakeKwargs, make_keywords
 from agents.evaluation.metrics import EpisodeResults
 from agents.policies.baselines import Policy
 from trailer_env.benchmark import privileged_view
-from trailer_env.json_types import JSONObject
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
 #: Axis labels of the curve metrics.
 METRIC_LABELS = {
@@ -29,7 +31,7 @@ METRIC_LABELS = {
 }
 
 
-def _pyplot() -> Any:
+def _pyplot() -> ModuleType:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -46,9 +48,9 @@ def _draw_curves(
 ) -> None:
     """One line per run of ``metric`` against steps (log axis), baselines as dashed lines."""
     for label, path in curves.items():
-        rows = [row for row in read_curve(Path(path)) if row["timesteps"] > 0]
+        rows = [row for row in read_curve(Path(path)) if row[STEPS_COLUMN] > 0]
         if rows:
-            steps = [row["timesteps"] for row in rows]
+            steps = [row[STEPS_COLUMN] for row in rows]
             axis.plot(steps, [row[metric] for row in rows], marker=".", ms=3, label=label)
     for index, (label, value) in enumerate((baselines or {}).items()):
         axis.axhline(value, color=f"C{7 + index % 3}", ls="--", lw=1, label=label)
@@ -138,7 +140,7 @@ def render_frames(
     env_id: str,
     policy: Policy,
     seed: int,
-    env_kwargs: JSONObject | None = None,
+    env_kwargs: MakeKwargs | None = None,
     times: Sequence[float] = (0.0, 2.0, 4.0, 8.0, 14.0, 20.0),
 ) -> tuple[list[np.ndarray], list[str]]:
     """Render one seeded episode of ``policy`` at the given times (s); stops at the episode's end.
@@ -149,7 +151,7 @@ def render_frames(
     """
     import gymnasium as gym
 
-    env = gym.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
+    env = gym.make(env_id, render_mode="rgb_array", **make_keywords(env_kwargs))
     dt = env.unwrapped.settings.dt  # type: ignore[attr-defined]
     wanted = sorted({round(t / dt) for t in times})
     obs, info = env.reset(seed=seed)
@@ -267,7 +269,7 @@ def plot_frames(
     return out
 
 
-def _save(fig: Any, plt: Any, out: Path, title: str = "") -> Path:
+def _save(fig: Figure, plt: ModuleType, out: Path, title: str = "") -> Path:
     """Lay out ``fig`` (under ``title``, if any), write it to ``out`` and close it."""
     if title:
         fig.suptitle(title)
@@ -283,7 +285,7 @@ def episode_frames(
     env_id: str,
     policy: Policy,
     seed: int,
-    env_kwargs: JSONObject | None = None,
+    env_kwargs: MakeKwargs | None = None,
     max_steps: int | None = None,
 ) -> list[np.ndarray]:
     """Every ``rgb_array`` frame of one seeded episode of ``policy`` (single env).
@@ -293,7 +295,7 @@ def episode_frames(
     """
     import gymnasium as gym
 
-    env = gym.make(env_id, render_mode="rgb_array", **(env_kwargs or {}))
+    env = gym.make(env_id, render_mode="rgb_array", **make_keywords(env_kwargs))
     obs, _ = env.reset(seed=seed)
     frames = [np.asarray(env.render())]
     steps = 0

@@ -5,9 +5,10 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from agents.artifacts.cards import read_card
+from agents.artifacts.cards import read_model_card
 from agents.artifacts.shipped import MODELS_DIR
-from agents.envs import ENV_IDS, scene_title
+from agents.envs import ENV_IDS, HEADLINE_ENV_ID, HEADLINE_N_TRAILERS, scene_title
+from agents.evaluation.ceiling import ceiling_fraction, ceiling_note
 from agents.evaluation.pictures import baseline_levels, learning_curve
 from agents.evaluation.results import (
     Evaluation,
@@ -15,9 +16,11 @@ from agents.evaluation.results import (
     evaluate_policies,
 )
 from agents.evaluation.tables import scenario_legend, scenario_table
-from agents.oracles.certify import ceiling_fraction, ceiling_note
 from agents.progress import plural
 from agents.seeds import FRESH_SEED, TEST_SEED
+
+#: The recipe of the models imitated by DAgger (``agents.imitate``).
+DAGGER = "dagger"
 
 
 def committed_scenarios(directory: Path = MODELS_DIR) -> tuple[tuple[str, int], ...]:
@@ -25,8 +28,8 @@ def committed_scenarios(directory: Path = MODELS_DIR) -> tuple[tuple[str, int], 
     table's order, then by n: the scenarios the README reports."""
     found = set()
     for path in directory.glob("*.zip"):
-        card = read_card(path)
-        env_id, n = card.get("env_id"), card.get("env_kwargs", {}).get("n_trailers")
+        card = read_model_card(path)
+        env_id, n = card.env_id, card.n_trailers
         if env_id in ENV_IDS and isinstance(n, int):
             found.add((env_id, n))
     return tuple(sorted(found, key=lambda scenario: (ENV_IDS.index(scenario[0]), scenario[1])))
@@ -37,7 +40,7 @@ SCENARIOS: tuple[tuple[str, int], ...] = committed_scenarios()
 
 
 #: The scenario whose margins and frames are drawn, and whose table comes first.
-HEADLINE = ("trailer_env/Reverse-v1", 2)
+HEADLINE = (HEADLINE_ENV_ID, HEADLINE_N_TRAILERS)
 
 
 def report_order(scenarios: Sequence[tuple[str, int]]) -> list[tuple[str, int]]:
@@ -68,7 +71,7 @@ def scenario_section(
     (the page's table of contents lists the headings), its picture (``picture``, a path
     relative to the page), the episodes, the table (:func:`scenario_table`: the test starts,
     ``fresh`` on the episodes from ``fresh_seed``, the gap to the ceiling, how to rebuild
-    each model) and the ceiling line (:func:`agents.oracles.certify.ceiling_note`)."""
+    each model) and the ceiling line (:func:`agents.evaluation.ceiling.ceiling_note`)."""
     title = f"{scene_title(env_id)}, n = {n}"
     where = f"`{env_id}`, test: {plural(episodes, 'episode')}, seeds {seed}..{seed + episodes - 1}"
     if fresh is not None:
@@ -111,23 +114,26 @@ def authority_table(episodes: int, seed: int = TEST_SEED) -> str:
         for n in (2, 3):
             env_kwargs = {"n_trailers": n, **changes}
             (evaluation,) = evaluate_policies(["lqr"], env_id, env_kwargs, episodes, seed)
-            rates.append(f"{100 * evaluation.summary['safe_rate']:.0f}%")
+            rates.append(f"{100 * evaluation.summary.safe_rate:.0f}%")
         name = ", ".join(f"{key} = {value:g}" for key, value in changes.items()) or "defaults"
         lines.append(f"| {name} | {rates[0]} | {rates[1]} |")
     return "\n".join(lines) + "\n"
 
 
-def curve_panel(
-    env_id: str, n: int, evaluations: list[Evaluation]
-) -> tuple[str, dict[str, Path], dict[str, float], str]:
+#: One panel of the learning-curve grid: its title, the models' curves by name, the
+#: baselines' levels and the metric (:func:`agents.evaluation.plots.plot_curve_grid`).
+CurvePanel = tuple[str, dict[str, Path], dict[str, float], str]
+
+
+def curve_panel(env_id: str, n: int, evaluations: list[Evaluation]) -> CurvePanel:
     """One panel of the learning-curve grid: the models' curves and the baselines' levels."""
     metric = curve_metric(env_id)
     curves = {}
     for evaluation in evaluations:
         curve = learning_curve(evaluation)
-        if evaluation.card and curve is not None:
-            name = str(evaluation.card.get("algo", evaluation.label)).upper()
-            if evaluation.card.get("recipe") == "dagger":
+        if not evaluation.card.empty and curve is not None:
+            name = (evaluation.card.algo or evaluation.label).upper()
+            if evaluation.card.recipe == DAGGER:
                 name = "DAgger (PPO policy)"
             curves[name] = curve
     levels = baseline_levels(evaluations, metric)

@@ -4,12 +4,21 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
+from agents.artifacts.cards import ModelCard
+from agents.artifacts.results import (
+    PolicyResult,
+    ResultsDocument,
+    SeedResult,
+    Summary,
+    TrainingFacts,
+)
 from agents.artifacts.shipped import resolve_model, seed_models
-from agents.envs import headline_metric, scene_baselines
-from agents.evaluation.metrics import EpisodeResults, rollout, summarize
+from agents.envs import MakeKwargs, headline_metric, scene_baselines
+from agents.evaluation.metrics import EpisodeResults, rollout, summary_of
 from agents.policies.baselines import Policy
 from agents.policies.registry import (
     is_callable_spec,
@@ -20,7 +29,6 @@ from agents.policies.registry import (
 )
 from agents.progress import Progress
 from agents.seeds import TEST_SEED
-from trailer_env.json_types import JSONObject
 
 
 @dataclass
@@ -29,23 +37,24 @@ class Evaluation:
 
     label: str
     spec: str
-    card: JSONObject
+    #: The model's card (the empty card for a baseline).
+    card: ModelCard
     results: EpisodeResults
     policy: Policy | None = None
     #: Per training seed (a committed model's siblings in ``agents/models/seeds/``): its
     #: card's seed and the same episodes' summary.
-    seed_summaries: list[tuple[int | None, JSONObject]] | None = None
+    seed_summaries: list[tuple[int | None, Summary]] | None = None
 
     @property
-    def summary(self) -> JSONObject:
-        """Aggregate metrics (:func:`agents.evaluation.metrics.summarize`)."""
-        return summarize(self.results)
+    def summary(self) -> Summary:
+        """Aggregate metrics (:func:`agents.evaluation.metrics.summary_of`)."""
+        return summary_of(self.results)
 
     def seed_spread(self, metric: str = "safe_rate") -> tuple[float, float, float, float] | None:
         """(mean, sd, min, max) of ``metric`` over the training seeds, or None without them."""
         if not self.seed_summaries:
             return None
-        values = np.array([summary[metric] for _, summary in self.seed_summaries])
+        values = np.array([summary.rate(metric) for _, summary in self.seed_summaries])
         return float(values.mean()), float(values.std()), float(values.min()), float(values.max())
 
 
@@ -62,7 +71,7 @@ def default_baselines(env_id: str) -> list[str]:
 def load_policies(
     specs: Sequence[str],
     env_id: str,
-    env_kwargs: JSONObject,
+    env_kwargs: MakeKwargs,
     seed: int = TEST_SEED,
     *,
     trust_pickle: bool = False,
@@ -87,7 +96,7 @@ def load_policies(
 def evaluate_policies(
     specs: Sequence[str],
     env_id: str,
-    env_kwargs: JSONObject,
+    env_kwargs: MakeKwargs,
     episodes: int,
     seed: int = TEST_SEED,
     *,
@@ -111,7 +120,7 @@ def evaluate_policies(
     total = len(loaded) + sum(len(paths) for paths in siblings.values())
     with Progress(total, f"evaluating on {env_id}", quiet=not progress) as bar:
         for spec, policy in loaded:
-            results = rollout(policy, env_id, episodes, seed, env_kwargs)
+            results = rollout(policy, env_id, episodes, seed, dict(env_kwargs))
             bar.advance(policy_label(spec))
             seed_summaries = None
             if siblings[spec]:
@@ -124,9 +133,11 @@ def evaluate_policies(
                     trust_pickle=trust_pickle,
                     force=force,
                 ):
-                    sibling_results = rollout(sibling_policy, env_id, episodes, seed, env_kwargs)
+                    sibling_results = rollout(
+                        sibling_policy, env_id, episodes, seed, dict(env_kwargs)
+                    )
                     card = model_card(sibling)
-                    seed_summaries.append((card.get("seed"), summarize(sibling_results)))
+                    seed_summaries.append((card.seed, summary_of(sibling_results)))
                     bar.advance(policy_label(sibling))
             evaluations.append(
                 Evaluation(
@@ -142,49 +153,31 @@ def results_document(
     env_kwargs: Mapping[str, object],
     episodes: int,
     seed: int,
-) -> JSONObject:
-    """Everything an evaluation found, as JSON-ready data (no timings: deterministic)."""
-    return {
-        "env_id": env_id,
-        "env_kwargs": env_kwargs,
-        "episodes": episodes,
-        "seeds": [seed, seed + episodes - 1],
-        "safe": "never in the singular band, never folded, never stopped reversing",
-        "policies": [
-            {
-                "name": evaluation.label,
-                "kind": spec_kind(evaluation.spec),
-                "training": {
-                    key: evaluation.card[key]
-                    for key in (
-                        "algo",
-                        "recipe",
-                        "init_from",
-                        "seed",
-                        "budget",
-                        "timesteps",
-                        "wall_time_s",
-                        "n_envs",
-                    )
-                    if key in evaluation.card
-                },
-                **evaluation.summary,
-                **(
-                    {}
-                    if evaluation.seed_summaries is None
-                    else {
-                        "training_seeds": [
-                            {"seed": seed, **summary} for seed, summary in evaluation.seed_summaries
-                        ]
-                    }
+) -> ResultsDocument:
+    """Everything an evaluation found (no timings: deterministic)."""
+    return ResultsDocument(
+        env_id=env_id,
+        env_kwargs=dict(env_kwargs),
+        episodes=episodes,
+        seeds=(seed, seed + episodes - 1),
+        policies=tuple(
+            PolicyResult(
+                name=evaluation.label,
+                kind=spec_kind(evaluation.spec),
+                summary=evaluation.summary,
+                training=TrainingFacts.of(evaluation.card),
+                training_seeds=None
+                if evaluation.seed_summaries is None
+                else tuple(
+                    SeedResult(seed, summary) for seed, summary in evaluation.seed_summaries
                 ),
-            }
+            )
             for evaluation in evaluations
-        ],
-    }
+        ),
+    )
 
 
-def spec_kind(spec: str) -> str:
+def spec_kind(spec: str) -> Literal["model", "callable", "baseline"]:
     """ "model", "callable" (``module:name``) or "baseline", for the results' JSON."""
     if is_model_spec(spec):
         return "model"

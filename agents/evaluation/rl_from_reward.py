@@ -1,60 +1,27 @@
-"""The reinforcement-learning-from-reward table: training runs scored on the test protocol.
+"""The reinforcement-learning-from-reward table: training runs scored on the test protocol
+(the program and what it writes: :mod:`agents.commands.rl_from_reward`).
 
-Usage::
-
-    python -m agents.evaluation.rl_from_reward RUN [RUN ...] [--out docs/generated] \
-        [--fresh-seed 7000] [--fresh-episodes 200] [--overwrite]
-
-Each RUN is a run folder of ``agents.train`` (or a folder of them). Per run, its kept
-model (``best_model.zip``: the best validation evaluation) and its last model
-(``final_model.zip``) are scored on the test episodes (seeds 1000..1099) and on
-``--fresh-episodes`` fresh ones from ``--fresh-seed`` (disjoint from the training,
-validation and test seeds), with the scene's headline rate (safe on Reverse, success
-on the goal scenes). The validation curve gives where the run settled on its final
-plateau (:func:`agents.evaluation.learning_curves.final_plateau`: its last five
-evaluations within 0.05 of their mean, and every evaluation since the settling point
-too), or that its end is not flat, and whether its end still climbs
-(:func:`~agents.evaluation.learning_curves.trend`: the rise of the least-squares line
-through the evaluations of its last third of steps, ± its standard error: the plateau
-rule seldom passes
-a flat curve near 0.8 measured on 50 episodes, while the trend asks only whether the end
-still climbs). Runs of one (scene, n, algorithm) over training seeds are summarised as
-mean ± sd.
-
-Writes ``rl_from_reward.md`` (one table per (scene, n), one row per run and per
-group) and ``rl_from_reward.json`` (every figure), atomically; existing files are
-replaced only with ``--overwrite``. ``--update`` adds the RUNs to the table already in
-``--out`` instead: its rows of other runs are kept as they were scored (run folders are
-not kept forever), a RUN of the same scene, n, recipe and training seed as a row is
-re-scored in that row's place (whatever its folder's name); the fresh seeds must match.
-A kept row's trend is computed again from its kept curve (below), when there is one,
-so rows scored before the trend column existed get theirs.
-
-``--export agents/models/NAME.zip`` (all RUNs of one scene, n and algorithm) commits
-the runs as the project commits a learned agent: each run's kept model goes to
-``agents/models/seeds/NAME_s<seed>.zip`` and the one with the best headline rate on the
-selection episodes (200 from seed 60,000, which no table uses; ties to the lower seed)
-to ``NAME.zip``, its card recording the selection.
-
-Run folders are working files, not kept with the table, so every scored run's curve (its
-``config.json`` and ``evaluations.csv``) is copied to
-``<out>/rl_runs/<scene>_n<n>_<recipe>_s<seed>/`` (named by the row's identity: a
-re-scored run replaces its own); ``python -m agents.curves <out>/rl_runs/...`` redraws
-the charts from there.
+Per run folder of ``agents.train``, its kept model (``best_model.zip``: the best
+validation evaluation) and its last model (``final_model.zip``) are scored on the test
+episodes and on fresh ones, with the scene's headline rate; the validation curve gives
+where the run settled on its final plateau
+(:func:`agents.evaluation.learning_curves.final_plateau`) and whether its end still climbs
+(:func:`~agents.evaluation.learning_curves.trend`). Runs of one (scene, n, algorithm)
+over training seeds are summarised as mean ± sd.
 """
 
 from __future__ import annotations
 
-import argparse
 import re
 import statistics
-import sys
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import ClassVar
 
 from agents.artifacts import files
-from agents.artifacts.cards import read_card, write_card
+from agents.artifacts.cards import ModelCard, Selection, read_model_card, write_card
+from agents.artifacts.records import JSONPart, JSONRecord
 from agents.artifacts.run_folder import (
     BEST_MODEL,
     CONFIG_FILE,
@@ -65,9 +32,7 @@ from agents.artifacts.run_folder import (
 from agents.artifacts.shipped import SEEDS_DIR
 from agents.evaluation.learning_curves import (
     TREND_MIN_EVALUATIONS,
-    counts_text,
     final_plateau,
-    group_runs,
     read_run,
     rise_text,
     trend,
@@ -87,7 +52,7 @@ SELECTION_EPISODES = 200
 
 
 @dataclass(frozen=True)
-class RunScore:
+class RunScore(JSONPart):
     """One run's figures: where it plateaued, and its models on test and fresh seeds."""
 
     run: str
@@ -120,6 +85,18 @@ class RunScore:
         return rise_text(self.trend_change, self.trend_se, self.trend_evaluations)
 
 
+@dataclass(frozen=True)
+class RewardTable(JSONRecord):
+    """The table's JSON document (``rl_from_reward.json``): every row, and the fresh
+    episodes they were scored on."""
+
+    DOCUMENT: ClassVar[str] = "rl_from_reward table"
+
+    fresh_seed: int
+    fresh_episodes: int
+    runs: tuple[RunScore, ...]
+
+
 def _rate(model: Path, env_id: str, n: int, seed: int, episodes: int, metric: str) -> float:
     kwargs = {"n_trailers": n}
     policy = load_policy(str(model), env_id, kwargs, seed=seed)
@@ -145,11 +122,11 @@ def keep_curve(run_dir: Path, destination: Path) -> None:
         files.atomic_write_bytes(destination / name, (run_dir / name).read_bytes())
 
 
-def _kept_at(card: dict) -> int:
+def _kept_at(card: ModelCard) -> int:
     """The step the kept model was selected at (0 is a step: a fine-tuning run whose
     starting model stayed the best), else the card's step count."""
-    selected = card.get("selected_at_timesteps")
-    return int(selected if selected is not None else card.get("timesteps") or 0)
+    selected = card.selected_at_timesteps
+    return selected if selected is not None else card.timesteps or 0
 
 
 def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
@@ -165,7 +142,7 @@ def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
             "score it on each n with agents.evaluate"
         )
     best, final = run_dir / BEST_MODEL, run_dir / FINAL_MODEL
-    card = read_card(best)
+    card = read_model_card(best)
     end = trend(steps, values)
     return RunScore(
         run=run_dir.name,
@@ -202,18 +179,18 @@ def export_selected(scores: Sequence[RunScore], folders: Sequence[Path], destina
         for score, folder in zip(scores, folders, strict=True)
     }
     chosen = max(sorted(rates), key=lambda seed: rates[seed])
-    selection = {
-        "chosen_seed": chosen,
-        f"{metric}_per_training_seed": {str(seed): rate for seed, rate in sorted(rates.items())},
-        "seeds": [SELECTION_SEED, SELECTION_SEED + SELECTION_EPISODES - 1],
-    }
+    by_seed = {str(seed): rate for seed, rate in sorted(rates.items())}
+    selection = Selection(
+        chosen_seed=chosen,
+        seeds=(SELECTION_SEED, SELECTION_SEED + SELECTION_EPISODES - 1),
+        safe_rate_per_training_seed=by_seed if metric == "safe_rate" else None,
+        success_rate_per_training_seed=None if metric == "safe_rate" else by_seed,
+    )
     seeds_dir = destination.parent / SEEDS_DIR.name
     for score, folder in zip(scores, folders, strict=True):
         export_model(folder, seeds_dir / f"{destination.stem}_s{score.seed}.zip", overwrite=True)
     path = export_model(folders[[s.seed for s in scores].index(chosen)], destination, True)
-    card = read_card(path)
-    card["selection"] = selection
-    write_card(path, card)
+    write_card(path, replace(read_model_card(path), selection=selection))
     return chosen
 
 
@@ -283,7 +260,9 @@ def markdown(scores: Sequence[RunScore], fresh_seed: int, fresh_episodes: int) -
     return "\n".join(lines) + "\n"
 
 
-def _run_folders(paths: Sequence[Path]) -> list[Path]:
+def run_folders(paths: Sequence[Path]) -> list[Path]:
+    """The finished run folders (``config.json``, best and final model) among ``paths``
+    and the folders directly inside them."""
     found = []
     for path in paths:
         if (path / CONFIG_FILE).is_file():
@@ -291,24 +270,6 @@ def _run_folders(paths: Sequence[Path]) -> list[Path]:
         elif path.is_dir():
             found += sorted(p.parent for p in path.glob(f"*/{CONFIG_FILE}"))
     return [p for p in found if (p / BEST_MODEL).is_file() and (p / FINAL_MODEL).is_file()]
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.evaluation.rl_from_reward",
-        description=__doc__,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-    )
-    parser.add_argument("runs", nargs="+", type=Path, metavar="RUN")
-    parser.add_argument("--out", type=Path, default=Path("out") / "rl_from_reward")
-    parser.add_argument("--fresh-seed", type=int, default=7000)
-    parser.add_argument("--fresh-episodes", type=int, default=200)
-    parser.add_argument("--export", type=Path, default=None, metavar="PATH.zip")
-    parser.add_argument("--overwrite", action="store_true")
-    parser.add_argument(
-        "--update", action="store_true", help="add to the table in --out (see above)"
-    )
-    return parser
 
 
 def _with_trend(score: RunScore, out: Path) -> RunScore:
@@ -325,91 +286,49 @@ def _with_trend(score: RunScore, out: Path) -> RunScore:
     )
 
 
-def _kept_scores(document: Path, fresh_seed: int, fresh_episodes: int) -> list[RunScore]:
+def kept_scores(document: Path, fresh_seed: int, fresh_episodes: int) -> list[RunScore]:
     """The rows of an earlier table (``--update``), each with its trend (:func:`_with_trend`).
 
     Raises:
         ValueError: If it is unreadable or was scored on other fresh episodes.
     """
     try:
-        earlier = files.read_json(document)
-        scores = [RunScore(**row) for row in earlier["runs"]]
-    except (OSError, KeyError, TypeError, ValueError) as error:
+        earlier = RewardTable.from_json(files.read_json(document), str(document))
+    except (OSError, ValueError) as error:
         raise ValueError(f"cannot read the table {document}: {error}") from None
-    scored_on = (earlier.get("fresh_seed"), earlier.get("fresh_episodes"))
+    scored_on = (earlier.fresh_seed, earlier.fresh_episodes)
     if scored_on != (fresh_seed, fresh_episodes):
         raise ValueError(
             f"{document} was scored on {scored_on[1]} fresh episodes from seed {scored_on[0]}, "
             f"not {fresh_episodes} from {fresh_seed}"
         )
+    scores = earlier.runs
     return [_with_trend(score, document.parent) for score in scores]
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
-    if not 1 <= args.fresh_episodes <= 100_000:
-        parser.error("--fresh-episodes must be in 1..100000")
-    if (
-        args.fresh_seed < TEST_SEED + TEST_EPISODES
-        and args.fresh_seed + args.fresh_episodes > TEST_SEED
-    ):
-        parser.error("--fresh-seed: the fresh episodes overlap the test seeds")
-    folders = _run_folders(args.runs)
-    if not folders:
-        parser.error("no finished run folder (config.json, best and final model) in RUN")
-    targets = [args.out / TABLE, args.out / DOCUMENT]
-    kept: list[RunScore] = []
-    if args.update:
-        try:
-            kept = _kept_scores(targets[1], args.fresh_seed, args.fresh_episodes)
-        except ValueError as error:
-            parser.error(f"--update: {error}")
-    elif not args.overwrite and any(path.exists() for path in targets):
-        parser.error(f"{args.out} already holds a table: --overwrite replaces it (--update adds)")
-    groups = group_runs([read_run(folder) for folder in folders])  # refuses unreadable runs
-    ranges = [f"{key[0]} n = {counts_text(key[1])}" for key in groups if isinstance(key[1], tuple)]
-    if ranges:
-        parser.error(
-            f"RUN: {ranges[0]} is one policy for a range of n; this table scores one n "
-            "(score it on each n with agents.evaluate)"
-        )
-    if args.export is not None:
-        if len(groups) != 1:
-            parser.error(
-                f"--export takes the runs of one scene, n and algorithm, got {len(groups)}"
-            )
-        if args.export.suffix != ".zip":
-            parser.error("--export must name a .zip file")
-        if args.export.exists() and not args.overwrite:
-            parser.error(f"{args.export} exists; pass --overwrite to replace it")
-    scores = []
-    for index, folder in enumerate(folders, 1):
-        print(f"[{index}/{len(folders)}] scoring {folder}", file=sys.stderr, flush=True)
-        scores.append(score_run(folder, args.fresh_seed, args.fresh_episodes))
-    args.out.mkdir(parents=True, exist_ok=True)
-    scored = list(scores)  # in the order of the folders
-    if kept:
-        # A re-scored run (same scene, n, recipe and seed, whatever its folder's name)
-        # takes its earlier row's place, so no seed is counted twice; new runs come after.
-        rescored = {_identity(score): score for score in scores}
-        merged = [rescored.pop(_identity(score), score) for score in kept]
-        scores = merged + [score for score in scores if _identity(score) in rescored]
-    document: dict[str, object] = {
-        "fresh_seed": args.fresh_seed,
-        "fresh_episodes": args.fresh_episodes,
-        "runs": [asdict(score) for score in scores],
-    }
-    for folder, score in zip(folders, scored, strict=True):
-        keep_curve(folder, curve_folder(args.out, score))
-    files.write_json(targets[1], document)
-    files.atomic_write_text(targets[0], markdown(scores, args.fresh_seed, args.fresh_episodes))
-    print(f"wrote {targets[0]}, {targets[1]} and {len(scored)} curves in {args.out / CURVES}")
-    if args.export is not None:
-        chosen = export_selected(scored, folders, args.export)
-        print(f"exported seed {chosen} to {args.export} (siblings in agents/models/seeds/)")
-    return 0
+def merge_scores(kept: Sequence[RunScore], scores: Sequence[RunScore]) -> list[RunScore]:
+    """The rows of an updated table: a re-scored run (same scene, n, recipe and seed,
+    whatever its folder's name) takes its earlier row's place, so no seed is counted
+    twice; new runs come after, in their order."""
+    rescored = {_identity(score): score for score in scores}
+    merged = [rescored.pop(_identity(score), score) for score in kept]
+    return merged + [score for score in scores if _identity(score) in rescored]
 
 
-if __name__ == "__main__":
-    raise SystemExit(main())
+def write_table(
+    out: Path,
+    scores: Sequence[RunScore],
+    scored: Sequence[tuple[Path, RunScore]],
+    fresh_seed: int,
+    fresh_episodes: int,
+) -> tuple[Path, Path]:
+    """Keep the curve of every ``scored`` (folder, score) in ``out`` (:func:`curve_folder`),
+    then write the JSON document and the table of ``scores``, atomically; returns the
+    table's and the document's paths."""
+    out.mkdir(parents=True, exist_ok=True)
+    document = RewardTable(fresh_seed, fresh_episodes, tuple(scores))
+    for folder, score in scored:
+        keep_curve(folder, curve_folder(out, score))
+    files.write_json(out / DOCUMENT, document.to_json())
+    files.atomic_write_text(out / TABLE, markdown(scores, fresh_seed, fresh_episodes))
+    return out / TABLE, out / DOCUMENT

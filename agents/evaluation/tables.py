@@ -9,9 +9,10 @@ footnote line under the table (:func:`training_footnote`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
-from agents.algorithms import recipe_name
+from agents.algorithms.recipes import recipe_name
+from agents.artifacts.cards import ModelCard
+from agents.artifacts.results import Summary
 from agents.envs import ENV_IDS, core_class_of, scene_title
 from agents.evaluation.metrics import wilson_interval
 from agents.evaluation.results import Evaluation
@@ -34,40 +35,51 @@ def _steps_text(steps: float) -> str:
     return f"{steps / 1e6:.3g}M" if steps >= 100_000 else f"{steps / 1e3:.3g}k"
 
 
-def training_note(card: dict[str, Any], label: str = "") -> str:
+#: The recipe of the models imitated by DAgger (``agents.imitate``).
+DAGGER = "dagger"
+
+
+def _steps(card: ModelCard) -> int:
+    """The steps (labels, for imitation) the run took: its ``timesteps``, else its budget."""
+    if card.timesteps is not None:
+        return card.timesteps
+    return card.budget or 0
+
+
+def training_note(card: ModelCard, label: str = "") -> str:
     """ "PPO, seed 0, 2.0M steps, 95 s" from a model card (a baseline: :func:`oracle_note`)."""
-    if not card:
+    if card.empty:
         return oracle_note(label)
-    steps = card.get("timesteps", card.get("budget", 0))
-    selected = card.get("selected_at_timesteps")
+    steps = _steps(card)
+    selected = card.selected_at_timesteps
     chosen = f" (kept {_steps_text(selected)})" if selected not in (None, steps) else ""
-    wall = card.get("wall_time_s")
-    wall_text = f", {wall:.0f} s" if isinstance(wall, (int, float)) else ""
-    algo = str(card.get("algo", "?")).upper()
-    if card.get("recipe") == "dagger":
-        iteration = card.get("selected_at_iteration")
+    wall = card.wall_time_s
+    wall_text = f", {wall:.0f} s" if wall is not None else ""
+    algo = (card.algo or "?").upper()
+    if card.recipe == DAGGER:
+        iteration = card.selected_at_iteration
         kept = f" (kept iteration {iteration})" if iteration is not None else ""
-        expert = str(card.get("expert", "mpc"))
-        teachers = card.get("planner", {}).get("policy")
-        if teachers is not None:  # distilled: the specialists' specs say which
-            expert = f"{expert} {teachers}"
+        expert = card.expert or "mpc"
+        expert_policies = None if card.planner is None else card.planner.policy
+        if expert_policies is not None:  # distilled: the expert policies' specs say which
+            expert = f"{expert} {expert_policies}"
         return (
             f"{algo} policy by DAgger from {expert}, "
-            f"seed {card.get('seed')}, {_steps_text(steps)} labels{kept}{wall_text}"
+            f"seed {card.seed}, {_steps_text(steps)} labels{kept}{wall_text}"
         )
-    recipe = recipe_name(card, upper=True)
-    return f"{recipe}, seed {card.get('seed')}, {_steps_text(steps)} steps{chosen}{wall_text}"
+    recipe = recipe_name(card.to_json(), upper=True)
+    return f"{recipe}, seed {card.seed}, {_steps_text(steps)} steps{chosen}{wall_text}"
 
 
-def training_label(card: dict[str, Any], label: str = "") -> str:
+def training_label(card: ModelCard, label: str = "") -> str:
     """The table cell's short form of :func:`training_note`: "DAgger, 0.614M labels",
     "PPO, 2M steps", "oracle" for an oracle baseline, "-" for the other baselines."""
-    if not card:
+    if card.empty:
         return "oracle" if oracle_note(label) != "-" else "-"
-    steps = _steps_text(card.get("timesteps", card.get("budget", 0)))
-    if card.get("recipe") == "dagger":
+    steps = _steps_text(_steps(card))
+    if card.recipe == DAGGER:
         return f"DAgger, {steps} labels"
-    return f"{recipe_name(card, upper=True)}, {steps} steps"
+    return f"{recipe_name(card.to_json(), upper=True)}, {steps} steps"
 
 
 def training_footnote(evaluations: Sequence[Evaluation]) -> str:
@@ -160,15 +172,14 @@ def markdown_table(evaluations: Sequence[Evaluation], metric: str = "safe_rate")
     lines = []
     for evaluation in evaluations:
         s = evaluation.summary
-        stopped = s["failure_rate"] - s["jackknife_rate"]
-        low, high = s["safe_rate_ci"]
+        low, high = s.safe_rate_ci
         lines.append(
             f"| {evaluation.label} | {training_label(evaluation.card, evaluation.label)} "
-            f"| {s['mean_return']:.1f}{NBSP}±{NBSP}{s['std_return']:.1f} "
-            f"| {100 * s['safe_rate']:.0f} [{100 * low:.0f}, {100 * high:.0f}] "
-            f"| {100 * s['jackknife_rate']:.0f} | {100 * s['band_time_fraction']:.1f} "
-            f"| {s['min_margin_mean']:.2f} / {s['min_margin_worst']:.2f} "
-            f"| {100 * s['success_rate']:.0f} | {100 * stopped:.0f} "
+            f"| {s.mean_return:.1f}{NBSP}±{NBSP}{s.std_return:.1f} "
+            f"| {100 * s.safe_rate:.0f} [{100 * low:.0f}, {100 * high:.0f}] "
+            f"| {100 * s.jackknife_rate:.0f} | {100 * s.band_time_fraction:.1f} "
+            f"| {s.min_margin_mean:.2f} / {s.min_margin_worst:.2f} "
+            f"| {100 * s.success_rate:.0f} | {100 * s.stop_rate:.0f} "
             f"| {seeds_note(evaluation, metric)} |"
         )
     footnote = training_footnote(evaluations)
@@ -180,27 +191,28 @@ def markdown_table(evaluations: Sequence[Evaluation], metric: str = "safe_rate")
 TRAINING_KINDS = ("baseline", "oracle", "imitation", "from reward", "constrained")
 
 
-def training_kind(card: dict[str, Any], label: str = "") -> str:
+def training_kind(card: ModelCard, label: str = "") -> str:
     """One of :data:`TRAINING_KINDS`: "oracle" for a baseline reading the exact state,
     "imitation" for DAgger (from a planner or from trained specialists), "constrained" for
     a cost-constrained algorithm (PPO-Lagrangian), "from reward" for the other learners."""
-    if not card:
+    if card.empty:
         return "oracle" if oracle_note(label) != "-" else "baseline"
-    if card.get("recipe") == "dagger":
+    if card.recipe == DAGGER:
         return "imitation"
-    return "constrained" if card.get("algo") == "ppo_lag" else "from reward"
+    return "constrained" if card.algo == "ppo_lag" else "from reward"
 
 
-def _rate_cell(summary: dict[str, Any], metric: str) -> str:
+def _rate_cell(summary: Summary, metric: str) -> str:
     """ "99.0 [95, 100]": the rate in % with its 95 % Wilson interval."""
-    episodes = int(summary["episodes"])
-    low, high = wilson_interval(round(summary[metric] * episodes), episodes)
-    return f"{100 * summary[metric]:.1f} [{100 * low:.0f}, {100 * high:.0f}]"
+    episodes = summary.episodes
+    rate = summary.rate(metric)
+    low, high = wilson_interval(round(rate * episodes), episodes)
+    return f"{100 * rate:.1f} [{100 * low:.0f}, {100 * high:.0f}]"
 
 
-def _wall_cell(card: dict[str, Any]) -> str:
-    wall = card.get("wall_time_s") if card else None
-    return f"{wall / 60:.1f} min" if isinstance(wall, (int, float)) else "-"
+def _wall_cell(card: ModelCard) -> str:
+    wall = card.wall_time_s
+    return f"{wall / 60:.1f} min" if wall is not None else "-"
 
 
 def reproduce_command(label: str) -> str:
@@ -235,17 +247,19 @@ def scenario_table(
     for evaluation in test:
         summary = evaluation.summary
         other = by_label.get(evaluation.label)
-        gap = "-" if ceiling is None else f"{100 * (ceiling - summary[metric]):.1f}"
+        gap = "-" if ceiling is None else f"{100 * (ceiling - summary.rate(metric)):.1f}"
         lines.append(
             f"| {evaluation.label} | {training_kind(evaluation.card, evaluation.label)} "
             f"| {_rate_cell(summary, metric)} "
             f"| {'-' if other is None else _rate_cell(other.summary, metric)} "
-            f"| {gap} | {100 * summary['jackknife_rate']:.0f} "
+            f"| {gap} | {100 * summary.jackknife_rate:.0f} "
             f"| {seeds_note(evaluation, metric)} | {_wall_cell(evaluation.card)} |"
         )
     notes = [training_footnote(test)]
     commands = [
-        f"`{reproduce_command(evaluation.label)}`" for evaluation in test if evaluation.card
+        f"`{reproduce_command(evaluation.label)}`"
+        for evaluation in test
+        if not evaluation.card.empty
     ]
     if commands:
         notes.append(f"rebuild: {'; '.join(commands)}")

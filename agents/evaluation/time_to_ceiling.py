@@ -1,9 +1,9 @@
 """Time to the ceiling: per scenario, how far the best learned agent stands from the certified
 ceiling, and the wall time it took to make it.
 
-Read from the report's results documents (:func:`agents.evaluation.results.results_document`,
+Read from the report's results documents (:class:`~agents.artifacts.results.ResultsDocument`,
 ``results.json`` of ``python -m agents.report``): the ceiling is the committed
-certificate's share of the test starts (:func:`agents.oracles.certify.ceiling_fraction`),
+certificate's share of the test starts (:func:`agents.evaluation.ceiling.ceiling_fraction`),
 the agent is the committed model with the highest headline rate on those starts, and the
 time is the ``wall_time_s`` its run recorded on its card: for an imitation agent the
 whole ``agents.imitate`` run (the planner's labels, the training and the choice of the
@@ -15,20 +15,18 @@ and reinforcement learning stand side by side. Choosing among training seeds is 
 it. The machine's load during a run is not on its card: the figures are as recorded, on
 the 2-core machine of this project, usually beside other work.
 
-``python -m agents.evaluation.time_to_ceiling RESULTS_JSON`` prints the table.
+``python -m agents.time_to_ceiling RESULTS_JSON`` prints the table
+(:mod:`agents.commands.time_to_ceiling`).
 """
 
 from __future__ import annotations
 
-import argparse
-import json
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
 
+from agents.artifacts.results import PolicyResult, ResultsDocument, TrainingFacts
 from agents.envs import headline_metric, scene_title
-from agents.oracles.certify import ceiling_fraction
+from agents.evaluation.ceiling import ceiling_fraction
 
 #: The targets of the table's two last columns: points below the ceiling, minutes of wall time.
 GAP_TARGET_POINTS = 2.0
@@ -42,7 +40,7 @@ TIME_TO_CEILING_LEGEND = (
     "card (imitation: labels, training and selection of the iteration; reinforcement "
     "learning: training with its validation evaluations; on this project's 2-core machine, "
     "its load not recorded), and beside it the best agent learned from the reward alone "
-    "(no imitation). `python -m agents.evaluation.time_to_ceiling results.json` "
+    "(no imitation). `python -m agents.time_to_ceiling results.json` "
     "prints it from a report's results."
 )
 
@@ -71,48 +69,49 @@ class CeilingGap:
         return 100.0 * (self.ceiling - self.rate)
 
 
-def _from_reward(training: Mapping[str, Any]) -> bool:
+def _from_reward(training: TrainingFacts) -> bool:
     """Whether a policy was learned from the scene's reward alone: not imitated, and not
     fine-tuned from an imitated (or any other) model."""
-    return "recipe" not in training and "init_from" not in training
+    return training.recipe is None and training.init_from is None
 
 
-def gap_of(document: Mapping[str, Any]) -> CeilingGap:
+def gap_of(document: ResultsDocument) -> CeilingGap:
     """The :class:`CeilingGap` of one results document.
 
     Raises:
-        KeyError: If the document lacks a field ``results_document`` writes.
+        ValueError: If the document's ``n_trailers`` is not one count.
     """
-    env_id = str(document["env_id"])
-    n = int(document["env_kwargs"]["n_trailers"])
+    env_id, n = document.env_id, document.n_trailers
+    if not isinstance(n, int):
+        raise ValueError(f"the time to the ceiling needs one count of trailers, got {n!r}")
     metric = headline_metric(env_id)
-    learned = [policy for policy in document["policies"] if policy["kind"] == "model"]
-    ceiling = ceiling_fraction(env_id, n, int(document["episodes"]), int(document["seeds"][0]))
+    learned = document.by_kind("model")
+    ceiling = ceiling_fraction(env_id, n, document.episodes, document.seeds[0])
     if not learned:
         return CeilingGap(env_id, n, ceiling, None, None, None, 0, None)
-    best = max(learned, key=lambda policy: float(policy[metric]))
-    seeds = best.get("training_seeds") or []
-    seeds_mean = sum(float(row[metric]) for row in seeds) / len(seeds) if seeds else None
-    from_reward = [policy for policy in learned if _from_reward(policy.get("training", {}))]
-    reward = max(from_reward, key=lambda policy: float(policy[metric])) if from_reward else None
+    best = max(learned, key=lambda policy: policy.summary.rate(metric))
+    seeds = best.training_seeds or ()
+    seeds_mean = sum(row.summary.rate(metric) for row in seeds) / len(seeds) if seeds else None
+    from_reward = [policy for policy in learned if _from_reward(policy.training)]
+    reward = max(from_reward, key=lambda policy: policy.summary.rate(metric), default=None)
     return CeilingGap(
         env_id,
         n,
         ceiling,
-        str(best["name"]),
-        float(best[metric]),
+        best.name,
+        best.summary.rate(metric),
         seeds_mean,
         len(seeds),
         _wall_minutes(best),
-        None if reward is None else str(reward["name"]),
-        None if reward is None else float(reward[metric]),
+        None if reward is None else reward.name,
+        None if reward is None else reward.summary.rate(metric),
         None if reward is None else _wall_minutes(reward),
     )
 
 
-def _wall_minutes(policy: Mapping[str, Any]) -> float | None:
-    wall = policy.get("training", {}).get("wall_time_s")
-    return None if wall is None else float(wall) / 60.0
+def _wall_minutes(policy: PolicyResult) -> float | None:
+    wall = policy.training.wall_time_s
+    return None if wall is None else wall / 60.0
 
 
 def _percent(value: float | None) -> str:
@@ -126,7 +125,7 @@ def _verdict(value: float | None, target: float) -> str:
     return "yes" if round(value, 6) <= target else "no"
 
 
-def time_to_ceiling_table(documents: Sequence[Mapping[str, Any]]) -> str:
+def time_to_ceiling_table(documents: Sequence[ResultsDocument]) -> str:
     """The Markdown table: one row per document, in their order."""
     lines = [
         "| scene, n | ceiling (certified) | best learned agent | its rate | gap (points) "
@@ -152,24 +151,3 @@ def time_to_ceiling_table(documents: Sequence[Mapping[str, Any]]) -> str:
             f"| {row.reward_agent or '-'} | {_percent(row.reward_rate)} | {reward_wall} |"
         )
     return "\n".join(lines) + "\n"
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Print the table of a report's ``results.json``."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.evaluation.time_to_ceiling",
-        description="Gap to the certified ceiling and wall time of each scenario's best agent",
-    )
-    parser.add_argument("results", type=Path, help="results.json of python -m agents.report")
-    args = parser.parse_args(argv)
-    try:
-        documents = json.loads(args.results.read_text())
-        table = time_to_ceiling_table(documents)
-    except (OSError, ValueError, KeyError, TypeError) as error:
-        parser.error(f"argument results: {args.results} is not a report's results.json ({error})")
-    print(table, end="")
-    return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,2 +1,3 @@
-"""Oracles with the exact model and state: the sampling planner, the linear feasibility
-screen, and the certification of a scene's ceiling built from both."""
+"""Oracles with the exact model and state: the sampling planner, iLQR, the linear
+feasibility screen and what they know of each scene (certification, built on them, is
+:mod:`agents.certification`)."""

@@ -54,6 +54,7 @@ import numpy as np
 
 from agents.oracles.ilqr_costs import CostWeights, SceneCost, scene_horizon
 from agents.oracles.ilqr_kernels import backward_pass, feedback
+from agents.oracles.rail import require_rail
 from dynamics.columns import ACT_WIDTH, ALPHA, ETA, ETA_DOT, OMEGA, U
 from trailer_env.controllers import LQRController
 from trailer_env.core import ConvoyCore
@@ -190,10 +191,7 @@ class ILQRPlanner:
         batch_size: int,
         config: ILQRConfig | None = None,
     ) -> None:
-        if settings.actuator.planar:
-            raise ValueError(
-                f"the planner drives the rail actuator, not action_mode={settings.action_mode!r}"
-            )
+        require_rail(settings)
         if config is not None and not isinstance(config, ILQRConfig):
             raise TypeError(f"config must be ILQRConfig, got {type(config).__name__}")
         self.batch_size = _positive_int("batch_size", batch_size, 1)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from agents.oracles.ilqr import ILQRConfig, ILQRPlanner
+from agents.oracles.rail import require_rail
 from agents.oracles.scenes import scene_oracle
 from trailer_env.core import ConvoyCore
 from trailer_env.settings import EnvSettings
@@ -31,10 +32,7 @@ class ILQRPolicy:
         settings: EnvSettings,
         config: ILQRConfig | None = None,
     ) -> None:
-        if settings.actuator.planar:
-            raise ValueError(
-                f"the planner drives the rail actuator, not action_mode={settings.action_mode!r}"
-            )
+        require_rail(settings)
         self.core_class = core_class
         self.observation_state = scene_oracle(core_class).observation_state
         self.settings = settings

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from agents.oracles.planner import PlannerConfig, SamplingPlanner
+from agents.oracles.rail import require_rail
 from dynamics.columns import ETA, ETA_DOT, XI
 from trailer_env.core import ConvoyCore
 from trailer_env.settings import EnvSettings
@@ -22,10 +23,7 @@ def state_from_observation(obs: np.ndarray, settings: EnvSettings) -> tuple[np.n
     Raises:
         ValueError: In planar mode (the observation's layout differs).
     """
-    if settings.actuator.planar:
-        raise ValueError(
-            f"the planner drives the rail actuator, not action_mode={settings.action_mode!r}"
-        )
+    require_rail(settings)
     n = settings.n_trailers
     batch = np.atleast_2d(np.asarray(obs, dtype=np.float64))
     z = np.column_stack(

@@ -34,7 +34,7 @@ written by ``python -m agents.certify`` and quoted in docs/physics.md section 14
 
 This module holds the search (:class:`SamplingPlanner`) and its episode runner
 (:func:`plan_episodes`); :class:`agents.oracles.mpc_policy.MPCPolicy` puts it behind the
-policy interface and :class:`agents.oracles.experts.PrivilegedExpert` makes it a DAgger
+policy interface and :class:`agents.oracles.labellers.PrivilegedExpert` makes it a DAgger
 labeller.
 """
 
@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg
 
+from agents.oracles.rail import require_rail
 from agents.progress import Progress
 from dynamics.columns import XI
 from trailer_env.controllers import (
@@ -170,10 +171,7 @@ class SamplingPlanner:
         batch_size: int,
         config: PlannerConfig | None = None,
     ) -> None:
-        if settings.actuator.planar:
-            raise ValueError(
-                f"the planner drives the rail actuator, not action_mode={settings.action_mode!r}"
-            )
+        require_rail(settings)
         if isinstance(batch_size, bool) or not isinstance(batch_size, (int, np.integer)):
             raise TypeError(f"batch_size must be an int, got {type(batch_size).__name__}")
         if batch_size < 1:

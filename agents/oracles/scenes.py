@@ -6,12 +6,15 @@ name. :data:`SCENE_ORACLES` maps a core's ``scene`` (every version of it) to its
 :class:`SceneOracle`; a scene without a record has no planner (:data:`NO_ORACLE`), and a
 new scene that a planner should drive adds one record here.
 
-* ``Reverse``: survival; the sampling planner (``mpc``), its committed records
-  (``mpc-replay``) and iLQR; certified by surviving the episode (:mod:`agents.oracles.certify`).
-* ``Dock``: a goal; iLQR over 5 s with the dock line in its cost, its observations
-  decoded with the dock at the origin (:func:`dock_state_from_observation`); certified
-  by reaching the goal (:mod:`agents.oracles.certify_goals`).
-* ``Coast``: a goal; iLQR weighing the turning rate like the angles.
+* ``Reverse``: the sampling planner (``mpc``), its committed records (``mpc-replay``)
+  and iLQR.
+* ``Dock``: iLQR over 5 s with the dock line in its cost, its observations decoded with
+  the dock at the origin (:func:`dock_state_from_observation`).
+* ``Coast``: iLQR weighing the turning rate like the angles.
+
+Whether a scene is survived or reached is the scene's own (its core's ``objective``,
+:mod:`trailer_env.objective`); certification (:mod:`agents.certification.certify`) takes
+the planner of that objective when the record names it.
 
 Why each scene's iLQR settings are what they are is in :mod:`agents.oracles.ilqr_costs`.
 """
@@ -105,10 +108,7 @@ class SceneOracle:
     Attributes:
         planners: The oracle baselines that have a cost for the scene (``agents.evaluate
             --policy`` names, run only when named), in the order a default is chosen:
-            the DAgger experts (:data:`agents.oracles.experts.EXPERTS`) among them fit it.
-        goal: Certified by reaching the scene's success with iLQR
-            (:mod:`agents.oracles.certify_goals`) rather than by surviving the episode
-            with the sampling planner (:mod:`agents.oracles.certify`).
+            the DAgger experts (:data:`agents.policies.experts.EXPERTS`) among them fit it.
         horizon: iLQR's default horizon (steps).
         weights: iLQR's cost weights that differ from
             :class:`~agents.oracles.ilqr_costs.CostWeights`' defaults (name -> value).
@@ -119,7 +119,6 @@ class SceneOracle:
     """
 
     planners: tuple[str, ...] = ()
-    goal: bool = False
     horizon: int = 60
     weights: Mapping[str, float] = field(default_factory=dict)
     task_residuals: tuple[tuple[str, Callable[[ConvoyCore], np.ndarray]], ...] = ()
@@ -134,7 +133,6 @@ SCENE_ORACLES: dict[str, SceneOracle] = {
     "Reverse": SceneOracle(planners=("mpc", "mpc-replay", "ilqr")),
     "Dock": SceneOracle(
         planners=("ilqr",),
-        goal=True,
         horizon=100,
         weights={
             "angle": 0.1,
@@ -147,9 +145,7 @@ SCENE_ORACLES: dict[str, SceneOracle] = {
         task_residuals=(("lateral", _dock_lateral), ("heading", _dock_heading)),
         observation_state=_dock_state,
     ),
-    "Coast": SceneOracle(
-        planners=("ilqr",), goal=True, weights={"angle": 2.0, "omega": 2.0, "terminal": 1.0}
-    ),
+    "Coast": SceneOracle(planners=("ilqr",), weights={"angle": 2.0, "omega": 2.0, "terminal": 1.0}),
 }
 
 

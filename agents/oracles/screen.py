@@ -35,6 +35,7 @@ import numpy as np
 import scipy.linalg
 import scipy.optimize
 
+from agents.oracles.rail import require_rail
 from trailer_env.controllers import linearise
 from trailer_env.settings import EnvSettings
 
@@ -123,73 +124,20 @@ def minimal_stroke(
     a_d = np.asarray(a_d, dtype=np.float64)
     b_d = np.asarray(b_d, dtype=np.float64).reshape(-1)
     x0 = np.asarray(x0, dtype=np.float64).reshape(-1)
-    size = a_d.shape[0]
-    if a_d.shape != (size, size) or b_d.shape != (size,) or x0.shape != (size,):
-        raise ValueError(f"shapes do not match: a_d {a_d.shape}, b_d {b_d.shape}, x0 {x0.shape}")
-    if not np.all(np.isfinite(x0)):
-        raise ValueError("x0 must be finite")
-    if not (0 <= position < size and 0 <= speed < size):
-        raise ValueError(f"position and speed must index the state (size {size})")
-    if not (speed_max > 0.0 and accel_max > 0.0):
-        raise ValueError("speed_max and accel_max must be > 0")
-    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
-        raise ValueError(f"steps must be an integer >= 1, got {steps!r}")
+    _check_system(a_d, b_d, x0, position, speed, speed_max, accel_max, steps)
     eigenvalues = scipy.linalg.eigvals(a_d)
     unstable = np.abs(eigenvalues) > 1.0 + UNSTABLE_TOLERANCE
-    # The mass's position and speed at steps 0..N as affine functions of the inputs:
-    # x_k = a_d^k x0 + input_map_k a with input_map_k = a_d input_map_(k-1) + b_d e_(k-1)^T.
-    selector = np.zeros((2, size))
-    selector[0, position] = 1.0
-    selector[1, speed] = 1.0
-    rows = np.zeros((2, steps + 1, steps))
-    free = np.zeros((2, steps + 1))
-    state = x0.copy()
-    input_map = np.zeros((size, steps))
-    free[:, 0] = selector @ state
-    for k in range(1, steps + 1):
-        input_map = a_d @ input_map
-        input_map[:, k - 1] += b_d
-        state = a_d @ state
-        rows[:, k] = selector @ input_map
-        free[:, k] = selector @ state
+    rows, free = _mass_course(a_d, b_d, x0, (position, speed), steps)
     # Unknowns: a_0..a_{N-1}, S. Minimise S.
     cost = np.zeros(steps + 1)
     cost[-1] = 1.0
-    upper_rows = []
-    upper_bounds = []
-    for k in range(steps + 1):
-        # |s_k| <= S  ->  +-(rows a + free) - S <= 0
-        for sign in (1.0, -1.0):
-            upper_rows.append(np.concatenate([sign * rows[0, k], [-1.0]]))
-            upper_bounds.append(-sign * free[0, k])
-            upper_rows.append(np.concatenate([sign * rows[1, k], [0.0]]))
-            upper_bounds.append(speed_max - sign * free[1, k])
+    upper_rows, upper_bounds = _stroke_and_speed_rows(rows, free, speed_max)
     equal_rows = [np.concatenate([rows[0, steps], [0.0]]), np.concatenate([rows[1, steps], [0.0]])]
     equal_bounds = [-free[0, steps], -free[1, steps]]
-    count = int(unstable.sum())
-    if count:
-        # The unstable left invariant subspace (repeated eigenvalues: identical trailers
-        # give Jordan blocks, where eigenvectors would miss directions): an ordered real
-        # Schur form of a_d^T, a_d^T U = U T11, unstable block first; U^T x_(k+1) =
-        # T11^T U^T x_k + U^T b_d a_k. The condition
-        # U^T x_N = 0, multiplied by T11^-N (transposed), reads
-        # U^T x0 + sum_k T11^-T(k+1) U^T b_d a_k = 0.
-        schur_form, basis, sorted_count = scipy.linalg.schur(
-            a_d.T, output="real", sort=lambda re, im: np.hypot(re, im) > 1.0 + UNSTABLE_TOLERANCE
-        )
-        count = int(sorted_count)
-        basis = basis[:, :count]
-        inverse = np.linalg.inv(schur_form[:count, :count].T)
-        coefficients = np.empty((count, steps))
-        column = basis.T @ b_d
-        for k in range(steps):
-            column = inverse @ column
-            coefficients[:, k] = column
-        constant = basis.T @ x0
-        for row, value in zip(coefficients, constant, strict=True):
-            scale = max(float(np.max(np.abs(row))), 1e-300)
-            equal_rows.append(np.concatenate([row / scale, [0.0]]))
-            equal_bounds.append(-value / scale)
+    if unstable.any():
+        mode_rows, mode_bounds = _unstable_mode_rows(a_d, b_d, x0, steps)
+        equal_rows += mode_rows
+        equal_bounds += mode_bounds
     bounds = [(-accel_max, accel_max)] * steps + [(0.0, None)]
     solution = scipy.optimize.linprog(
         cost,
@@ -209,6 +157,107 @@ def minimal_stroke(
     )
 
 
+def _check_system(
+    a_d: np.ndarray,
+    b_d: np.ndarray,
+    x0: np.ndarray,
+    position: int,
+    speed: int,
+    speed_max: float,
+    accel_max: float,
+    steps: int,
+) -> None:
+    """The checks of :func:`minimal_stroke`'s arguments (ValueError naming the bad one)."""
+    size = a_d.shape[0]
+    if a_d.shape != (size, size) or b_d.shape != (size,) or x0.shape != (size,):
+        raise ValueError(f"shapes do not match: a_d {a_d.shape}, b_d {b_d.shape}, x0 {x0.shape}")
+    if not np.all(np.isfinite(x0)):
+        raise ValueError("x0 must be finite")
+    if not (0 <= position < size and 0 <= speed < size):
+        raise ValueError(f"position and speed must index the state (size {size})")
+    if not (speed_max > 0.0 and accel_max > 0.0):
+        raise ValueError("speed_max and accel_max must be > 0")
+    if isinstance(steps, bool) or not isinstance(steps, (int, np.integer)) or steps < 1:
+        raise ValueError(f"steps must be an integer >= 1, got {steps!r}")
+
+
+def _mass_course(
+    a_d: np.ndarray, b_d: np.ndarray, x0: np.ndarray, indices: tuple[int, int], steps: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """The mass's position and speed at steps 0..N as affine functions of the inputs:
+    ``(rows, free)``, (2, N + 1, N) and (2, N + 1), the value at step k being
+    ``rows[:, k] @ a + free[:, k]``.
+
+    x_k = a_d^k x0 + input_map_k a with input_map_k = a_d input_map_(k-1) + b_d e_(k-1)^T.
+    """
+    size = a_d.shape[0]
+    selector = np.zeros((2, size))
+    selector[0, indices[0]] = 1.0
+    selector[1, indices[1]] = 1.0
+    rows = np.zeros((2, steps + 1, steps))
+    free = np.zeros((2, steps + 1))
+    state = x0.copy()
+    input_map = np.zeros((size, steps))
+    free[:, 0] = selector @ state
+    for k in range(1, steps + 1):
+        input_map = a_d @ input_map
+        input_map[:, k - 1] += b_d
+        state = a_d @ state
+        rows[:, k] = selector @ input_map
+        free[:, k] = selector @ state
+    return rows, free
+
+
+def _stroke_and_speed_rows(
+    rows: np.ndarray, free: np.ndarray, speed_max: float
+) -> tuple[list[np.ndarray], list[float]]:
+    """The inequality rows over (a_0..a_{N-1}, S): ``|s_k| <= S`` and
+    ``|s_dot_k| <= speed_max`` for k = 0..N."""
+    upper_rows = []
+    upper_bounds = []
+    for k in range(rows.shape[1]):
+        # |s_k| <= S  ->  +-(rows a + free) - S <= 0
+        for sign in (1.0, -1.0):
+            upper_rows.append(np.concatenate([sign * rows[0, k], [-1.0]]))
+            upper_bounds.append(-sign * free[0, k])
+            upper_rows.append(np.concatenate([sign * rows[1, k], [0.0]]))
+            upper_bounds.append(speed_max - sign * free[1, k])
+    return upper_rows, upper_bounds
+
+
+def _unstable_mode_rows(
+    a_d: np.ndarray, b_d: np.ndarray, x0: np.ndarray, steps: int
+) -> tuple[list[np.ndarray], list[float]]:
+    """The equality rows over (a_0..a_{N-1}, S) that put every unstable mode at zero at
+    step N, each row scaled to a largest coefficient of 1.
+
+    The unstable left invariant subspace (repeated eigenvalues: identical trailers give
+    Jordan blocks, where eigenvectors would miss directions): an ordered real Schur form
+    of a_d^T, a_d^T U = U T11, unstable block first; U^T x_(k+1) = T11^T U^T x_k + U^T
+    b_d a_k. The condition U^T x_N = 0, multiplied by T11^-N (transposed), reads
+    U^T x0 + sum_k T11^-T(k+1) U^T b_d a_k = 0.
+    """
+    schur_form, basis, sorted_count = scipy.linalg.schur(
+        a_d.T, output="real", sort=lambda re, im: np.hypot(re, im) > 1.0 + UNSTABLE_TOLERANCE
+    )
+    count = int(sorted_count)
+    basis = basis[:, :count]
+    inverse = np.linalg.inv(schur_form[:count, :count].T)
+    coefficients = np.empty((count, steps))
+    column = basis.T @ b_d
+    for k in range(steps):
+        column = inverse @ column
+        coefficients[:, k] = column
+    constant = basis.T @ x0
+    equal_rows = []
+    equal_bounds = []
+    for row, value in zip(coefficients, constant, strict=True):
+        scale = max(float(np.max(np.abs(row))), 1e-300)
+        equal_rows.append(np.concatenate([row / scale, [0.0]]))
+        equal_bounds.append(-float(value) / scale)
+    return equal_rows, equal_bounds
+
+
 def screen_start(
     settings: EnvSettings,
     z0: np.ndarray,
@@ -226,10 +275,7 @@ def screen_start(
     Raises:
         ValueError: If the settings use the planar actuator, or on a bad start or horizon.
     """
-    if settings.actuator.planar:
-        raise ValueError(
-            f"the screen models the rail actuator, not action_mode={settings.action_mode!r}"
-        )
+    require_rail(settings, "the screen models")
     n = settings.n_trailers
     z0 = np.asarray(z0, dtype=np.float64).reshape(-1)
     if z0.shape[0] < n + 2:

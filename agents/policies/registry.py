@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import importlib
 import re
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import cast
 
 import numpy as np
 
-from agents.artifacts.cards import is_count_range, read_card, trained_with_mirror
+from agents.artifacts.cards import ModelCard, read_model_card
 from agents.artifacts.curves import CURVE_COLUMNS, read_curve
 from agents.artifacts.paths import curve_path, stats_path
 from agents.artifacts.run_folder import CONFIG_FILE, RLLIB_CHECKPOINT
@@ -32,9 +33,14 @@ from agents.policies.baselines import BASELINES, Policy, make_baseline
 from agents.policies.mirror import MIRROR_SUFFIX, MirroredPolicy, mirror_signs_of, split_mirror
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy, load_model, load_stats
 from dynamics.params import MAX_TRAILERS, bounded_integer
-from trailer_env.json_types import JSONObject
 from trailer_env.mixed import is_trailer_range, pad_observations, trailer_range
 from trailer_env.vector import as_action_batch
+
+#: The ``gym.make`` keywords the registry reads from an env's keywords.
+N_TRAILERS = "n_trailers"
+OBSERVATION = "observation"
+#: The observation of the sequence models (a Dict of per-trailer rows).
+TRAILERS_OBSERVATION = "trailers"
 
 #: ``package.module:attribute`` (the form of console-script entry points).
 _CALLABLE_SPEC = re.compile(r"[A-Za-z_][\w]*(\.[A-Za-z_][\w]*)*:[A-Za-z_][\w]*")
@@ -71,7 +77,9 @@ def load_callable(spec: str) -> Policy:
     return policy
 
 
-def check_callable(policy: Policy, spec: str, env_id: str, env_kwargs: JSONObject) -> None:
+def check_callable(
+    policy: Policy, spec: str, env_id: str, env_kwargs: Mapping[str, object]
+) -> None:
     """Call the policy ``spec`` names once on a start of the environment (seed 0) and
     check that it returns one action per observation, so that a callable that is no
     policy (``os:system``) is refused where it is named, not in the middle of a run.
@@ -81,12 +89,12 @@ def check_callable(policy: Policy, spec: str, env_id: str, env_kwargs: JSONObjec
             or returns anything but actions of the env's shape.
     """
     probe = make_vector_env(env_id, 1, env_kwargs)
-    observation: Any
     observation, _ = probe.reset(seed=0)
     action_dim = probe.settings.action_dim
     probe.close()
     try:
-        actions = policy(observation)
+        # A Dict observation (observation="trailers") is passed on as the env gives it.
+        actions = policy(cast("np.ndarray", observation))
     except (Exception, SystemExit) as error:  # its own code failed; KeyboardInterrupt passes
         raise ValueError(
             f"policy {spec!r}: calling it on a batch of observations raised "
@@ -131,20 +139,22 @@ def policy_label(spec: str) -> str:
     return path.stem
 
 
-def check_card(card: JSONObject, spec: str, env_id: str, env_kwargs: JSONObject) -> None:
+def check_trained_on(
+    card: ModelCard, spec: str, env_id: str, env_kwargs: Mapping[str, object]
+) -> None:
     """Refuse a model whose card names another environment id or number of trailers.
 
     Raises:
         ValueError: On a mismatch (observations of equal length do not make two scenes
             alike: a Reverse-v0 model and Dock-v0 both see 8 numbers with n = 2).
     """
-    if not card:
+    if card.empty:
         return
-    trained_id = card.get("env_id")
-    trained_n = card.get("env_kwargs", {}).get("n_trailers")
-    wanted_n: Any = _wanted_trailers(env_kwargs)
-    if is_count_range(trained_n):
-        low, high = trained_n
+    trained_id = card.env_id
+    trained_n: object = card.n_trailers
+    wanted_n: object = _wanted_trailers(env_kwargs)
+    if isinstance(card.n_trailers, tuple):
+        low, high = card.n_trailers
         if isinstance(wanted_n, int) and wanted_n > high:
             raise ValueError(
                 f"model {spec} is a generalist over n_trailers = {low}..{high}: its padded "
@@ -154,7 +164,7 @@ def check_card(card: JSONObject, spec: str, env_id: str, env_kwargs: JSONObject)
         if isinstance(wanted_n, int) and low <= wanted_n <= high:
             trained_n = wanted_n  # a generalist, run on one of its counts (padded)
         else:
-            trained_n = list(trained_n)
+            trained_n = [low, high]
             wanted_n = list(wanted_n) if isinstance(wanted_n, tuple) else wanted_n
     if (trained_id is not None and trained_id != env_id) or (
         trained_n is not None and trained_n != wanted_n
@@ -165,12 +175,12 @@ def check_card(card: JSONObject, spec: str, env_id: str, env_kwargs: JSONObject)
         )
 
 
-def _wanted_trailers(env_kwargs: JSONObject) -> int | tuple[int, int]:
+def _wanted_trailers(env_kwargs: Mapping[str, object]) -> int | tuple[int, int]:
     """The env's ``n_trailers``: one count, or the range ``(low, high)``."""
-    value = env_kwargs.get("n_trailers")
+    value = env_kwargs.get(N_TRAILERS)
     if is_trailer_range(value):
         return trailer_range(value)
-    return env_settings(env_kwargs).n_trailers
+    return env_settings(dict(env_kwargs)).n_trailers
 
 
 class PaddedPolicy:
@@ -189,9 +199,9 @@ class PaddedPolicy:
 
 def _trailers_model(
     path: Path,
-    card: JSONObject,
+    card: ModelCard,
     env_id: str,
-    kwargs: JSONObject,
+    kwargs: Mapping[str, object],
     trust_pickle: bool,
     force: bool,
 ) -> Policy:
@@ -204,16 +214,14 @@ def _trailers_model(
         ValueError: If the card names another env id (unless ``force``), its
             ``max_trailers`` is not an integer in 1 .. 256, or the env has more trailers.
     """
-    trained_id = card.get("env_id")
+    trained_id = card.env_id
     if not force and trained_id is not None and trained_id != env_id:
         raise ValueError(
             f"model {path} was trained on {trained_id}, not {env_id}; pass --force to "
             "evaluate it anyway"
         )
     try:
-        slots = bounded_integer(
-            "max_trailers", card["env_kwargs"].get("max_trailers"), 1, MAX_TRAILERS
-        )
+        slots = bounded_integer("max_trailers", card.env_kwargs.max_trailers, 1, MAX_TRAILERS)
     except TypeError as error:
         raise ValueError(f"{path}: its card's env_kwargs: {error}") from None
     wanted = _wanted_trailers(kwargs)
@@ -225,28 +233,29 @@ def _trailers_model(
         )
     space_kwargs = {**kwargs, "observation": "trailers", "max_trailers": slots}
     model = load_model(path, env_id=env_id, env_kwargs=space_kwargs, trust_pickle=trust_pickle)
-    if kwargs.get("observation") == "trailers":
+    if kwargs.get(OBSERVATION) == TRAILERS_OBSERVATION:
         return ModelPolicy(model)
     return TrailersPolicy(ModelPolicy(model), top, slots, isinstance(wanted, tuple))
 
 
-def model_card(spec: str) -> JSONObject:
-    """The card of a model spec (SB3 zip or RLlib checkpoint); empty for a baseline."""
+def model_card(spec: str) -> ModelCard:
+    """The card of a model spec (SB3 zip or RLlib checkpoint); the empty card
+    (:attr:`~agents.artifacts.cards.ModelCard.empty`) for a baseline or a model without one."""
     spec, _ = split_mirror(spec)
     if not is_model_spec(spec):
-        return {}
+        return ModelCard()
     path = Path(resolve_model(spec))
     if path.is_dir():
         from agents.artifacts.rllib_files import read_rllib_card
 
         return read_rllib_card(path)
-    return read_card(path)
+    return read_model_card(path)
 
 
 def load_policy(
     spec: str,
     env_id: str,
-    env_kwargs: JSONObject | None = None,
+    env_kwargs: Mapping[str, object] | None = None,
     seed: int | None = 0,
     *,
     trust_pickle: bool = False,
@@ -275,7 +284,7 @@ def load_policy(
         FileNotFoundError: A model path that does not exist.
     """
     check_env_id(env_id)
-    kwargs = env_kwargs or {}
+    kwargs = dict(env_kwargs or {})
     base, mirrored = split_mirror(spec)
     if mirrored:
         signs = mirror_signs_of(env_id, kwargs)
@@ -303,12 +312,12 @@ def load_policy(
         if not is_rllib_checkpoint(path):
             raise ValueError(f"{path} is a folder but not an RLlib checkpoint")
         if not force:
-            check_card(read_rllib_card(path), spec, env_id, kwargs)
+            check_trained_on(read_rllib_card(path), spec, env_id, kwargs)
         return load_rllib_policy(
             path, probe.single_observation_space, probe.single_action_space, trust_pickle
         )
-    card = read_card(path)
-    if trained_with_mirror(card):  # trained odd: acts so
+    card = read_model_card(path)
+    if card.mirrored:  # trained odd: acts so
         return MirroredPolicy(
             _card_policy(path, card, spec, env_id, kwargs, trust_pickle, force),
             *mirror_signs_of(env_id, kwargs),
@@ -318,26 +327,26 @@ def load_policy(
 
 def _card_policy(
     path: Path,
-    card: JSONObject,
+    card: ModelCard,
     spec: str,
     env_id: str,
-    kwargs: JSONObject,
+    kwargs: dict[str, object],
     trust_pickle: bool,
     force: bool,
 ) -> Policy:
     """The SB3 model at ``path`` (card read) as a policy of the env (:func:`load_policy`)."""
-    if card.get("env_kwargs", {}).get("observation") == "trailers":
+    if card.env_kwargs.observation == TRAILERS_OBSERVATION:
         read_curve(curve_path(path), CURVE_COLUMNS)
         return _trailers_model(path, card, env_id, kwargs, trust_pickle, force)
     if not force:
-        check_card(card, spec, env_id, kwargs)
+        check_trained_on(card, spec, env_id, kwargs)
     read_curve(curve_path(path), CURVE_COLUMNS)  # a damaged curve fails now, not at the end
-    trained_n = card.get("env_kwargs", {}).get("n_trailers")
+    trained_n = card.n_trailers
     padded: tuple[int, int] | None = None
     space_kwargs = kwargs
     wanted_n = _wanted_trailers(kwargs)
-    if is_count_range(trained_n) and isinstance(wanted_n, int):
-        top = int(trained_n[1])
+    if isinstance(trained_n, tuple) and isinstance(wanted_n, int):
+        top = trained_n[1]
         if wanted_n > top:
             raise ValueError(
                 f"model {spec} is a generalist over n_trailers = {trained_n[0]}..{top}: its "
@@ -345,11 +354,10 @@ def _card_policy(
                 f"n_trailers = {wanted_n}"
             )
         padded = (wanted_n, top)
-        space_kwargs = {**kwargs, "n_trailers": list(trained_n)}
+        space_kwargs = {**kwargs, N_TRAILERS: list(trained_n)}
     model = load_model(path, env_id=env_id, env_kwargs=space_kwargs, trust_pickle=trust_pickle)
     stats = load_stats(path, model.observation_space, trust_pickle)
-    normalize = card.get("normalize")
-    if stats is None and isinstance(normalize, dict) and normalize.get("norm_obs", True):
+    if stats is None and card.normalize is not None and card.normalize.norm_obs:
         raise ValueError(
             f"model {path} was trained on normalised observations (its card), but its "
             f"statistics {stats_path(path).name} are missing"

@@ -4,12 +4,15 @@ from __future__ import annotations
 
 import importlib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS, read_rllib_card
 from agents.policies.baselines import Policy
+
+if TYPE_CHECKING:
+    from ray.rllib.core.rl_module.rl_module import RLModule
 
 #: The RLModule of a policy card that names none (the cards written before it did: PPO's).
 DEFAULT_MODULE = (
@@ -17,7 +20,7 @@ DEFAULT_MODULE = (
 )
 
 
-def module_class(path: str) -> Any:
+def module_class(path: str) -> type[RLModule]:
     """The RLModule class a policy card names (``"module:Class"``, under ``ray.rllib``).
 
     Raises:
@@ -44,7 +47,7 @@ class RLlibPolicy:
     Actions are clipped to the action space, as RLlib's module-to-env connector does.
     """
 
-    def __init__(self, module: Any, low: np.ndarray, high: np.ndarray) -> None:
+    def __init__(self, module: RLModule, low: np.ndarray, high: np.ndarray) -> None:
         self.module = module
         self.low = low
         self.high = high
@@ -81,7 +84,7 @@ def load_rllib_policy(
     low = np.asarray(action_space.low, dtype=np.float32)
     high = np.asarray(action_space.high, dtype=np.float32)
     card = read_rllib_card(path)
-    if not card:
+    if card.empty:
         if not trust_pickle:
             raise ValueError(
                 f"{path} has no pickle-free policy export ({POLICY_CARD}); its RLlib "
@@ -89,12 +92,15 @@ def load_rllib_policy(
             )
         module_dir = path / "learner_group" / "learner" / "rl_module" / "default_policy"
         return RLlibPolicy(RLModule.from_checkpoint(str(module_dir)), low, high)
+    widths = card.rllib_hiddens
+    if card.spaces is None or not isinstance(widths, list):
+        raise ValueError(f"{path}: malformed {POLICY_CARD} (no spaces or no network widths)")
     try:
-        saved_shape = tuple(card["spaces"]["observation_shape"])
-        hiddens = [int(width) for width in card["hyperparams"]["fcnet_hiddens"]]
-    except (KeyError, TypeError, ValueError) as error:
+        hiddens = [int(width) for width in widths]
+    except (TypeError, ValueError) as error:
         raise ValueError(f"{path}: malformed {POLICY_CARD} ({error!r})") from None
-    module_type = module_class(card.get("module_path", DEFAULT_MODULE))
+    saved_shape = card.spaces.observation_shape
+    module_type = module_class(card.module_path or DEFAULT_MODULE)
     if saved_shape != tuple(observation_space.shape):
         raise ValueError(
             f"RLlib policy {path} expects observations of shape {saved_shape}, "
@@ -105,7 +111,7 @@ def load_rllib_policy(
         observation_space=observation_space,
         action_space=action_space,
         model_config=DefaultModelConfig(fcnet_hiddens=hiddens),
-        inference_only=card.get("inference_only", True),
+        inference_only=True if card.inference_only is None else card.inference_only,
     ).build()
     try:
         state = torch.load(path / POLICY_WEIGHTS, map_location="cpu", weights_only=True)

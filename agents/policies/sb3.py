@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from agents.artifacts.cards import read_card
+from agents.artifacts.cards import read_model_card
 from agents.artifacts.paths import pickled_stats_path, stats_path
 from agents.artifacts.sb3_zip import ALGOS, UnsafeFileError, read_sb3_data
 from agents.artifacts.stats import frozen_normalizer, load_pickled_stats, read_stats
@@ -31,7 +31,7 @@ def limit_torch_threads(threads: int = 1) -> None:
 
 def load_stats(
     model_path: Path, observation_space: object = None, trust_pickle: bool = False
-) -> Any:
+) -> VecNormalize | None:
     """The read-only ``VecNormalize`` saved with ``model_path`` (no env), or None.
 
     Reads ``stats_path(model_path)`` (JSON). A legacy pickled file is unpickled only
@@ -46,8 +46,8 @@ def load_stats(
         if observation_space is None:
             import gymnasium as gym
 
-            mean = read_stats(path)["obs_rms"]["mean"]
-            observation_space = gym.spaces.Box(-np.inf, np.inf, np.shape(mean), np.float32)
+            shape = read_stats(path).observation_shape
+            observation_space = gym.spaces.Box(-np.inf, np.inf, shape, np.float32)
         return frozen_normalizer(read_stats(path), observation_space)
     pickled = pickled_stats_path(model_path)
     if pickled is None:
@@ -67,13 +67,14 @@ def detect_algo(model_path: Path) -> str:
         ValueError: If the file is not a stable-baselines3 zip of an algorithm of
             :data:`agents.algorithms.ALGOS`.
     """
-    algo = read_card(model_path).get("algo")
+    algo = read_model_card(model_path).algo
     if algo in ALGOS:
         return str(algo)
     data = read_sb3_data(model_path)
-    if not isinstance(data.get("policy_class", {}), dict):
+    policy_class = data.get("policy_class", {})
+    if not isinstance(policy_class, dict):
         raise ValueError(f"{model_path} is not a stable-baselines3 model: unexpected data")
-    module = str(data.get("policy_class", {}).get("__module__", ""))
+    module = str(policy_class.get("__module__", ""))
     candidates = [record for record in ALGOS.values() if record.policy_module == module]
     for record in candidates:
         if record.marker is not None and record.marker in data:
@@ -205,8 +206,8 @@ def load_model(
     if not path.is_file():
         raise FileNotFoundError(f"no model file {path}")
     algo = algo or detect_algo(path)
-    card = read_card(path)
-    env_id = env_id or card.get("env_id")
+    card = read_model_card(path)
+    env_id = env_id or card.env_id
     if env_id is None and not trust_pickle:
         raise ValueError(
             f"{path} has no model card naming its environment: give the environment, "
@@ -214,7 +215,7 @@ def load_model(
         )
     if env_id is None:
         return load_sb3(path, algo, None, None, trust_pickle=True)
-    kwargs = env_kwargs if env_kwargs is not None else card.get("env_kwargs", {})
+    kwargs = env_kwargs if env_kwargs is not None else card.env_kwargs.as_kwargs()
     probe = make_vector_env(env_id, 1, kwargs)
     return load_sb3(
         path,

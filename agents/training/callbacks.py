@@ -15,12 +15,14 @@ import io
 import time
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
 
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+from stable_baselines3.common.on_policy_algorithm import OnPolicyAlgorithm
+from stable_baselines3.common.type_aliases import TrainFreq
 
 from agents.artifacts import files
-from agents.artifacts.cards import read_card, write_card
+from agents.artifacts.cards import ModelCard, read_model_card, write_card
 from agents.artifacts.curves import CURVE_COLUMNS, append_rows, keep_rows, write_curve
 from agents.artifacts.paths import card_path, stats_path
 from agents.artifacts.run_folder import BEST_MODEL, CURVE_FILE
@@ -28,15 +30,14 @@ from agents.artifacts.sb3_zip import save_model
 from agents.artifacts.stats import save_stats
 from agents.envs import headline_metric
 from agents.evaluation.learning_curves import is_flat, trend
-from agents.evaluation.metrics import rollout, summarize
+from agents.evaluation.metrics import Summary, rollout, summarize
 from agents.policies.sb3 import ModelPolicy
 from agents.progress import Progress
 from agents.seeds import VALIDATION_SEED
-from trailer_env.json_types import JSONObject
 
 #: Called after each evaluation with (steps, summary); returns True to stop the run. The
 #: summary is the evaluation's, with ``wall_s``: the run's training seconds so far.
-EvaluationHook = Callable[[int, Mapping[str, Any]], bool]
+EvaluationHook = Callable[[int, Mapping[str, object]], bool]
 
 
 class PlateauStop:
@@ -71,9 +72,12 @@ class PlateauStop:
         #: The step at which the plateau was detected, once it was.
         self.stopped_at: int | None = None
 
-    def __call__(self, steps: int, summary: Mapping[str, Any]) -> bool:
+    def __call__(self, steps: int, summary: Mapping[str, object]) -> bool:
+        value = summary[self.metric]
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"the summary's {self.metric} is no number: {value!r:.40}")
         self.steps.append(int(steps))
-        self.values.append(float(summary[self.metric]))
+        self.values.append(float(value))
         if self.stopped_at is None and self._settled():
             self.stopped_at = steps
         return self.stopped_at is not None
@@ -88,9 +92,20 @@ class PlateauStop:
         return end is None or not end.rising
 
 
-def score(summary: Mapping[str, Any]) -> tuple[float, float, float]:
-    """Ranking of an evaluation: safe rate, then success rate, then mean return."""
-    return summary["safe_rate"], summary["success_rate"], summary["mean_return"]
+#: The columns of a learning curve's steps and training seconds.
+STEPS, WALL = CURVE_COLUMNS[:2]
+
+#: The rates an evaluation is ranked by, in order (:func:`score`).
+SCORED = ("safe_rate", "success_rate", "mean_return")
+
+
+def score(summary: Mapping[str, float] | Summary) -> tuple[float, float, float]:
+    """Ranking of an evaluation (a summary, or a row of a learning curve): safe rate,
+    then success rate, then mean return."""
+    if isinstance(summary, Summary):
+        return summary.safe_rate, summary.success_rate, summary.mean_return
+    safe, success, mean = (summary[key] for key in SCORED)
+    return safe, success, mean
 
 
 class StatsCheckpointCallback(CheckpointCallback):
@@ -158,7 +173,7 @@ class SafetyEvalCallback(BaseCallback):
     def __init__(
         self,
         env_id: str,
-        env_kwargs: JSONObject,
+        env_kwargs: Mapping[str, object],
         run_dir: Path,
         eval_freq: int,
         episodes: int = 50,
@@ -166,7 +181,7 @@ class SafetyEvalCallback(BaseCallback):
         resume_from: int | None = None,
         verbose: int = 1,
         hooks: Sequence[EvaluationHook] = (),
-        record: JSONObject | None = None,
+        record: Mapping[str, object] | None = None,
     ) -> None:
         super().__init__(verbose)
         self.hooks = list(hooks)
@@ -185,17 +200,17 @@ class SafetyEvalCallback(BaseCallback):
         if resume_from is not None:
             # The kept rows stay as they were written; the later ones go.
             previous = keep_rows(
-                self.curve_path, lambda row: row["timesteps"] <= resume_from, CURVE_COLUMNS
+                self.curve_path, lambda row: row[STEPS] <= resume_from, CURVE_COLUMNS
             )
-            selected = read_card(self.best_path).get("selected_at_timesteps")
+            selected = read_model_card(self.best_path).selected_at_timesteps
             if selected is None or selected > resume_from:
                 for path in (self.best_path, card_path(self.best_path), stats_path(self.best_path)):
                     path.unlink(missing_ok=True)
-        self.wall_offset = previous[-1]["wall_s"] if previous else 0.0
+        self.wall_offset = previous[-1][WALL] if previous else 0.0
         self.best: tuple[float, float, float] | None = None
         if previous and self.best_path.is_file():
             self.best = max(score(row) for row in previous)
-        self._evaluated_at = {int(row["timesteps"]) for row in previous}
+        self._evaluated_at = {int(row[STEPS]) for row in previous}
         self._next_eval = 0
         self._start = time.perf_counter()
         #: The rows evaluated before the resume (a resumed run), as kept.
@@ -228,7 +243,7 @@ class SafetyEvalCallback(BaseCallback):
         if self.num_timesteps not in self._evaluated_at and not self.stop_requested:
             self.evaluate()
 
-    def _write_rows(self, rows: list[JSONObject], append: bool = False) -> None:
+    def _write_rows(self, rows: list[dict[str, float]], append: bool = False) -> None:
         """Write (atomically) or append rows of evaluations.csv (header when it starts)."""
         self.run_dir.mkdir(parents=True, exist_ok=True)
         if append:
@@ -241,146 +256,41 @@ class SafetyEvalCallback(BaseCallback):
         """Training wall time of the run so far, the time before a resume included."""
         return self.wall_offset + time.perf_counter() - self._start
 
-    def evaluate(self) -> JSONObject:
+    def evaluate(self) -> dict[str, object]:
         """Run one evaluation now; returns its summary."""
         stats = self.model.get_vec_normalize_env()
         results = rollout(
             ModelPolicy(self.model, stats), self.env_id, self.episodes, self.seed, self.env_kwargs
         )
         summary = summarize(results)
+        typed = Summary.from_json(summary, "of the evaluation")
         steps = int(self.num_timesteps)
-        row = {"timesteps": steps, "wall_s": round(self.wall_seconds, 2)}
+        row: dict[str, float] = {"timesteps": steps, "wall_s": round(self.wall_seconds, 2)}
         row.update({key: summary[key] for key in CURVE_COLUMNS[2:]})
         self._write_rows([row], append=True)
         self._evaluated_at.add(steps)
         for key in CURVE_COLUMNS[2:]:
-            self.logger.record(f"eval/{key}", summary[key])
+            self.logger.record(f"eval/{key}", row[key])
         self.logger.dump(steps)
-        if self.best is None or score(summary) > self.best:
-            self.best = score(summary)
+        if self.best is None or score(typed) > self.best:
+            self.best = score(typed)
             if stats is not None:
                 save_stats(stats, stats_path(self.best_path))
             save_model(self.model, self.best_path)
-            write_card(
-                self.best_path,
-                {**self.record, "selected_at_timesteps": steps, "validation": row},
-            )
+            selected = {**self.record, "selected_at_timesteps": steps, "validation": row}
+            write_card(self.best_path, ModelCard.from_json(selected, str(self.best_path)))
         if self.verbose:
             print(
-                f"[eval] {steps:>9d} steps  return {summary['mean_return']:8.1f}  "
-                f"safe {summary['safe_rate']:.2f}  success {summary['success_rate']:.2f}  "
-                f"jackknife {summary['jackknife_rate']:.2f}  "
-                f"band {summary['band_time_fraction']:.3f}  ({row['wall_s']:.0f} s)",
+                f"[eval] {steps:>9d} steps  return {typed.mean_return:8.1f}  "
+                f"safe {typed.safe_rate:.2f}  success {typed.success_rate:.2f}  "
+                f"jackknife {typed.jackknife_rate:.2f}  "
+                f"band {typed.band_time_fraction:.3f}  ({row['wall_s']:.0f} s)",
                 flush=True,
             )
-        seen = {**summary, "wall_s": row["wall_s"]}
+        seen = {**summary, WALL: row[WALL]}
         for hook in self.hooks:
             self.stop_requested = hook(steps, seen) or self.stop_requested
         return summary
-
-
-class CriticWarmup(BaseCallback):
-    """Train the value function alone for the first ``steps`` steps of a fine-tuning run.
-
-    A policy taken from elsewhere (imitation) comes with a value function that knows
-    nothing of it; PPO's first updates would follow advantages from that untrained
-    critic and can undo the policy. So every parameter the policy's actions depend on
-    (its features extractor when shared, its hidden layers, its action head and log
-    standard deviation) is frozen until ``steps``, then released. Frozen parameters get
-    no gradient, so the optimiser leaves them (and its moments for them) untouched.
-    """
-
-    def __init__(self, steps: int) -> None:
-        super().__init__(0)
-        self.steps = int(steps)
-        self.frozen: list[Any] = []
-
-    def _on_training_start(self) -> None:
-        if self.num_timesteps >= self.steps:
-            return
-        policy: Any = self.model.policy  # an ActorCriticPolicy (on-policy algorithms)
-        modules = [policy.mlp_extractor.policy_net, policy.action_net]
-        shared = policy.share_features_extractor
-        modules.append(policy.features_extractor if shared else policy.pi_features_extractor)
-        self.frozen = [p for module in modules for p in module.parameters() if p.requires_grad]
-        if getattr(policy, "log_std", None) is not None and policy.log_std.requires_grad:
-            self.frozen.append(policy.log_std)
-        for parameter in self.frozen:
-            parameter.requires_grad_(False)
-
-    def _on_rollout_start(self) -> None:
-        if self.frozen and self.num_timesteps >= self.steps:
-            for parameter in self.frozen:
-                parameter.requires_grad_(True)
-            self.frozen = []
-
-    def _on_step(self) -> bool:
-        return True
-
-    def _on_training_end(self) -> None:
-        # The saved model is left trainable, whatever step the run stopped at.
-        for parameter in self.frozen:
-            parameter.requires_grad_(True)
-        self.frozen = []
-
-
-class StartCurriculum(BaseCallback):
-    """Grow the training starts to the scene's own: a start curriculum.
-
-    Before each rollout the training environment's starting perturbation is set to
-    ``low + (1 - low) min(1, t / steps)`` times the scene's size, ``t`` the run's step
-    count (``set_start_scale`` of :class:`trailer_env.sb3.ConvoySB3VecEnv`), so a resumed
-    run picks up the schedule where it was. Episodes running when the scale changes keep
-    their start; the evaluation environment is not touched, so the learning curve scores
-    the scene's own starts throughout.
-    """
-
-    def __init__(self, low: float, steps: int) -> None:
-        super().__init__(0)
-        self.low, self.steps = float(low), int(steps)
-        #: The scale the training starts were last drawn at (None before training).
-        self.scale: float | None = None
-
-    def scale_at(self, timesteps: int) -> float:
-        """The perturbation's scale after ``timesteps`` steps."""
-        return self.low + (1.0 - self.low) * min(1.0, timesteps / self.steps)
-
-    def apply(self, venv: Any, timesteps: int) -> None:
-        """Set ``venv``'s (or the environment it wraps) start scale for ``timesteps``.
-
-        Call it before ``learn()`` too: SB3 resets the environment before any callback
-        runs, and those first episodes should start at the schedule's scale.
-        """
-        scale = self.scale_at(timesteps)
-        if scale != self.scale:
-            venv.unwrapped.set_start_scale(scale)
-            self.scale = scale
-
-    def _on_rollout_start(self) -> None:
-        self.apply(self.model.get_env(), self.num_timesteps)
-
-    def _on_step(self) -> bool:
-        return True
-
-
-class StartReplayStats(BaseCallback):
-    """Log the training environment's start replay after each rollout
-    (:class:`trailer_env.start_replay.StartReplay`): ``start_replay/buffer`` (failed
-    starts kept), ``start_replay/episodes`` (episodes begun from the buffer so far) and
-    ``start_replay/success_rate`` (the share of those that succeeded)."""
-
-    def _on_rollout_end(self) -> None:
-        venv: Any = self.model.get_env()
-        replay = venv.unwrapped.start_replay
-        self.logger.record("start_replay/buffer", replay.size)
-        self.logger.record("start_replay/episodes", replay.replayed)
-        if replay.replayed:
-            self.logger.record(
-                "start_replay/success_rate", replay.replayed_successes / replay.replayed
-            )
-
-    def _on_step(self) -> bool:
-        return True
 
 
 class ProgressCallback(BaseCallback):
@@ -397,14 +307,16 @@ class ProgressCallback(BaseCallback):
         self.bar: Progress | None = None
 
     def _on_training_start(self) -> None:
-        model: Any = self.model
+        model = self.model
         start = int(model.num_timesteps)
         remaining = int(self.locals["total_timesteps"]) - start
         n_envs = int(model.n_envs)
-        if hasattr(model, "n_steps"):  # on-policy: whole rollouts
+        if isinstance(model, OnPolicyAlgorithm):  # whole rollouts
             chunk = int(model.n_steps) * n_envs
         else:  # off-policy: train_freq steps of every env per collection
+            assert isinstance(model, OffPolicyAlgorithm)
             frequency = model.train_freq
+            assert isinstance(frequency, TrainFreq)
             steps = frequency.frequency if str(frequency.unit).endswith("STEP") else 1
             chunk = int(steps) * n_envs
         total = -(-max(remaining, 0) // chunk) * chunk

@@ -43,7 +43,7 @@ from __future__ import annotations
 import ast
 import inspect
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,11 +52,17 @@ import yaml
 
 from agents.algorithms import algo_class
 from agents.algorithms.bounds import argument_problem
+from agents.algorithms.options.base import OptionT, TrainingOption
 from agents.artifacts import files, limits
 from agents.policies.extractors import FEATURE_EXTRACTORS, feature_extractor
-from trailer_env.json_types import JSONObject
 
 HYPERPARAMS_DIR = Path(__file__).resolve().parent.parent / "hyperparams"
+
+#: Keyword arguments (of an env, a wrapper) as the files give them.
+Keywords = dict[str, object]
+#: Keyword arguments handed on to a stable-baselines3 constructor, which checks their
+#: types itself (the entry's values are checked against the bounds here).
+AlgoKwargs = dict[str, Any]
 
 #: The largest hyperparameter file read.
 MAX_HYPERPARAMS_BYTES = 2**20
@@ -147,14 +153,46 @@ class Hyperparams:
     n_envs: int = 1
     n_timesteps: int = 100_000
     policy: str = "MlpPolicy"
-    env_kwargs: JSONObject = field(default_factory=dict)
-    normalize: JSONObject | None = None
+    env_kwargs: Keywords = field(default_factory=dict)
+    normalize: AlgoKwargs | None = None
     action_noise_std: float | None = None
-    shaping: JSONObject | None = None
-    algo_kwargs: JSONObject = field(default_factory=dict)
+    shaping: AlgoKwargs | None = None
+    algo_kwargs: AlgoKwargs = field(default_factory=dict)
+
+    @property
+    def gamma(self) -> float:
+        """The discount (the algorithm's ``gamma``, SB3's default 0.99 when not set)."""
+        gamma = self.algo_kwargs.get("gamma", 0.99)
+        return float(gamma) if isinstance(gamma, (int, float)) else 0.99
+
+    @property
+    def n_steps(self) -> int:
+        """An on-policy rollout's steps per environment (0 when not set)."""
+        steps = self.algo_kwargs.get("n_steps", 0)
+        return steps if isinstance(steps, int) else 0
+
+    def number(self, key: str, default: float) -> float:
+        """The algorithm's setting ``key`` as a number (a schedule: its starting value),
+        ``default`` when the entry does not set it.
+
+        Raises:
+            ValueError: If the entry sets it to something else than a number.
+        """
+        value = self.algo_kwargs.get(key, default)
+        if callable(value):
+            value = value(1.0)
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ValueError(f"{key} must be a number, got {value!r:.60}")
+        return float(value)
+
+    @property
+    def policy_kwargs(self) -> Keywords:
+        """The policy's keyword arguments (a copy; empty when not set)."""
+        kwargs = self.algo_kwargs.get("policy_kwargs")
+        return dict(kwargs) if isinstance(kwargs, dict) else {}
 
 
-def _literal(node: ast.expr) -> Any:
+def _literal(node: ast.expr) -> object:
     """Evaluate a policy_kwargs expression node: literals, dict(...), nn.<activation>, and
     a shipped features extractor's name."""
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict":
@@ -179,13 +217,16 @@ def _literal(node: ast.expr) -> Any:
         items = [_literal(item) for item in node.elts]
         return items if isinstance(node, ast.List) else tuple(items)
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub):
-        return -_literal(node.operand)
+        operand = _literal(node.operand)
+        if not isinstance(operand, (int, float)):
+            raise ValueError(f"unsupported expression in policy_kwargs: {ast.unparse(node)!r}")
+        return -operand
     if isinstance(node, ast.Constant):
         return node.value
     raise ValueError(f"unsupported expression in policy_kwargs: {ast.unparse(node)!r}")
 
 
-def parse_policy_kwargs(text: str | JSONObject) -> JSONObject:
+def parse_policy_kwargs(text: object) -> Keywords:
     """Parse an rl-zoo3 ``policy_kwargs`` string such as ``"dict(net_arch=[64, 64])"`` or
     ``"dict(features_extractor_class=ConvoyEncoder, features_extractor_kwargs=dict(hidden=32))"``.
 
@@ -207,7 +248,7 @@ def parse_policy_kwargs(text: str | JSONObject) -> JSONObject:
     return value
 
 
-def linear_schedule(initial: float) -> Any:
+def linear_schedule(initial: float) -> Callable[[float], float]:
     """rl-zoo3's ``lin_<x>``: decay linearly from ``initial`` to 0 over the training."""
 
     def schedule(progress_remaining: float) -> float:
@@ -216,7 +257,7 @@ def linear_schedule(initial: float) -> Any:
     return schedule
 
 
-def _schedule(key: str, value: object) -> Any:
+def _schedule(key: str, value: object) -> object:
     if isinstance(value, str):
         kind, _, initial = value.partition("_")
         if kind != "lin":
@@ -226,6 +267,21 @@ def _schedule(key: str, value: object) -> Any:
         except ValueError:
             raise ValueError(f"{key}: bad schedule {value!r}") from None
     return value
+
+
+def _train_freq(key: str, value: object) -> object:
+    """rl-zoo3's ``train_freq: [1, episode]`` as the tuple SB3 takes."""
+    del key
+    return tuple(value) if isinstance(value, list) else value
+
+
+#: The entry's values that are read into what the algorithm takes, by key.
+_PARSED: dict[str, Callable[[str, object], object]] = {
+    "policy_kwargs": lambda key, value: parse_policy_kwargs(value),
+    "learning_rate": _schedule,
+    "clip_range": _schedule,
+    "train_freq": _train_freq,
+}
 
 
 def hyperparams_file(algo: str, directory: Path = HYPERPARAMS_DIR) -> Path:
@@ -244,7 +300,7 @@ def hyperparams_file(algo: str, directory: Path = HYPERPARAMS_DIR) -> Path:
 DEFAULT_ENTRY = "default"
 
 
-def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> JSONObject:
+def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> Keywords:
     """``env_id``'s entry of ``<directory>/<algo>.yml`` as the YAML holds it (anchors
     merged, nothing checked but the file's size and shape), or the file's ``default:``
     entry when ``env_id`` has none.
@@ -258,7 +314,7 @@ def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> JSON
     return _entry(path, env_id)[1]
 
 
-def _entry(path: Path, env_id: str) -> tuple[str, JSONObject]:
+def _entry(path: Path, env_id: str) -> tuple[str, Keywords]:
     """The name of the entry ``env_id`` reads in ``path`` and that entry (see :func:`raw_entry`)."""
     size = path.stat().st_size
     if size > MAX_HYPERPARAMS_BYTES:
@@ -328,37 +384,36 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
         problem = argument_problem(algo, key, value)
         if problem is not None:
             raise ValueError(f"{where}: {problem}")
-    rollout = raw.get("n_steps", 0) * result.n_envs
+    result.algo_kwargs = raw
+    rollout = result.n_steps * result.n_envs
     if rollout > MAX_ROLLOUT_STEPS:
         raise ValueError(
             f"{where}: n_steps x n_envs = {rollout} steps per rollout, over the limit of "
             f"{MAX_ROLLOUT_STEPS}"
         )
-    if "policy_kwargs" in raw:
-        raw["policy_kwargs"] = parse_policy_kwargs(raw["policy_kwargs"])
-        problem = limits.network_problem(raw["policy_kwargs"].get("net_arch", [64, 64]))
-        if problem is not None:
-            raise ValueError(f"{where}: policy_kwargs: {problem}")
-    for key in ("learning_rate", "clip_range"):
+    for key, parse in _PARSED.items():
         if key in raw:
-            raw[key] = _schedule(key, raw[key])
-    if isinstance(raw.get("train_freq"), list):
-        raw["train_freq"] = tuple(raw["train_freq"])
+            raw[key] = parse(key, raw[key])
+    problem = limits.network_problem(result.policy_kwargs.get("net_arch", [64, 64]))
+    if problem is not None:
+        raise ValueError(f"{where}: policy_kwargs: {problem}")
     if "noise_type" in raw:
         if str(raw.pop("noise_type")).strip() != "normal":
             raise ValueError(f"{path}: only noise_type 'normal' is supported")
+        noise = raw.pop("noise_std", None)
+        if isinstance(noise, bool) or not isinstance(noise, (int, float, str)):
+            raise ValueError(f"{where}: noise_type normal needs a number noise_std")
         try:
-            result.action_noise_std = float(raw.pop("noise_std"))
-        except (KeyError, TypeError, ValueError):
+            result.action_noise_std = float(noise)
+        except ValueError:
             raise ValueError(f"{where}: noise_type normal needs a number noise_std") from None
     for unsupported in ("env_wrapper", "vec_env_wrapper", "frame_stack", "callback"):
         if unsupported in raw:
             raise ValueError(f"{path}: {unsupported!r} is not supported by agents.train")
-    result.algo_kwargs = raw
     return result
 
 
-def shaping_setting(value: object, where: str) -> JSONObject | None:
+def shaping_setting(value: object, where: str) -> Keywords | None:
     """An entry's (or ``--shaping``'s) ``shaping`` as the wrapper's keywords, or None.
 
     ``None``, ``False`` and ``"none"`` mean no shaping; a name of
@@ -373,7 +428,7 @@ def shaping_setting(value: object, where: str) -> JSONObject | None:
     if value is None or value is False or value == "none":
         return None
     if isinstance(value, str) and not value.lstrip().startswith("dict("):
-        setting: JSONObject = {"potential": value.strip()}
+        setting: Keywords = {"potential": value.strip()}
     elif isinstance(value, (str, dict)):
         setting = parse_policy_kwargs(value) if isinstance(value, str) else dict(value)
     else:
@@ -391,16 +446,18 @@ def shaping_setting(value: object, where: str) -> JSONObject | None:
     return setting
 
 
-def _count(value: Any, key: str, maximum: int, where: str, minimum: int = 1) -> int:
+def _count(value: object, key: str, maximum: int, where: str, minimum: int = 1) -> int:
     """An integer count of an entry (``2e6`` allowed as a float of integral value)."""
-    valid = not isinstance(value, bool) and isinstance(value, (int, float))
-    if valid and isinstance(value, float):
-        valid = math.isfinite(value) and value == int(value)
-    if not valid or not minimum <= int(value) <= maximum:
+    count: int | None = None
+    if isinstance(value, int) and not isinstance(value, bool):
+        count = value
+    elif isinstance(value, float) and math.isfinite(value) and value == int(value):
+        count = int(value)
+    if count is None or not minimum <= count <= maximum:
         raise ValueError(
             f"{where}: {key} must be an integer in {minimum}..{maximum}, got {value!r:.60}"
         )
-    return int(value)
+    return count
 
 
 def init_arguments(cls: type) -> set[str]:
@@ -431,7 +488,7 @@ def _check_keys(algo: str, raw: Mapping[str, object], where: str) -> None:
             )
 
 
-def jsonable(value: object) -> Any:
+def jsonable(value: object) -> object:
     """Hyperparameter values as JSON (schedules and classes by name)."""
     if isinstance(value, dict):
         return {str(key): jsonable(item) for key, item in value.items()}
@@ -460,23 +517,11 @@ class TrainConfig:
         hyperparams: The hyperparameter file's entry.
         backend: "sb3" or "rllib".
         command: The command line that started the run.
-        init_from: A fine-tuning run's starting model (its weights and frozen observation
-            statistics), e.g. an imitation agent; None: a fresh policy.
-        critic_warmup: Steps at the start of a fine-tuning run that train the value
-            function alone (:class:`agents.training.callbacks.CriticWarmup`).
         randomize: A preset of :data:`trailer_env.randomize.PRESETS` over the file's
             ``env_kwargs`` (None: the file's).
-        start_curriculum: ``(low, steps)``: the training starts' perturbation grows
-            linearly from ``low`` times the scene's size to its own over the first
-            ``steps`` steps (:class:`agents.training.callbacks.StartCurriculum`; scenes
-            whose core is ``start_scalable``); the evaluations keep the scene's starts.
-            None: the scene's starts throughout.
-        start_replay: Share in (0, 1) of the training episodes begun from starts that
-            failed before (:class:`trailer_env.start_replay.StartReplay`, seeded with
-            ``seed``; sb3, one count of trailers, nominal physics); the evaluations keep
-            the scene's starts. None: no replay.
-        start_replay_max: With ``start_replay``, the failed replays after which a start
-            leaves the buffer (``StartReplay``'s ``max_replays``); None: no limit.
+        options: The training options (:data:`agents.algorithms.options.TRAINING_OPTIONS`:
+            a start curriculum, a start replay, a fine-tuning start ...), at most one of
+            each kind; each checks itself against the run.
     """
 
     env_id: str
@@ -488,54 +533,24 @@ class TrainConfig:
     hyperparams: Hyperparams
     backend: str = "sb3"
     command: tuple[str, ...] = ()
-    init_from: str | None = None
-    critic_warmup: int = 0
     randomize: str | None = None
-    start_curriculum: tuple[float, int] | None = None
-    start_replay: float | None = None
-    start_replay_max: int | None = None
+    options: tuple[TrainingOption, ...] = ()
 
     def __post_init__(self) -> None:
         if self.backend not in ("sb3", "rllib"):
             raise ValueError(f"backend must be 'sb3' or 'rllib', got {self.backend!r}")
-        if self.start_curriculum is not None:
-            low, steps = self.start_curriculum
-            if not 0.0 < low < 1.0 or steps < 1 or self.backend != "sb3":
-                raise ValueError(
-                    "start_curriculum must be (low, steps) with 0 < low < 1 and steps >= 1, "
-                    f"on the sb3 backend; got {self.start_curriculum} on {self.backend}"
-                )
-        if self.start_replay is not None and (
-            not 0.0 < self.start_replay < 1.0
-            or self.backend != "sb3"
-            or isinstance(self.n_trailers, tuple)
-            or self.env_kwargs.get("randomize") is not None
-        ):
-            raise ValueError(
-                "start_replay must be a share in (0, 1), on the sb3 backend, with one count "
-                f"of trailers and no randomize; got {self.start_replay} on {self.backend}"
-            )
-        if self.start_replay_max is not None and (
-            self.start_replay is None or self.start_replay_max < 1
-        ):
-            raise ValueError(
-                f"start_replay_max must be >= 1 and needs start_replay, got {self.start_replay_max}"
-            )
         if self.budget < 1 or self.n_envs < 1:
             raise ValueError(f"budget and n_envs must be >= 1, got {self.budget}, {self.n_envs}")
-        if self.critic_warmup < 0 or (self.critic_warmup and self.init_from is None):
-            raise ValueError(
-                f"critic_warmup must be >= 0 and needs init_from, got {self.critic_warmup}"
-            )
-        if self.critic_warmup >= self.budget:
-            raise ValueError(
-                f"critic_warmup ({self.critic_warmup}) must be under the budget ({self.budget})"
-            )
+        kinds = [type(option) for option in self.options]
+        if len(set(kinds)) != len(kinds):
+            raise ValueError(f"one option of each kind, got {[kind.__name__ for kind in kinds]}")
+        for option in self.options:
+            option.check(self)
         if self.budget > limits.MAX_TIMESTEPS:
             raise ValueError(f"timesteps must be <= {limits.MAX_TIMESTEPS}, got {self.budget}")
         if self.n_envs > limits.MAX_N_ENVS:
             raise ValueError(f"n_envs must be <= {limits.MAX_N_ENVS}, got {self.n_envs}")
-        rollout = int(self.hyperparams.algo_kwargs.get("n_steps", 0)) * self.n_envs
+        rollout = self.hyperparams.n_steps * self.n_envs
         if self.backend == "sb3" and rollout > MAX_ROLLOUT_STEPS:
             raise ValueError(
                 f"n_steps x n_envs = {rollout} steps per rollout, over the limit of "
@@ -559,14 +574,15 @@ class TrainConfig:
         n_envs: int | None = None,
         backend: str = "sb3",
         command: tuple[str, ...] | list[str] = (),
-        init_from: str | None = None,
-        critic_warmup: int = 0,
         randomize: str | None = None,
-        start_curriculum: tuple[float, int] | None = None,
-        start_replay: float | None = None,
-        start_replay_max: int | None = None,
+        options: tuple[TrainingOption, ...] = (),
     ) -> TrainConfig:
-        """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's."""
+        """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's.
+
+        Raises:
+            ValueError: On a setting out of bounds; an :class:`OptionError` names the
+                option's flag.
+        """
         return cls(
             env_id=env_id,
             algo=algo,
@@ -577,34 +593,37 @@ class TrainConfig:
             hyperparams=hyperparams,
             backend=backend,
             command=tuple(command),
-            init_from=init_from,
-            critic_warmup=critic_warmup,
             randomize=randomize,
-            start_curriculum=start_curriculum,
-            start_replay=start_replay,
-            start_replay_max=start_replay_max,
+            options=tuple(options),
         )
 
+    def option(self, kind: type[OptionT]) -> OptionT | None:
+        """The run's option of ``kind``, or None."""
+        for option in self.options:
+            if isinstance(option, kind):
+                return option
+        return None
+
     @property
-    def env_kwargs(self) -> JSONObject:
+    def env_kwargs(self) -> Keywords:
         """The environment's keyword arguments: the file's, with this run's ``n_trailers``
         (a range as a JSON list) and ``randomize``."""
         counts = self.n_trailers
-        kwargs: JSONObject = {
+        physics = {} if self.randomize is None else {"randomize": self.randomize}
+        return {
             **self.hyperparams.env_kwargs,
             "n_trailers": list(counts) if isinstance(counts, tuple) else counts,
+            **physics,
         }
-        if self.randomize is not None:
-            kwargs["randomize"] = self.randomize
-        return kwargs
 
-    def document(self) -> JSONObject:
+    def document(self) -> Keywords:
         """The run's record (JSON-ready) for ``config.json`` and the model cards.
 
-        An SB3 run records the file's policy, algorithm arguments and normalisation; an
-        RLlib run records ``backend`` (its trainer adds the RLlib settings it resolved).
+        An SB3 run records the file's policy, algorithm arguments and normalisation and
+        each option's part; an RLlib run records ``backend`` (its trainer adds the RLlib
+        settings it resolved).
         """
-        record: JSONObject = {
+        record: Keywords = {
             "algo": self.algo,
             "env_id": self.env_id,
             "env_kwargs": self.env_kwargs,
@@ -613,26 +632,17 @@ class TrainConfig:
             "n_envs": self.n_envs,
             "command": list(self.command),
         }
-        if self.backend == "sb3":
-            record.update(
-                {
-                    "policy": self.hyperparams.policy,
-                    "hyperparams": jsonable(self.hyperparams.algo_kwargs),
-                    "normalize": self.hyperparams.normalize,
-                }
-            )
-            if self.hyperparams.shaping is not None:
-                record["shaping"] = dict(self.hyperparams.shaping)
-            if self.init_from is not None:
-                record.update({"init_from": self.init_from, "critic_warmup": self.critic_warmup})
-            if self.start_curriculum is not None:
-                low, steps = self.start_curriculum
-                record["start_curriculum"] = {"from": low, "steps": steps}
-            if self.start_replay is not None:
-                replay: JSONObject = {"fraction": self.start_replay}
-                if self.start_replay_max is not None:
-                    replay["max_replays"] = self.start_replay_max
-                record["start_replay"] = replay
-        else:
-            record["backend"] = self.backend
+        if self.backend != "sb3":
+            return {**record, "backend": self.backend}
+        record.update(
+            {
+                "policy": self.hyperparams.policy,
+                "hyperparams": jsonable(self.hyperparams.algo_kwargs),
+                "normalize": self.hyperparams.normalize,
+            }
+        )
+        if self.hyperparams.shaping is not None:
+            record.update(shaping=dict(self.hyperparams.shaping))
+        for option in self.options:
+            record.update(option.record())
         return record

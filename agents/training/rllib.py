@@ -22,7 +22,7 @@ Before Ray starts, ``--address`` must be ``auto``, ``HOST:PORT`` or ``ray://HOST
 connection is tried first: an unknown or silent host fails in seconds, not after
 Ray's minutes of retries). ``--num-env-runners`` may not exceed the CPUs: this
 machine's (``os.cpu_count()``) for a local Ray, the cluster's
-(``ray.cluster_resources()["CPU"]``) with ``--address`` (checked right after
+(``ray.cluster_resources()['CPU']``) with ``--address`` (checked right after
 connecting, before anything is built or written). No orphans: the local Ray is
 started by the driver, which owns it (Ray kills the processes of a head node it
 started when the driver exits, its fate-sharing); ``ray.shutdown()`` runs in a
@@ -54,6 +54,7 @@ read with ``--trust-pickle``.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 import os
@@ -65,16 +66,26 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from agents.artifacts.cards import card_of
 from agents.artifacts.curves import write_curve
 from agents.artifacts.files import atomic_write_bytes, write_json
 from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS
 from agents.artifacts.run_folder import PROGRESS_FILE, RLLIB_CHECKPOINT, write_config
 from agents.training.config import Hyperparams, TrainConfig
-from trailer_env.json_types import JSONObject
+
+if TYPE_CHECKING:
+    from types import FrameType
+
+    import gymnasium as gym
+    import torch
+    from ray.rllib.algorithms.ppo import PPOConfig
+
+    #: What ``signal.signal`` returns: the handler it replaced.
+    SignalHandler = Callable[[int, FrameType | None], object] | int | signal.Handlers | None
 
 #: The name under which :func:`register_trailer_env` registers the env creator.
 RLLIB_ENV_NAME = "trailer_env_rllib"
@@ -112,7 +123,7 @@ def address_problem(address: str, timeout: float = CONNECT_TIMEOUT_S) -> str | N
         return f"cannot reach {address} within {timeout:.0f} s: {error.strerror or error}"
 
 
-def _raise_on_sigterm() -> Any:
+def _raise_on_sigterm() -> SignalHandler:
     """Make SIGTERM raise SystemExit (so that ``finally`` shuts Ray down); returns the
     handler it replaced (None off the main thread, where it does nothing)."""
 
@@ -125,7 +136,9 @@ def _raise_on_sigterm() -> Any:
         return None
 
 
-def make_rllib_env(env_config: Mapping[str, Any]) -> Any:
+def make_rllib_env(
+    env_config: Mapping[str, object],
+) -> gym.Env[np.ndarray, np.ndarray] | gym.vector.VectorEnv:
     """RLlib's env creator: the native batch when RLlib asks for ``num_envs``, else one env.
 
     Args:
@@ -136,13 +149,15 @@ def make_rllib_env(env_config: Mapping[str, Any]) -> Any:
 
     import trailer_env  # noqa: F401  (registers the ids in this worker process)
 
-    kwargs = dict(env_config)
+    kwargs: dict[str, Any] = dict(env_config)  # gym.make checks its keywords
     env_id = str(kwargs.pop("env_id"))
     num_envs = kwargs.pop("num_envs", None)
     if num_envs is None:
         return gym.make(env_id, **kwargs)
+    if not isinstance(num_envs, int):
+        raise TypeError(f"num_envs must be an int, got {type(num_envs).__name__}")
     return gym.make_vec(
-        env_id, num_envs=int(num_envs), vectorization_mode="vector_entry_point", **kwargs
+        env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs
     )
 
 
@@ -161,28 +176,23 @@ def ppo_config(
     seed: int,
     num_env_runners: int,
     envs_per_runner: int,
-) -> Any:
+) -> PPOConfig:
     """An RLlib ``PPOConfig`` equivalent to the SB3 hyperparameters ``hp`` (new API stack).
 
     The SB3 batch (``n_envs`` x ``n_steps`` steps per update) becomes the learner's
     train batch; ``batch_size`` the minibatch; ``n_epochs``, ``gamma``, ``gae_lambda``,
     ``clip_range``, ``ent_coef`` and a constant ``learning_rate`` carry over, and
-    ``policy_kwargs["net_arch"]`` becomes ``fcnet_hiddens``. Observations are not
+    ``policy_kwargs``' ``net_arch`` becomes ``fcnet_hiddens``. Observations are not
     normalised (RLlib has no VecNormalize): u and omega enter unscaled, of order 1 m/s
     and 1 rad/s in the scenes' states; the other entries lie in [-1, 1].
     """
     from ray.rllib.algorithms.ppo import PPOConfig
     from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
 
-    kwargs = hp.algo_kwargs
-    steps_per_update = int(hp.n_envs * kwargs.get("n_steps", 2048))
-    learning_rate = kwargs.get("learning_rate", 3e-4)
-    if callable(learning_rate):
-        learning_rate = learning_rate(1.0)
-    clip = kwargs.get("clip_range", 0.2)
-    if callable(clip):
-        clip = clip(1.0)
-    net_arch = kwargs.get("policy_kwargs", {}).get("net_arch", [64, 64])
+    steps_per_update = hp.n_envs * (hp.n_steps or 2048)
+    net_arch = hp.policy_kwargs.get("net_arch", [64, 64])
+    if not isinstance(net_arch, list):
+        raise ValueError(f"net_arch must be a list of widths, got {net_arch!r:.60}")
     runners = max(num_env_runners, 1)
     fragment = max(math.ceil(steps_per_update / (runners * envs_per_runner)), 1)
     return (
@@ -198,13 +208,13 @@ def ppo_config(
         .learners(num_learners=0)
         .training(
             train_batch_size_per_learner=fragment * runners * envs_per_runner,
-            minibatch_size=int(kwargs.get("batch_size", 64)),
-            num_epochs=int(kwargs.get("n_epochs", 10)),
-            lr=float(learning_rate),
-            gamma=float(kwargs.get("gamma", 0.99)),
-            lambda_=float(kwargs.get("gae_lambda", 0.95)),
-            clip_param=float(clip),
-            entropy_coeff=float(kwargs.get("ent_coef", 0.0)),
+            minibatch_size=int(hp.number("batch_size", 64)),
+            num_epochs=int(hp.number("n_epochs", 10)),
+            lr=hp.number("learning_rate", 3e-4),
+            gamma=hp.gamma,
+            lambda_=hp.number("gae_lambda", 0.95),
+            clip_param=hp.number("clip_range", 0.2),
+            entropy_coeff=hp.number("ent_coef", 0.0),
         )
         .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=list(net_arch)))
         .debugging(seed=seed)
@@ -212,7 +222,7 @@ def ppo_config(
     )
 
 
-def ppo_settings(rllib_config: Any) -> JSONObject:
+def ppo_settings(rllib_config: PPOConfig) -> dict[str, object]:
     """The settings a ``PPOConfig`` resolved, for the run's record (``fcnet_hiddens``
     rebuilds the exported policy's network)."""
     return {
@@ -241,10 +251,13 @@ class RLlibAlgorithm:
             (a class under ``ray.rllib``, :func:`agents.policies.rllib.load_rllib_policy`).
     """
 
-    build_config: Callable[[str, JSONObject, Hyperparams, int, int, int], Any]
-    settings: Callable[[Any], JSONObject]
+    build_config: Callable[[str, Mapping[str, object], Hyperparams, int, int, int], PPOConfig]
+    settings: Callable[[PPOConfig], dict[str, object]]
     module: str
 
+
+#: The RLModule RLlib's PPO trains (its exported policy is rebuilt with it).
+PPO_MODULE = "ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module:DefaultPPOTorchRLModule"
 
 #: Algorithms the RLlib backend trains, by ``--algo`` name (a name of
 #: :data:`agents.algorithms.ALGOS`).
@@ -252,7 +265,7 @@ RLLIB_ALGOS: dict[str, RLlibAlgorithm] = {
     "ppo": RLlibAlgorithm(
         build_config=ppo_config,
         settings=ppo_settings,
-        module="ray.rllib.algorithms.ppo.torch.default_ppo_torch_rl_module:DefaultPPOTorchRLModule",
+        module=PPO_MODULE,
     ),
 }
 
@@ -327,13 +340,65 @@ def _shutdown(started: bool, logs: Path | None, run_dir: Path) -> None:
         ray.shutdown()
 
 
-def _env_steps(result: Mapping[str, Any]) -> int:
-    runners = result.get("env_runners", {})
-    return int(
-        result.get(
-            "num_env_steps_sampled_lifetime", runners.get("num_env_steps_sampled_lifetime", 0)
+def _number(section: object, key: str) -> float:
+    """A number of one of RLlib's result sections (NaN when it has none yet)."""
+    value = section.get(key) if isinstance(section, Mapping) else None
+    return float(value) if isinstance(value, (int, float)) else math.nan
+
+
+@dataclass(frozen=True)
+class IterationRow:
+    """One row of ``progress.csv``: what one RLlib iteration reports.
+
+    ``sample_s`` and ``learn_s`` are RLlib's own timers, smoothed across iterations (so
+    not summable into a wall time): sampling on the runners, the update in the learner.
+    """
+
+    iteration: int
+    timesteps: int
+    wall_s: float
+    episode_return_mean: float
+    episode_len_mean: float
+    num_episodes: int
+    sample_s: float
+    learn_s: float
+
+    @classmethod
+    def from_result(
+        cls, result: Mapping[str, object], iteration: int, wall_s: float
+    ) -> IterationRow:
+        """The row of RLlib's result of ``algorithm.train()``."""
+        runners = result.get("env_runners")
+        timers = result.get("timers")
+        lifetime = "num_env_steps_sampled_lifetime"
+        steps = _number(result, lifetime)
+        steps = _number(runners, lifetime) if math.isnan(steps) else steps
+        episodes = _number(runners, "num_episodes_lifetime")
+        return cls(
+            iteration=iteration,
+            timesteps=0 if math.isnan(steps) else int(steps),
+            wall_s=round(wall_s, 2),
+            episode_return_mean=_number(runners, "episode_return_mean"),
+            episode_len_mean=_number(runners, "episode_len_mean"),
+            num_episodes=0 if math.isnan(episodes) else int(episodes),
+            sample_s=_number(timers, "env_runner_sampling_timer"),
+            learn_s=_number(timers, "learner_update_timer"),
         )
-    )
+
+
+@dataclass(frozen=True)
+class RLlibRun:
+    """What :func:`train_rllib` did.
+
+    Attributes:
+        record: The run's record (``config.json``, the policy export's card).
+        timesteps: Environment steps sampled.
+        env_steps_per_s: Their rate over the training's wall time.
+    """
+
+    record: dict[str, object]
+    timesteps: int
+    env_steps_per_s: float
 
 
 def train_rllib(
@@ -343,9 +408,9 @@ def train_rllib(
     num_env_runners: int = 1,
     address: str | None = None,
     verbose: int = 1,
-) -> JSONObject:
+) -> RLlibRun:
     """Train ``config.algo`` (a record of :data:`RLLIB_ALGOS`) on Ray RLlib until
-    ``config.budget`` env steps; returns the run's record.
+    ``config.budget`` env steps.
 
     Args:
         config: What to train (backend "rllib"); ``config.n_envs`` convoys in all,
@@ -366,9 +431,6 @@ def train_rllib(
     trained = RLLIB_ALGOS[config.algo]
     if num_env_runners < 0:
         raise ValueError(f"num_env_runners must be >= 0, got {num_env_runners}")
-
-    env_kwargs = config.env_kwargs
-    budget = config.budget
     per_runner = max(config.n_envs // max(num_env_runners, 1), 1)
     if address is None and num_env_runners > local_cpus():
         raise ClusterTooSmallError(
@@ -379,15 +441,20 @@ def train_rllib(
     previous_handler = _raise_on_sigterm()
     try:
         rllib_config = trained.build_config(
-            config.env_id, env_kwargs, config.hyperparams, config.seed, num_env_runners, per_runner
+            config.env_id,
+            config.env_kwargs,
+            config.hyperparams,
+            config.seed,
+            num_env_runners,
+            per_runner,
         )
-        algorithm = rllib_config.build_algo()
+        algorithm: Any = rllib_config.build_algo()  # RLlib types its parts as optional
         runner_envs = (
             algorithm.env_runner_group.foreach_env_runner(_runner_env, local_env_runner=False)
             if num_env_runners > 0
             else [_runner_env(algorithm.env_runner)]
         )
-        record: JSONObject = {
+        record: dict[str, object] = {
             **config.document(),
             "n_envs": per_runner * max(num_env_runners, 1),
             "num_env_runners": num_env_runners,
@@ -398,59 +465,67 @@ def train_rllib(
             "runner_envs": runner_envs,
             "hyperparams": trained.settings(rllib_config),
         }
-        write_config(run_dir, record)
-        rows: list[JSONObject] = []
-        started = time.perf_counter()
-        steps = 0
-        while steps < budget:
-            result = algorithm.train()
-            steps = _env_steps(result)
-            runners = result.get("env_runners", {})
-            timers = result.get("timers", {})
-            mean_return = float(runners.get("episode_return_mean", float("nan")))
-            rows.append(
-                {
-                    "iteration": len(rows) + 1,
-                    "timesteps": steps,
-                    "wall_s": round(time.perf_counter() - started, 2),
-                    "episode_return_mean": mean_return,
-                    "episode_len_mean": float(runners.get("episode_len_mean", float("nan"))),
-                    "num_episodes": int(runners.get("num_episodes_lifetime", 0)),
-                    # RLlib's own timers, smoothed across iterations (so not summable into
-                    # a wall time): sampling on the runners, the update in the learner.
-                    "sample_s": float(timers.get("env_runner_sampling_timer", float("nan"))),
-                    "learn_s": float(timers.get("learner_update_timer", float("nan"))),
-                }
-            )
-            if verbose:
-                print(
-                    f"[rllib] {steps:>9d} steps  return {mean_return:8.1f}  "
-                    f"({rows[-1]['wall_s']:.0f} s)",
-                    flush=True,
-                )
-        wall = time.perf_counter() - started
-        write_curve(run_dir / PROGRESS_FILE, rows, list(rows[0]))
-        checkpoint = run_dir / RLLIB_CHECKPOINT
-        algorithm.save_to_path(str(checkpoint.resolve()))
-        record.update(
-            {
-                "timesteps": steps,
-                "wall_time_s": round(wall, 1),
-                "env_steps_per_s": round(steps / wall, 1),
-                "episode_return_mean": rows[-1]["episode_return_mean"],
-            }
-        )
-        export_policy(algorithm, checkpoint, record, trained.module)
-        write_config(run_dir, record)
-        algorithm.stop()
-        return record
+        write_config(run_dir, card_of(record, f"for {run_dir}"))
+        rows, wall = _iterate(algorithm, config.budget, verbose)
+        return _finish(algorithm, run_dir, record, rows, wall, trained.module)
     finally:
         if previous_handler is not None:
             signal.signal(signal.SIGTERM, previous_handler)
         _shutdown(started_ray, ray_logs, run_dir)
 
 
-def learner_policy_state(algorithm: Any) -> JSONObject:
+def _iterate(algorithm: Any, budget: int, verbose: int) -> tuple[list[IterationRow], float]:
+    """Train until ``budget`` env steps are sampled: the iterations' rows and the wall time."""
+    rows: list[IterationRow] = []
+    started = time.perf_counter()
+    steps = 0
+    while steps < budget:
+        result = algorithm.train()
+        row = IterationRow.from_result(result, len(rows) + 1, time.perf_counter() - started)
+        rows.append(row)
+        steps = row.timesteps
+        if verbose:
+            print(
+                f"[rllib] {steps:>9d} steps  return {row.episode_return_mean:8.1f}  "
+                f"({row.wall_s:.0f} s)",
+                flush=True,
+            )
+    return rows, time.perf_counter() - started
+
+
+def _finish(
+    algorithm: Any,
+    run_dir: Path,
+    record: dict[str, object],
+    rows: list[IterationRow],
+    wall: float,
+    module_path: str,
+) -> RLlibRun:
+    """Write the curve, the checkpoint, the policy export and the completed record."""
+    write_curve(run_dir / PROGRESS_FILE, [dataclasses.asdict(row) for row in rows], FIELDS)
+    checkpoint = run_dir / RLLIB_CHECKPOINT
+    algorithm.save_to_path(str(checkpoint.resolve()))
+    steps = rows[-1].timesteps
+    rate = round(steps / wall, 1)
+    record.update(
+        {
+            "timesteps": steps,
+            "wall_time_s": round(wall, 1),
+            "env_steps_per_s": rate,
+            "episode_return_mean": rows[-1].episode_return_mean,
+        }
+    )
+    export_policy(algorithm, checkpoint, record, module_path)
+    write_config(run_dir, card_of(record, f"for {run_dir}"))
+    algorithm.stop()
+    return RLlibRun(record, steps, rate)
+
+
+#: The columns of ``progress.csv``.
+FIELDS = [field.name for field in dataclasses.fields(IterationRow)]
+
+
+def learner_policy_state(algorithm: Any) -> dict[str, torch.Tensor]:
     """The trained policy's weights (inference part, as tensors) from the learner.
 
     Read from the learner group, whose module is the one being optimised (the env
@@ -469,7 +544,7 @@ def export_policy(
     algorithm: Any,
     checkpoint: Path,
     card: Mapping[str, object],
-    module_path: str = RLLIB_ALGOS["ppo"].module,
+    module_path: str = PPO_MODULE,
 ) -> None:
     """Write the pickle-free policy export (weights + card) into ``checkpoint``; the card
     names the RLModule (``module_path``, ``"module:Class"``) the policy is rebuilt with."""

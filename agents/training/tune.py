@@ -41,8 +41,8 @@ resumes by running the same command again (trials left running are marked failed
 settings in ``<out>/search.json`` must match). A kill during a write leaves the
 journal's last record cut (no line end): Optuna reads past it, but would append the
 next record to it and so damage the journal for good, so a resumed search first drops
-that cut record (:func:`intact_journal_length`; it names it on standard error). Any
-other damage, a complete line that is not a JSON record, is refused before anything
+that cut record (:func:`intact_journal_length`; it names it on standard error). All
+other damage, such as a complete line that is not a JSON record, is refused before anything
 is written, and the journal is left as it is. At the end :func:`write_results` writes
 ``best_trials.md`` (the best complete trials) and ``best_hyperparams.yml`` (the best
 trial's entry, in the format of ``agents/hyperparams/<algo>.yml``, to be committed),
@@ -55,10 +55,11 @@ import json
 import math
 import os
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
@@ -66,7 +67,7 @@ import yaml
 from agents.algorithms import algo_class
 from agents.algorithms.bounds import argument_problem, bound_of
 from agents.artifacts import files, limits
-from agents.artifacts.curves import read_curve
+from agents.artifacts.curves import CURVE_COLUMNS, read_curve
 from agents.artifacts.run_folder import CURVE_FILE
 from agents.envs import headline_metric
 from agents.progress import duration
@@ -80,7 +81,15 @@ from agents.training.config import (
     parse_policy_kwargs,
     raw_entry,
 )
-from trailer_env.json_types import JSONObject
+
+if TYPE_CHECKING:
+    from optuna import Study, Trial
+
+#: The columns of a learning curve's steps and training seconds.
+STEPS, WALL = CURVE_COLUMNS[:2]
+
+#: A value a search space names (YAML's scalars).
+Scalar = bool | int | float | str
 
 #: The search spaces shipped with the package.
 SEARCH_SPACES = HYPERPARAMS_DIR / "search.yml"
@@ -100,7 +109,7 @@ MISSING_OPTUNA = (
 )
 
 
-def require_optuna() -> Any:
+def require_optuna() -> ModuleType:
     """The optuna module.
 
     Raises:
@@ -118,7 +127,7 @@ class Distribution:
     """One searched key: ``kind`` (one of :data:`KINDS`) and its choices or bounds."""
 
     kind: str
-    values: tuple[Any, ...]
+    values: tuple[Scalar, ...]
 
 
 def _distribution(key: str, spec: object, where: str) -> Distribution:
@@ -218,9 +227,9 @@ def read_space(algo: str, path: Path = SEARCH_SPACES) -> dict[str, Distribution]
     return space
 
 
-def sample(trial: Any, space: Mapping[str, Distribution]) -> JSONObject:
+def sample(trial: Trial, space: Mapping[str, Distribution]) -> dict[str, object]:
     """One point of ``space`` from an Optuna trial (its parameters, as Optuna records them)."""
-    params: JSONObject = {}
+    params: dict[str, object] = {}
     for key, distribution in space.items():
         low, high = distribution.values[0], distribution.values[-1]
         if distribution.kind == "categorical":
@@ -233,7 +242,7 @@ def sample(trial: Any, space: Mapping[str, Distribution]) -> JSONObject:
     return params
 
 
-def _policy_text(kwargs: Mapping[str, Any]) -> str:
+def _policy_text(kwargs: Mapping[str, object]) -> str:
     """policy_kwargs as rl-zoo3's text (``"dict(net_arch=[64, 64], log_std_init=-1.0)"``)."""
 
     def text(value: object) -> str:
@@ -246,7 +255,7 @@ def _policy_text(kwargs: Mapping[str, Any]) -> str:
     return text(dict(kwargs))
 
 
-def trial_entry(base: Mapping[str, Any], params: Mapping[str, Any]) -> JSONObject:
+def trial_entry(base: Mapping[str, object], params: Mapping[str, object]) -> dict[str, object]:
     """The rl-zoo3 entry of a trial: ``base`` (the algorithm's file) with ``params`` over it.
 
     ``net_arch`` and ``log_std_init`` go into ``policy_kwargs``; a ``batch_size`` larger
@@ -256,17 +265,16 @@ def trial_entry(base: Mapping[str, Any], params: Mapping[str, Any]) -> JSONObjec
     policy = dict(parse_policy_kwargs(entry.get("policy_kwargs", "dict()")))
     for key, value in params.items():
         if key == "net_arch":
-            policy["net_arch"] = net_arch(value)
+            policy.update(net_arch=net_arch(value))
         elif key in POLICY_KEYS:
             policy[key] = value
         else:
             entry[key] = value
     if policy:
-        entry["policy_kwargs"] = _policy_text(policy)
+        entry.update(policy_kwargs=_policy_text(policy))
     if "n_steps" in entry and "batch_size" in entry:
-        entry["batch_size"] = min(
-            int(entry["batch_size"]), int(entry["n_steps"]) * int(entry.get("n_envs", 1))
-        )
+        rollout = int(_number(entry["n_steps"]) * _number(entry.get("n_envs", 1)))
+        entry.update(batch_size=min(int(_number(entry["batch_size"])), rollout))
     return entry
 
 
@@ -358,15 +366,16 @@ class TuneSettings:
             return evaluation
         return int(10 * seconds / self.wall_budget)
 
-    def document(self) -> JSONObject:
+    def document(self) -> dict[str, object]:
         """The record of ``search.json`` (without the command, which may differ on resume)."""
         record = asdict(self)
         record.pop("command")
-        record["hyperparams"] = str(self.hyperparams) if self.hyperparams else None
-        record["space"] = str(self.space)
+        record.update(
+            hyperparams=str(self.hyperparams) if self.hyperparams else None, space=str(self.space)
+        )
         return record
 
-    def base_entry(self) -> JSONObject:
+    def base_entry(self) -> dict[str, object]:
         """The algorithm file's entry for the environment, raw (the trials' base).
 
         Raises:
@@ -457,7 +466,7 @@ def tune(
     *,
     overwrite: bool = False,
     verbose: int = 1,
-) -> Any:
+) -> Study:
     """Run (or resume) the search until the study holds ``trials`` finished trials.
 
     Returns the Optuna study. Writes the results (:func:`write_results`) at the end.
@@ -534,15 +543,31 @@ def tune(
     return study
 
 
-def _best_text(study: Any, optuna: Any) -> str:
+def _best_text(study: Study, optuna: ModuleType) -> str:
     complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
     if not complete:
         return "none yet"
     return f"{study.best_value:.3f} (#{study.best_trial.number})"
 
 
+def _number(value: object) -> float:
+    """A number of an entry or an evaluation's summary (checked where it was written).
+
+    Raises:
+        ValueError: If it is not a number.
+    """
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"expected a number, got {value!r:.40}")
+    return float(value)
+
+
 def _run_trial(
-    optuna: Any, train: Any, settings: TuneSettings, trial: Any, run_dir: Path, metric: str
+    optuna: ModuleType,
+    train: Callable[..., object],
+    settings: TuneSettings,
+    trial: Trial,
+    run_dir: Path,
+    metric: str,
 ) -> tuple[str, float | None]:
     """Train one trial; returns ("complete", value), ("pruned", None) or ("fail", None)."""
     steps: list[float] = []
@@ -551,10 +576,10 @@ def _run_trial(
     pruned: list[int] = []
     reported: set[int] = set()
 
-    def report(step: int, summary: Mapping[str, Any]) -> bool:
+    def report(step: int, summary: Mapping[str, object]) -> bool:
         steps.append(float(step))
-        seconds.append(float(summary["wall_s"]))
-        rates.append(float(summary[metric]))
+        seconds.append(_number(summary[WALL]))
+        rates.append(_number(summary[metric]))
         index = settings.report_index(len(steps) - 1, seconds[-1])
         if index not in reported:
             reported.add(index)
@@ -592,8 +617,8 @@ def _run_trial(
         trial.set_user_attr("error", f"{type(error).__name__}: {error}"[:500])
         return "fail", None
     rows = read_curve(run_dir / CURVE_FILE, ("timesteps", "wall_s", metric))
-    x = [row["timesteps"] for row in rows]
-    t = [row["wall_s"] for row in rows]
+    x = [row[STEPS] for row in rows]
+    t = [row[WALL] for row in rows]
     y = [row[metric] for row in rows]
     trial.set_user_attr("final_rate", y[-1] if y else math.nan)
     trial.set_user_attr("best_rate", max(y) if y else math.nan)
@@ -609,7 +634,9 @@ def _run_trial(
     return "complete", settings.objective(x, t, y)
 
 
-def write_results(study: Any, settings: TuneSettings, base: Mapping[str, Any], out: Path) -> None:
+def write_results(
+    study: Study, settings: TuneSettings, base: Mapping[str, object], out: Path
+) -> None:
     """``best_trials.md`` and ``best_hyperparams.yml`` (atomic), when a trial completed."""
     optuna = require_optuna()
     states = optuna.trial.TrialState
@@ -633,7 +660,7 @@ def write_results(study: Any, settings: TuneSettings, base: Mapping[str, Any], o
         "| rank | trial | objective | final rate | best rate | plateau | wall | hyperparameters |",
         "|---|---|---|---|---|---|---|---|",
     ]
-    ranked = sorted(complete, key=lambda trial: -float(trial.value))
+    ranked = sorted(complete, key=lambda trial: -(trial.value or 0.0))
     for rank, trial in enumerate(ranked[:10], start=1):
         params = ", ".join(f"{key}={_short(value)}" for key, value in trial.params.items())
         attrs = trial.user_attrs

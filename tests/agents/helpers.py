@@ -6,8 +6,10 @@ import shutil
 import zipfile
 from pathlib import Path
 
+import numpy as np
 from stable_baselines3 import PPO
 
+from agents.artifacts.certificates import Certified
 from agents.artifacts.shipped import MODELS_DIR
 from agents.envs import make_sb3_env
 
@@ -67,3 +69,63 @@ def tiny_ppo_hyperparams(
         f'  n_epochs: 1\n  policy_kwargs: "{policy_kwargs}"\n'
     )
     return path
+
+
+def fake_certified(
+    seeds: list[int],
+    env_id: str = "trailer_env/Reverse-v1",
+    n: int = 1,
+    *,
+    status: str = "feasible",
+    planner: str | None = None,
+) -> Certified:
+    """A certificate of ``seeds`` all of ``status`` (feasible ones with a three-step zero
+    record), as the sampling planner (``planner`` None) or a named planner writes it; a
+    goal scene's is not screened and replays to success."""
+    from agents.artifacts.certificates import FEASIBLE, Certificate, CertificateStart
+    from trailer_env.objective import Objective
+    from trailer_env.registry import core_class_of
+
+    feasible = status == FEASIBLE
+    goal = core_class_of(env_id).objective is Objective.GOAL
+    replayed = True if feasible else None
+    starts = tuple(
+        CertificateStart(
+            seed=seed,
+            status=status,  # type: ignore[arg-type]
+            screen_stroke_fraction=None if goal else 0.5,
+            planner_safe=feasible,
+            planner_length=3,
+            replay_success=replayed if goal else None,
+            replay_safe=None if goal else replayed,
+        )
+        for seed in seeds
+    )
+    document = {
+        "env_id": env_id,
+        "env_kwargs": {"n_trailers": n},
+        "seeds": [min(seeds), max(seeds)],
+        "episodes": len(seeds),
+        "planner": {
+            "name": planner,
+            "horizon": 10,
+            "iterations": 1,
+            "restarts": 0,
+            "first_pass_safe": len(seeds) if feasible else 0,
+            "first_pass_wall_time_s": 0.0,
+            "simulated_steps_per_episode": 0.0,
+            "wall_time_s": 0.0,
+        },
+        "screen": {"applied": False, "wall_time_s": 0.0} if goal else {"wall_time_s": 0.0},
+        "feasible": len(seeds) if feasible else 0,
+        "not_recoverable": len(seeds) if status == "not recoverable" else 0,
+        "open": len(seeds) if status == "open" else 0,
+        "ceiling": 1.0 if feasible else 0.0,
+        "screen_upper_estimate": 1.0,
+        "starts": [start.document(goal) for start in starts],
+    }
+    if goal:
+        document["success"] = "the scene's success, replayed"
+    certificate = Certificate.from_json(document)
+    actions = {seed: np.zeros((3, 1)) for seed in seeds} if feasible else {}
+    return Certified(certificate, actions)

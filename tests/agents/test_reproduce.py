@@ -8,11 +8,12 @@ from pathlib import Path
 
 import pytest
 
-from agents.artifacts.cards import read_card
+from agents.algorithms.options import StartReplay
+from agents.artifacts.cards import ModelCard, Planner, read_model_card
 from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR
 from agents.commands import reproduce
 from agents.commands.reproduce import Recipe, RecipeError, main, recipes, recipes_page
-from agents.evaluation.metrics import rollout, summarize
+from agents.evaluation.metrics import rollout, summary_of
 from agents.policies.registry import load_policy
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -96,7 +97,7 @@ def test_recipes_are_the_cards_typed() -> None:
         1,
         10,
     )
-    assert distill.source == "teachers 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}"
+    assert distill.source == "expert policies 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}"
     dagger = by_model["dagger_reverse_v1_n2"]
     assert (dagger.kind, dagger.budget, dagger.source) == ("imitate", 6, "planner mpc")
     assert sum(recipe.problem is not None for recipe in by_model.values()) == 1
@@ -144,11 +145,11 @@ def _card_with(tmp_path: Path, source: str, **changes: object) -> Path:
 @pytest.mark.parametrize(
     ("changes", "message"),
     [
-        ({"command": "python -m agents.train"}, "field command must be a list of strings"),
+        ({"command": "python -m agents.train"}, "'command' must be a list"),
         ({"command": ["python", "-m", "agents.evaluate", "x"]}, "field command must start"),
         ({"seed": -1}, "field seed must be an int >= 0"),
         ({"env_id": None}, "field env_id must be a str"),
-        ({"budget": "many"}, "field budget must be an int"),
+        ({"budget": "many"}, "'budget' must be int"),
         (
             {"command": ["python", "-m", "agents.train", "--algo", "ppo", "--run-dir", "x"]},
             "field command names --run-dir",
@@ -179,13 +180,14 @@ def test_a_recipe_record_is_validated() -> None:
         Recipe(**{**fields, "arguments": ("--run-dir", "x")})
 
 
-def test_a_teacher_that_is_not_committed_is_said(tmp_path: Path) -> None:
+def test_an_expert_policy_that_is_not_committed_is_said(tmp_path: Path) -> None:
     card = json.loads((MODELS_DIR / "distill_reverse_v1_sequence.json").read_text())
     command = list(card["command"])
-    command[command.index("--teacher") + 1] = "private_teacher_n{n}"
+    command[command.index("--teacher") + 1] = "private_policy_n{n}"
     path = _card_with(tmp_path, "distill_reverse_v1_sequence.json", command=command)
     recipe = Recipe.from_card(path)
-    assert (recipe.kind, recipe.problem) == ("distill", "teacher private_teacher_n1 not committed")
+    assert recipe.kind == "distill"
+    assert recipe.problem == "expert policy private_policy_n1 not committed"
 
 
 def test_a_hyperparameter_file_that_changed_is_said(tmp_path: Path) -> None:
@@ -263,62 +265,60 @@ def test_a_folder_that_is_not_empty_is_refused(
     assert "--out" in _refused(["sac_reverse_n1"], capsys)
 
 
-def _rebuilt(model: str, out: Path, options: list[str]) -> tuple[Recipe, dict[str, object]]:
+def _rebuilt(model: str, out: Path, options: list[str]) -> tuple[Recipe, ModelCard]:
     """Rebuild ``model`` into ``out``; its recipe and the rebuilt best model's card, checked
     to load and drive through agents.evaluate's loader."""
     assert main([model, "--out", str(out), *options]) == 0
     recipe = Recipe.from_card(MODELS_DIR / f"{model}.json")
     best = out / "best_model.zip"
-    card = read_card(best)
-    assert card["env_id"] == recipe.env_id and card["seed"] == recipe.seed
+    card = read_model_card(best)
+    assert card.env_id == recipe.env_id and card.seed == recipe.seed
     low = recipe.n_trailers[0] if isinstance(recipe.n_trailers, tuple) else recipe.n_trailers
     kwargs = {"n_trailers": low}
     policy = load_policy(str(best), recipe.env_id, kwargs)
-    summary = summarize(rollout(policy, recipe.env_id, 2, 0, kwargs))
-    assert 0.0 <= summary["safe_rate"] <= 1.0 and summary["mean_length"] >= 1
+    summary = summary_of(rollout(policy, recipe.env_id, 2, 0, kwargs))
+    assert 0.0 <= summary.safe_rate <= 1.0 and summary.mean_length >= 1
     return recipe, card
 
 
 @pytest.mark.slow
 def test_sac_train_recipe_rebuilds_at_a_tiny_budget(tmp_path: Path) -> None:
     recipe, card = _rebuilt("sac_reverse_n1", tmp_path / "sac", ["--budget", "100"])
-    assert card["algo"] == "sac" and card["budget"] == 100
-    assert card["command"] == recipe.command(tmp_path / "sac", budget=100, package_paths=True)
+    assert card.algo == "sac" and card.budget == 100
+    assert list(card.command) == recipe.command(tmp_path / "sac", budget=100, package_paths=True)
 
 
 @pytest.mark.slow
 def test_ppo_train_recipe_rebuilds_at_a_tiny_budget(tmp_path: Path) -> None:
     _, card = _rebuilt("ppo_reverse_v1_n2", tmp_path / "ppo", ["--budget", "300"])
-    assert card["algo"] == "ppo" and card["budget"] == 300
-    assert (
-        card["hyperparams"]
-        == json.loads((MODELS_DIR / "ppo_reverse_v1_n2.json").read_text())["hyperparams"]
-    )
-    assert card["start_replay"] == {"fraction": 0.5, "max_replays": 3}
+    assert card.algo == "ppo" and card.budget == 300
+    committed = read_model_card(MODELS_DIR / "ppo_reverse_v1_n2.zip")
+    assert card.hyperparams == committed.hyperparams
+    assert card.option(StartReplay) == StartReplay(0.5, 3)
 
 
 @pytest.mark.slow
 def test_dagger_recipe_rebuilds_at_one_iteration(tmp_path: Path) -> None:
     options = ["--budget", "1", "--episodes", "1"]
     _, card = _rebuilt("dagger_reverse_v1_n1", tmp_path / "dagger", options)
-    assert card["recipe"] == "dagger" and card["expert"] == "mpc"
-    imitation = card["imitation"]
-    assert isinstance(imitation, dict)
-    assert (imitation["iterations"], imitation["episodes"]) == (1, 1)
+    assert card.recipe == "dagger" and card.expert == "mpc"
+    imitation = card.imitation
+    assert imitation is not None
+    assert (imitation.iterations, imitation.episodes) == (1, 1)
 
 
 def test_distillation_recipe_rebuilds_at_one_iteration(tmp_path: Path) -> None:
     options = ["--budget", "1", "--episodes", "2"]
     recipe, card = _rebuilt("distill_reverse_v1_sequence", tmp_path / "distill", options)
     # The rebuilt card records the imitation command that ran, not reproduce's own.
-    assert card["command"] == recipe.command(
+    assert list(card.command) == recipe.command(
         tmp_path / "distill", budget=1, episodes=2, package_paths=True
     )
-    assert card["expert"] == "specialists"
-    assert card["planner"] == {"policy": "ppo_reverse_v1_n{n}"}
-    imitation = card["imitation"]
-    assert isinstance(imitation, dict)
-    assert (imitation["iterations"], imitation["episodes"], imitation["mirror"]) == (1, 2, True)
+    assert card.expert == "specialists"
+    assert card.planner == Planner(policy="ppo_reverse_v1_n{n}")
+    imitation = card.imitation
+    assert imitation is not None
+    assert (imitation.iterations, imitation.episodes, imitation.mirror) == (1, 2, True)
 
 
 def test_seed_models_are_listed_from_their_folder() -> None:

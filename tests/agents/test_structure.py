@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from agents.artifacts.cards import ModelCard
 from agents.artifacts.paths import model_stem
 from agents.artifacts.run_folder import (
     RunFolderError,
@@ -106,7 +107,7 @@ def test_run_folder_refuses_another_run_unless_overwrite(tmp_path: Path) -> None
     run = tmp_path / "run"
     assert choose_run_dir(tmp_path / "default", run) == run
     run.mkdir()
-    write_config(run, {"seed": 0})
+    write_config(run, ModelCard(seed=0))
     (run / "checkpoints").mkdir()
     (run / "notes.txt").write_text("kept")
     with pytest.raises(RunFolderError, match="already holds a run"):

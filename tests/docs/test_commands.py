@@ -39,21 +39,13 @@ DOCUMENTS = sorted(
         *(ROOT / "docs").rglob("*.md"),
     }
 )
-#: The agents' commands: module of ``python -m agents.<name>`` -> its command module.
+#: The agents' commands: module of ``python -m agents.<name>`` -> its command module (every
+#: ``agents/<name>.py`` beside an ``agents/commands/<name>.py``).
 AGENT_COMMANDS = {
-    f"agents.{name}": f"agents.commands.{name}"
-    for name in (
-        "main",
-        "train",
-        "evaluate",
-        "certify",
-        "imitate",
-        "report",
-        "tune",
-        "curves",
-        "reproduce",
-    )
-} | {"agents.evaluation.across_n": "agents.evaluation.across_n"}
+    f"agents.{path.stem}": f"agents.commands.{path.stem}"
+    for path in sorted((ROOT / "agents").glob("*.py"))
+    if path.stem != "__init__" and (ROOT / "agents" / "commands" / path.name).is_file()
+}
 #: The example module that protocol.md's ``--policy my_module:act`` imports.
 MY_MODULE = "import numpy as np\n\n\ndef act(obs):\n    return np.zeros((len(obs), 1))\n"
 
@@ -171,6 +163,7 @@ def _check_setup_line(command: Command) -> None:
 
 
 def test_the_docs_show_commands() -> None:
+    assert {"agents.main", "agents.across_n", "agents.time_to_ceiling"} <= set(AGENT_COMMANDS)
     agents = [command for command in COMMANDS if _agent(command) is not None]
     assert len(COMMANDS) > 60
     assert len(agents) > 40

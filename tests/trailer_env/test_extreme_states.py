@@ -69,7 +69,7 @@ def _fail_rows(core: ConvoyCore, monkeypatch: pytest.MonkeyPatch, row: int, time
             result = real(action, rows, prepare, outcome=False)
             left[0] -= 1
             core.z[row] = np.nan
-            core._nonfinite[row] = True
+            core.step_outputs.nonfinite[row] = True
             return result[0], 1, result[2]
         return real(action, rows, prepare, outcome)
 

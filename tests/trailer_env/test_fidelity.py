@@ -9,7 +9,7 @@ import pytest
 from dynamics import AdaptiveStepper, ConvoyParams, Stepper
 from tests.trailer_env.helpers import make
 from trailer_env.core import ConvoyCore
-from trailer_env.fidelity import AdaptiveIntegrator, Fidelity, RK4Integrator
+from trailer_env.fidelity import AdaptiveIntegrator, Fidelity
 from trailer_env.scenes import CoastCore, DockCore, HeadingCore, ReverseCore
 from trailer_env.settings import EnvSettings, settings_from_kwargs
 from trailer_env.substeps import (
@@ -76,7 +76,7 @@ def scene_samples(
             if step % 4 == 3:
                 # The accelerations the step held: the actuator's, as the core applied them.
                 states.append(before)
-                mass_states.append(core._act_backup.copy())
+                mass_states.append(core.step_state.act_backup.copy())
             done = np.flatnonzero(core.terminated)
             if done.size:
                 seeds = rng.integers(1 << 30, size=done.size)
@@ -323,18 +323,22 @@ def test_energy_preserving_integrator_conserves_energy_without_the_mass() -> Non
 def test_integrator_names_and_coercion() -> None:
     params = ConvoyParams(mu=0.0)
     kinds = {
-        name: type(Fidelity(integrator=name).make_integrator(params, False))
+        name: (
+            Fidelity(integrator=name).fused,
+            Fidelity(integrator=name).preserve_energy,
+            type(Fidelity(integrator=name).outer_integrator(params, False)),
+        )
         for name in ("rk4", "rk4-energy", "dopri5")
     }
     assert kinds == {
-        "rk4": RK4Integrator,
-        "rk4-energy": RK4Integrator,
-        "dopri5": AdaptiveIntegrator,
+        "rk4": (True, False, type(None)),
+        "rk4-energy": (True, True, type(None)),
+        "dopri5": (False, False, AdaptiveIntegrator),
     }
-    assert Fidelity(integrator="rk4-energy").make_integrator(params, False).preserve_energy
+    with pytest.raises(ValueError, match="mu = 0"):
+        Fidelity(integrator="rk4-energy").check_params(ConvoyParams(mu=0.1))
     with pytest.raises(ValueError, match=r"fidelity\.integrator"):
         Fidelity(integrator="not-registered")
     assert Fidelity.coerce(None) == Fidelity()
     assert Fidelity.coerce("auto").auto
     assert Fidelity.coerce(4).substeps == 4
-    assert isinstance(Fidelity().make_integrator(ConvoyParams(), False), Stepper)

@@ -1,5 +1,5 @@
-"""A scene written with Python hooks only, as CONTRIBUTING's "Adding a scene" shows it,
-and the trap of the default ``_is_terminated`` for a survival scene."""
+"""A scene written with Python hooks only, as CONTRIBUTING's "Adding a scene" shows it:
+its declared objective gives its termination."""
 
 from __future__ import annotations
 
@@ -7,12 +7,14 @@ import numpy as np
 
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
+from trailer_env.objective import Objective
 
 
 class HoldCore(ConvoyCore):
     """Survive: reverse slowly for 50 steps without folding (success = not failed yet)."""
 
     scene = "Hold"
+    objective = Objective.SURVIVAL
     max_episode_steps = 50
     failure_words = "the convoy stopped reversing"
 
@@ -29,19 +31,18 @@ class HoldCore(ConvoyCore):
         return np.where(self.failed | self.jackknifed, -10.0, 1.0)
 
 
-class SurvivingHoldCore(HoldCore):
-    def _is_terminated(self) -> np.ndarray:
-        # A survival scene's success is "not failed yet": only a failure ends it (the
-        # time limit truncates it).
-        return self.jackknifed | self.failed
+class ReachCore(HoldCore):
+    """The same hooks declared a goal scene: the success ends the episode."""
+
+    objective = Objective.GOAL
 
 
 class HoldEnv(ConvoyEnv):
     core_class = HoldCore
 
 
-class SurvivingHoldEnv(ConvoyEnv):
-    core_class = SurvivingHoldCore
+class ReachEnv(ConvoyEnv):
+    core_class = ReachCore
 
 
 def _steps_until_the_end(env: ConvoyEnv) -> tuple[int, bool]:
@@ -54,6 +55,8 @@ def _steps_until_the_end(env: ConvoyEnv) -> tuple[int, bool]:
     return 50, False
 
 
-def test_the_default_termination_ends_a_survival_scene_on_its_first_step() -> None:
-    assert _steps_until_the_end(HoldEnv(n_trailers=1)) == (1, True)
-    assert _steps_until_the_end(SurvivingHoldEnv(n_trailers=1)) == (50, False)
+def test_the_objective_gives_the_default_termination() -> None:
+    # Survival: only a fold or a failure ends the episode (the time limit truncates it).
+    assert _steps_until_the_end(HoldEnv(n_trailers=1)) == (50, False)
+    # Goal: the first success ends it.
+    assert _steps_until_the_end(ReachEnv(n_trailers=1)) == (1, True)

@@ -50,7 +50,7 @@ def test_fused_and_unfused_steps_share_the_compiled_outcome(
 ) -> None:
     fused = _core(core_class, "rk4")
     unfused = _core(core_class, "dopri5")
-    assert fused._fused and not unfused._fused
+    assert fused.settings.fidelity.fused and not unfused.settings.fidelity.fused
     calls: list[int] = []
     _recount(unfused, calls)
     rng = np.random.default_rng(1)
@@ -66,7 +66,9 @@ def test_fused_and_unfused_steps_share_the_compiled_outcome(
             results = (core.reward.copy(), core.terminated.copy(), core.success.copy())
             if previous is not None:
                 core.previous_potential[:] = previous  # type: ignore[attr-defined]
-            type(core).scene_outcome(core._all_rows, core._outputs, core._scene_tuple())
+            type(core).scene_outcome(
+                core._all_rows, core.kernel_args.outputs_tuple, core._scene_tuple()
+            )
             for array, result in zip(
                 (core.reward, core.terminated, core.success), results, strict=True
             ):
@@ -90,7 +92,7 @@ def test_reverse_formulas_by_hand_on_a_batch() -> None:
     core.jackknifed[3] = True
     scene = core._scene_arguments()
     assert isinstance(scene, ReverseScene) and scene.z is core.z and scene.reward is core.reward
-    type(core).scene_outcome(rows, core._outputs, tuple(scene))
+    type(core).scene_outcome(rows, core.kernel_args.outputs_tuple, tuple(scene))
     failed = core.jackknifed | (core.z[:, 0] >= 0.0)
     omega = core.z[:, 1]
     expected = (
@@ -107,7 +109,9 @@ def test_reverse_formulas_by_hand_on_a_batch() -> None:
 
 def test_the_named_tuples_hold_the_core_arrays() -> None:
     core = _core(CoastCore, "rk4")
-    assert isinstance(core.step_config, StepConfig) and core._config == tuple(core.step_config)
+    assert isinstance(core.step_config, StepConfig) and core.kernel_args.config_tuple == tuple(
+        core.step_config
+    )
     assert isinstance(core.step_state, StepState) and core.step_state.z is core.z
     assert isinstance(core.step_outputs, StepOutputs)
     assert core.step_outputs.hitch_trig is core.hitch_trig and core.step_outputs.cost is core.cost

@@ -134,7 +134,7 @@ def test_vector_bad_actions() -> None:
 def test_large_batches_use_the_parallel_kernels_with_identical_results(
     rng: np.random.Generator, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    import trailer_env.core
+    import trailer_env.core_base
     from trailer_env.kernels import PARALLEL_MIN_ROWS, step_parallel
 
     calls = []
@@ -143,7 +143,7 @@ def test_large_batches_use_the_parallel_kernels_with_identical_results(
         calls.append(1)
         return step_parallel(*args)  # type: ignore[no-any-return]
 
-    monkeypatch.setattr(trailer_env.core, "step_parallel", counting)
+    monkeypatch.setattr(trailer_env.core_base, "step_parallel", counting)
     count = PARALLEL_MIN_ROWS + 3  # an odd-sized last chunk
     envs = make_vec("trailer_env/Heading-v0", count)
     checked = [0, count // 2, count - 1]

@@ -1,10 +1,10 @@
 """The scenes: one module each, holding its batch core (task logic) and its Gymnasium env.
 
 Adding a scene: write its module (a :class:`~trailer_env.core.ConvoyCore` subclass that
-declares ``scene``, ``version``, ``max_episode_steps``, ``headline_metric``,
+declares ``scene``, ``version``, ``objective``, ``max_episode_steps``, ``headline_metric``,
 ``failure_words`` and ``baselines``, and a :class:`~trailer_env.env.ConvoyEnv` subclass
 naming it), then add the env class to :data:`SCENE_ENVS` (CONTRIBUTING.md, "Adding a
-scene", with the trap of the default termination for a survival scene). Registration,
+scene"). Registration,
 the vector env, the SB3 adapter and the agents' command lines all read that table.
 """
 

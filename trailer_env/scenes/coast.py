@@ -285,9 +285,8 @@ class CoastEnv(ConvoyEnv):
 
     ## Arguments
 
-    As Reverse-v0: `n_trailers` (default 2), ConvoyParams fields, `dt`, `fidelity`,
-    `action_mode`, `rail_accel_max`, `servo_bandwidth`, `singular_band`, `fold_angle`,
-    `render_mode`.
+    As Reverse-v0: the keywords of every scene (`trailer_env.settings.MAKE_KEYWORDS`,
+    docs/generated/keywords.md) and `render_mode`.
 
     ## References
 

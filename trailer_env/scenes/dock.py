@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
@@ -14,6 +13,7 @@ from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv, real_array
 from trailer_env.rendering import Marker
 from trailer_env.scenes.heading import wrap_angle
+from trailer_env.settings import EnvSettings
 
 SPEED_RANGE = (0.8, 1.2)
 ANGLE_NOISE = 0.05
@@ -90,8 +90,8 @@ class DockCore(ShapedCore):
     fold_penalty = 30.0
     failure_penalty = 30.0
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
+        super().__init__(settings, batch_size, track_pose=track_pose)
         self.target = np.zeros((self.batch_size, 3))
         self.dock_xy = np.zeros((self.batch_size, 2))
         self.dock_heading_error = np.zeros(self.batch_size)
@@ -250,13 +250,13 @@ class DockEnv(ConvoyEnv):
 
     ## Arguments
 
-    As Reverse-v0: `n_trailers` (default 2), ConvoyParams fields, `dt`, `fidelity`,
-    `action_mode`, `rail_accel_max`, `servo_bandwidth`, `singular_band`, `fold_angle`,
-    `render_mode`. `set_state(z, target=(x, y, heading))` builds a state by hand
-    (`z` may include the cart's pose). `randomize`, `observe_params` as Reverse-v0,
-    but for `l`, which the hitch positions of the reward and the task features use as
-    one value: the presets (`"mismatch10"`, `"mismatch20"`) keep it nominal and vary
-    M, J0, a and mu; a dict of ranges that names `l` is refused.
+    As Reverse-v0: the keywords of every scene (`trailer_env.settings.MAKE_KEYWORDS`,
+    docs/generated/keywords.md) and `render_mode`. `set_state(z, target=(x, y, heading))`
+    builds a state by hand (`z` may include the cart's pose). `randomize`,
+    `observe_params` as Reverse-v0, but for `l`, which the hitch positions of the reward
+    and the task features use as one value: the presets (`"mismatch10"`,
+    `"mismatch20"`) keep it nominal and vary M, J0, a and mu; a dict of ranges that
+    names `l` is refused.
 
     ## References
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
@@ -13,6 +12,7 @@ from dynamics.params import bounded_real
 from trailer_env.core import MAX_TASK_MAGNITUDE, ShapedCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.rendering import Marker
+from trailer_env.settings import EnvSettings
 
 SPEED_RANGE = (0.8, 1.2)
 ANGLE_NOISE = 0.05
@@ -71,8 +71,8 @@ class HeadingCore(ShapedCore):
     #: sin and cos of the heading error, the hold fraction.
     mirror_task_signs = (-1.0, 1.0, 1.0)
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
+        super().__init__(settings, batch_size, track_pose=track_pose)
         self.target_heading = np.zeros(self.batch_size)
         self.hold_count = np.zeros(self.batch_size, dtype=np.int64)
         self.heading_error = np.zeros(self.batch_size)
@@ -218,9 +218,9 @@ class HeadingEnv(ConvoyEnv):
 
     ## Arguments
 
-    As Reverse-v0: `n_trailers` (default 2), ConvoyParams fields, `dt`, `fidelity`,
-    `action_mode`, `rail_accel_max`, `servo_bandwidth`, `singular_band`, `fold_angle`,
-    `render_mode`. `set_state(z, target_heading=...)` builds a state by hand.
+    As Reverse-v0: the keywords of every scene (`trailer_env.settings.MAKE_KEYWORDS`,
+    docs/generated/keywords.md) and `render_mode`. `set_state(z, target_heading=...)`
+    builds a state by hand.
 
     ## References
 

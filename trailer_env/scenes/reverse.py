@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, ClassVar, NamedTuple
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 
@@ -12,6 +12,8 @@ from dynamics.jit import cached_njit
 from trailer_env.core import ConvoyCore
 from trailer_env.env import ConvoyEnv
 from trailer_env.kernels import StepOutputs, outcome_due, step_serial
+from trailer_env.objective import Objective
+from trailer_env.settings import EnvSettings
 
 #: Starting speed range (reversing), m/s, and the half-widths of the starting perturbations.
 SPEED_RANGE = (0.8, 1.2)
@@ -165,6 +167,7 @@ class ReverseCore(ConvoyCore):
     """Batched task logic of Reverse-v0 (no task features, no pose)."""
 
     scene = "Reverse"
+    objective = Objective.SURVIVAL
     max_episode_steps = 400
     headline_metric = "safe_rate"
     failure_words = "the convoy stopped reversing"
@@ -186,8 +189,8 @@ class ReverseCore(ConvoyCore):
             success=self.success,
         )
 
-    def __init__(self, *args: Any, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)
+    def __init__(self, settings: EnvSettings, batch_size: int, *, track_pose: bool = False) -> None:
+        super().__init__(settings, batch_size, track_pose=track_pose)
         n = self.n
         # The start (|u|, omega, alpha_1..alpha_n) = low + span * U[0, 1)^(n+2): one draw
         # per reset, the same numbers in the same order as uniform(low, high) per part.
@@ -337,13 +340,12 @@ class ReverseEnv(ConvoyEnv):
                    fidelity="rk4", action_mode="servo", render_mode="rgb_array")
     ```
 
-    `n_trailers` (default 2, or a range `(low, high)`: every episode draws its n, or
-    with `trailer_draw="row"` row i of a batch runs `low + i mod (high - low + 1)`;
-    `trailer_env.mixed`), any `dynamics.ConvoyParams` field (its defaults:
-    `mu = 0.5, b = 1.0, s_max = 0.5` for the actuator), `dt`,
-    `fidelity` (`trailer_env.fidelity.Fidelity`, a dict, an integrator name or a substep
-    count), `action_mode`, `rail_accel_max` (4 m/s^2), `servo_bandwidth` (5 rad/s),
-    `singular_band` (0.3), `fold_angle` (pi/2), `render_mode`.
+    The keywords of every scene (`trailer_env.settings.MAKE_KEYWORDS`, with their
+    meanings in docs/generated/keywords.md) and `render_mode`. `n_trailers` may be a
+    range `(low, high)`: every episode draws its n, or with `trailer_draw="row"` row i of
+    a batch runs `low + i mod (high - low + 1)` (`trailer_env.mixed`). Every
+    `dynamics.ConvoyParams` field is a keyword (its defaults: `mu = 0.5, b = 1.0,
+    s_max = 0.5` for the actuator).
     `randomize` (None): per-episode factors of the nominal parameters, a dict such as
     `{"M": (0.8, 1.2), "mu": (0.9, 1.1), "speed": (0.5, 1.0)}` (any of M, J0, a, m, J,
     l, mu; `speed` scales the start's drawn u) or a preset (`"mismatch10"`,

@@ -9,7 +9,7 @@ from typing import Any
 import torch
 
 from trailer_env.core import ConvoyCore
-from trailer_env.settings import EnvSettings, settings_from_kwargs
+from trailer_env.settings import EnvSettings, settings_from_keywords
 
 #: The scenes the twin restates (``ConvoyCore.scene``).
 SCENES = ("Reverse", "Coast", "Heading", "Dock")
@@ -142,11 +142,11 @@ class TwinParams:
         return cls.from_settings(core.settings, type(core), track_pose=core.with_pose)
 
     @classmethod
-    def make(cls, env_id: str, **kwargs: Any) -> TwinParams:
+    def make(cls, env_id: str, **kwargs: object) -> TwinParams:
         """The twin of ``gym.make(env_id, **kwargs)`` (one count of trailers)."""
         from trailer_env.registry import core_class_of
 
-        return cls.from_settings(settings_from_kwargs(**kwargs), core_class_of(env_id))
+        return cls.from_settings(settings_from_keywords(kwargs), core_class_of(env_id))
 
     @property
     def width(self) -> int:

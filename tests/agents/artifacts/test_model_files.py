@@ -13,7 +13,7 @@ import pytest
 from stable_baselines3.common.running_mean_std import RunningMeanStd
 from stable_baselines3.common.vec_env import VecNormalize
 
-from agents.artifacts.cards import read_card
+from agents.artifacts.cards import read_model_card
 from agents.artifacts.paths import stats_path
 from agents.artifacts.sb3_zip import UnsafeFileError, safe_custom_objects
 from agents.artifacts.shipped import MODELS_DIR
@@ -52,7 +52,7 @@ def test_statistics_round_trip_exactly_through_json(tmp_path: Path) -> None:
         venv.step(np.random.default_rng(0).uniform(-1, 1, (4, 1)).astype(np.float32))
     path = save_stats(venv, tmp_path / "x_vecnormalize.json")
     document = read_stats(path)
-    assert document["format"] == STATS_FORMAT and document["obs_rms"]["count"] > 20
+    assert document.format == STATS_FORMAT and document.obs_rms.count > 20
     restored = frozen_normalizer(document, venv.observation_space)
     obs = np.random.default_rng(1).normal(size=(16, 8)).astype(np.float32)
     np.testing.assert_array_equal(restored.normalize_obs(obs), venv.normalize_obs(obs))
@@ -89,19 +89,20 @@ def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     # distilled n = 1-6 policy.
     assert len(seeds) == 36
     for model in zips + seeds:
-        card = read_card(model)
-        sequence = card["env_kwargs"].get("observation") == "trailers"
+        card = read_model_card(model)
+        sequence = card.env_kwargs.observation == "trailers"
         if sequence:
             # The encoder scales its own inputs: no observation statistics.
             assert not stats_path(model).exists()
         else:
             document = read_stats(stats_path(model))
-            assert document["norm_obs"] is True and document["norm_reward"] is False
+            assert document.norm_obs is True and document.norm_reward is False
         # Every pickled entry of the zip has a safe replacement: nothing is unpickled.
-        probe = make_sb3_env(card["env_id"], 1, card["env_kwargs"])
+        assert card.env_id is not None and card.algo is not None
+        probe = make_sb3_env(card.env_id, 1, card.env_kwargs.as_kwargs())
         custom = safe_custom_objects(
             model,
-            card["algo"],
+            card.algo,
             probe.observation_space,
             probe.action_space,
             extractors=feature_extractors() if sequence else None,

@@ -8,12 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from agents.artifacts.cards import ModelCard
 from agents.artifacts.certificates import committed_certificate
+from agents.artifacts.results import Summary
 from agents.artifacts.shipped import seed_models
-from agents.evaluation.metrics import EpisodeResults
+from agents.evaluation.ceiling import ceiling_note
+from agents.evaluation.metrics import EpisodeResults, summary_of
 from agents.evaluation.results import Evaluation
 from agents.evaluation.tables import seeds_note, training_note
-from agents.oracles.certify import ceiling_note
+from tests.agents.helpers import fake_certified
 
 V1 = "trailer_env/Reverse-v1"
 
@@ -48,15 +51,18 @@ def test_seed_models_are_the_numbered_siblings(tmp_path: Path) -> None:
 
 
 def test_seeds_note_reports_mean_sd_and_range() -> None:
-    summaries = [(seed, {"safe_rate": rate}) for seed, rate in ((0, 0.94), (1, 0.96), (2, 0.98))]
-    evaluation = Evaluation("m", "m.zip", {}, _results([True]), None, summaries)
+    summary = summary_of(_results([True]))
+    summaries: list[tuple[int | None, Summary]] = [
+        (seed, summary.replace(safe_rate=rate)) for seed, rate in ((0, 0.94), (1, 0.96), (2, 0.98))
+    ]
+    evaluation = Evaluation("m", "m.zip", ModelCard(), _results([True]), None, summaries)
     mean, sd, low, high = evaluation.seed_spread() or (0, 0, 0, 0)
     assert mean == pytest.approx(0.96) and sd == pytest.approx(np.std([0.94, 0.96, 0.98]))
     assert (low, high) == (0.94, 0.98)
     assert seeds_note(evaluation) == "96 ± 2 (94-98, 3 seeds)"
-    assert seeds_note(Evaluation("lqr", "lqr", {}, _results([True]))) == "-"
-    assert training_note({}, "mpc").startswith("oracle")
-    card = {
+    assert seeds_note(Evaluation("lqr", "lqr", ModelCard(), _results([True]))) == "-"
+    assert training_note(ModelCard(), "mpc").startswith("oracle")
+    card: dict[str, object] = {
         "algo": "ppo",
         "recipe": "dagger",
         "seed": 1,
@@ -64,29 +70,23 @@ def test_seeds_note_reports_mean_sd_and_range() -> None:
         "selected_at_iteration": 3,
         "wall_time_s": 500,
     }
-    assert training_note(card) == (
+    assert training_note(ModelCard.from_json(card)) == (
         "PPO policy by DAgger from mpc, seed 1, 0.614M labels (kept iteration 3), 500 s"
     )
-    assert training_note({**card, "expert": "ilqr"}) == (
+    assert training_note(ModelCard.from_json({**card, "expert": "ilqr"})) == (
         "PPO policy by DAgger from ilqr, seed 1, 0.614M labels (kept iteration 3), 500 s"
     )
 
 
 def _certificate(folder: Path, statuses: list[str], env_id: str = V1, n: int = 2) -> None:
-    starts = [{"seed": 1000 + i, "status": status} for i, status in enumerate(statuses)]
-    feasible = statuses.count("feasible")
-    document = {
-        "env_id": env_id,
-        "env_kwargs": {"n_trailers": n},
-        "seeds": [1000, 999 + len(statuses)],
-        "ceiling": feasible / len(statuses),
-        "episodes": len(statuses),
-        "feasible": feasible,
-        "not_recoverable": statuses.count("not recoverable"),
-        "open": statuses.count("open"),
-        "starts": starts,
-    }
+    seeds = [1000 + i for i in range(len(statuses))]
+    certificate = fake_certified(seeds, env_id, n, status="open").certificate
+    starts = tuple(
+        start.replace(status=status)
+        for start, status in zip(certificate.starts, statuses, strict=True)
+    )
     folder.mkdir(exist_ok=True)
+    document = certificate.with_starts(starts).to_json()
     (folder / "reverse_v1_n2.json").write_text(json.dumps(document))
 
 
@@ -114,10 +114,10 @@ def test_committed_certificates_meet_the_ceiling_targets() -> None:
     for n in (1, 2, 3):
         certificate = committed_certificate(V1, n)
         assert certificate is not None, n
-        assert certificate["episodes"] == 100 and certificate["seeds"] == [1000, 1099]
-        assert certificate["feasible"] >= 99, n
-        strokes = [start["screen_stroke_fraction"] for start in certificate["starts"]]
-        assert max(strokes) <= 0.8, n
+        assert certificate.episodes == 100 and certificate.seeds == (1000, 1099)
+        assert certificate.feasible >= 99, n
+        strokes = [start.screen_stroke_fraction for start in certificate.starts]
+        assert all(stroke is not None and stroke <= 0.8 for stroke in strokes), n
 
 
 def test_env_keywords_reach_the_episodes_and_the_json(tmp_path: Path) -> None:

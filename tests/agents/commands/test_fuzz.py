@@ -24,7 +24,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from agents.artifacts.cards import read_card
+from agents.artifacts.cards import read_model_card
 from agents.artifacts.certificates import CERTIFICATES_DIR, read_certificate
 from agents.artifacts.curves import read_curve
 from agents.artifacts.rllib_files import read_rllib_card
@@ -212,7 +212,10 @@ def _loaders(folder: Path) -> dict[str, tuple[Callable[[bytes], Any], st.SearchS
         return read_rllib_card(folder / "checkpoint")
 
     return {
-        "card": (lambda content: read_card(at("m.json", content).with_suffix(".zip")), FILE_BYTES),
+        "card": (
+            lambda content: read_model_card(at("m.json", content).with_suffix(".zip")),
+            FILE_BYTES,
+        ),
         "stats": (lambda content: read_stats(at("s.json", content)), FILE_BYTES),
         "certificate": (lambda content: read_certificate(at("c.json", content)), FILE_BYTES),
         "curve": (

@@ -1,28 +1,24 @@
-"""agents.evaluation.across_n: the rate against n, with empty cells where a policy refuses n."""
+"""python -m agents.across_n: the rate against n, with empty cells where a policy refuses n."""
 
 from __future__ import annotations
 
-import argparse
 import json
+from argparse import ArgumentTypeError
 from pathlib import Path
 
 import pytest
 
-from agents.evaluation.across_n import (
-    CEILING,
-    SPECIALIST,
-    main,
-    markdown,
-    parse_counts,
-    rates_across_n,
-)
+from agents.commands.across_n import main
+from agents.commands.options import trailer_list
+from agents.evaluation.across_n import CEILING, SPECIALIST, markdown, rates_across_n
 
 
 def test_counts_and_the_table_of_empty_cells() -> None:
-    assert parse_counts("1-6") == [1, 2, 3, 4, 5, 6] and parse_counts("4,2,2") == [2, 4]
-    for bad in ("0-3", "1-17", "a", ""):
-        with pytest.raises(argparse.ArgumentTypeError):
-            parse_counts(bad)
+    assert trailer_list("1-6") == [1, 2, 3, 4, 5, 6] and trailer_list("4,2,2") == [2, 4]
+    assert trailer_list("1-2,6") == [1, 2, 6]
+    for bad, why in (("0-3", "in 1..16"), ("1-17", "in 1..16"), ("a", "LOW-HIGH"), ("", "nothing")):
+        with pytest.raises(ArgumentTypeError, match=why):
+            trailer_list(bad)
     lines = {"lqr": {1: 0.91, 4: 0.5}, SPECIALIST: {1: 1.0, 4: "no model x_n4"}}
     assert markdown(lines, [1, 4]).splitlines()[2:] == [
         "| lqr | 91 | 50 |",

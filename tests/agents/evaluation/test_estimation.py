@@ -1,4 +1,4 @@
-"""agents.evaluation.estimation: the estimating baseline's error against time and rates."""
+"""agents.estimation: the estimating baseline's error against time and rates."""
 
 from __future__ import annotations
 
@@ -7,21 +7,22 @@ from pathlib import Path
 
 import pytest
 
-from agents.evaluation import estimation
+from agents.commands import estimation
+from agents.evaluation.estimation import OUTPUTS, POLICIES
 
 
 @pytest.mark.slow
 def test_the_error_falls_and_every_output_is_written(tmp_path: Path) -> None:
     out = tmp_path / "estimation"
     assert estimation.main(["--n", "1", "--episodes", "2", "--out", str(out)]) == 0
-    assert sorted(path.name for path in out.iterdir()) == sorted(estimation.OUTPUTS)
+    assert sorted(path.name for path in out.iterdir()) == sorted(OUTPUTS)
     document = json.loads((out / "estimation.json").read_text())
     by_n = document["by_n"]["1"]
     assert by_n["parameters"] == ["M", "J0", "a", "l", "mu"]
     errors = by_n["relative_error"]
     assert max(errors[0]) > 0.01  # the nominal start is off by the draw
     assert max(errors[-1]) < 1e-3  # the fit recovers every parameter to 0.1 %
-    assert set(by_n["rates"]) == set(estimation.POLICIES)
+    assert set(by_n["rates"]) == set(POLICIES)
     assert "| 1 | " in (out / "estimation.md").read_text()
 
 

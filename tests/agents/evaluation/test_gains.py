@@ -1,4 +1,4 @@
-"""agents.evaluation.gains: a policy's gains at the straight convoy, n by n."""
+"""agents.gains: a policy's gains at the straight convoy, n by n."""
 
 from __future__ import annotations
 
@@ -8,8 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from agents.commands.gains import main
 from agents.envs import env_settings
-from agents.evaluation.gains import STEP, main, markdown, policy_gains, straight_observations
+from agents.evaluation.gains import STEP, markdown, policy_gains, straight_observations
 from trailer_env.controllers import LQRController
 
 REVERSE = "trailer_env/Reverse-v1"

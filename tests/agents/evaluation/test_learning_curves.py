@@ -277,5 +277,9 @@ def test_a_generalists_range_is_its_own_group_without_a_ceiling(
     ]
     config["env_kwargs"]["n_trailers"] = [3, 1]
     (general / "config.json").write_text(json.dumps(config))
+    with pytest.raises(ValueError, match="n_trailers' must be an integer or a pair"):
+        read_run(general)
+    config["env_kwargs"]["n_trailers"] = 0
+    (general / "config.json").write_text(json.dumps(config))
     with pytest.raises(ValueError, match="n_trailers must be an integer or a range"):
         read_run(general)

@@ -8,8 +8,9 @@ from pathlib import Path
 
 import pytest
 
+from agents.commands.rl_from_reward import main
 from agents.evaluation.learning_curves import final_plateau, plateau
-from agents.evaluation.rl_from_reward import RunScore, main, markdown
+from agents.evaluation.rl_from_reward import RunScore, markdown
 from tests.agents.helpers import tiny_ppo_hyperparams
 
 STEPS = [0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10]
@@ -205,3 +206,18 @@ def test_two_tiny_runs_are_scored_and_the_selected_seed_exported(tmp_path: Path)
     with pytest.raises(SystemExit):  # scored on other fresh episodes: refused
         main([str(tmp_path / "runs" / "s1"), *argv[1:3], "--fresh-episodes", "4", "--update"])
     assert (out / "rl_from_reward.json").read_bytes() == before
+
+
+def test_the_tables_document_is_read_field_by_field(tmp_path: Path) -> None:
+    from agents.evaluation.rl_from_reward import RewardTable, kept_scores
+
+    table = RewardTable(7000, 200, (_score(0, 0.96, 0.98, None),))
+    path = tmp_path / "rl_from_reward.json"
+    path.write_text(json.dumps(table.to_json()))
+    assert RewardTable.from_json(json.loads(path.read_text())) == table
+    assert kept_scores(path, 7000, 200) == [table.runs[0]]
+    document = table.to_json()
+    document["runs"][0]["kept_tset"] = 0.5  # a misspelt field is refused, named
+    path.write_text(json.dumps(document))
+    with pytest.raises(ValueError, match="kept_tset"):
+        kept_scores(path, 7000, 200)

@@ -8,7 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.evaluation.metrics import EpisodeResults
+from agents.artifacts.cards import ModelCard
+from agents.artifacts.results import Summary
+from agents.evaluation.metrics import EpisodeResults, summary_of
 from agents.evaluation.report import (
     HEADLINE,
     SCENARIOS,
@@ -57,22 +59,29 @@ def _results() -> EpisodeResults:
     )
 
 
+def card(document: dict[str, object]) -> ModelCard:
+    return ModelCard.from_json(document)
+
+
 def _evaluations() -> list[Evaluation]:
-    spread = [(seed, {"safe_rate": rate}) for seed, rate in ((0, 0.4), (1, 0.5), (2, 0.6))]
+    summary = summary_of(_results())
+    spread: list[tuple[int | None, Summary]] = [
+        (seed, summary.replace(safe_rate=rate)) for seed, rate in ((0, 0.4), (1, 0.5), (2, 0.6))
+    ]
     return [
-        Evaluation("lqr", "lqr", {}, _results()),
-        Evaluation("mpc", "mpc", {}, _results()),
-        Evaluation("dagger_x", "dagger_x.zip", DAGGER_CARD, _results(), None, spread),
+        Evaluation("lqr", "lqr", ModelCard(), _results()),
+        Evaluation("mpc", "mpc", ModelCard(), _results()),
+        Evaluation("dagger_x", "dagger_x.zip", card(DAGGER_CARD), _results(), None, spread),
     ]
 
 
 def test_training_labels_are_short_and_the_notes_go_under_the_table() -> None:
-    assert training_label(DAGGER_CARD) == "DAgger, 0.614M labels"
-    assert training_label(PPO_CARD) == "PPO, 2M steps"
-    assert training_label({"algo": "sac", "timesteps": 90_000}) == "SAC, 90k steps"
-    assert training_label({}, "mpc") == "oracle"
-    assert training_label({}, "mpc-replay") == "oracle"
-    assert training_label({}, "lqr") == "-"
+    assert training_label(card(DAGGER_CARD)) == "DAgger, 0.614M labels"
+    assert training_label(card(PPO_CARD)) == "PPO, 2M steps"
+    assert training_label(card({"algo": "sac", "timesteps": 90_000})) == "SAC, 90k steps"
+    assert training_label(card({}), "mpc") == "oracle"
+    assert training_label(card({}), "mpc-replay") == "oracle"
+    assert training_label(card({}), "lqr") == "-"
     assert training_footnote(_evaluations()) == (
         "training: **mpc**: oracle (exact model and state), 768k simulated steps per "
         "episode; **dagger_x**: PPO policy by DAgger from mpc, seed 1, 0.614M labels "
@@ -89,7 +98,7 @@ def test_training_labels_are_short_and_the_notes_go_under_the_table() -> None:
         "selected_at_iteration": 5,
         "wall_time_s": 1812.8,
     }
-    assert training_note(distilled) == (
+    assert training_note(card(distilled)) == (
         "PPO policy by DAgger from specialists 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}, "
         "seed 0, 0.614M labels (kept iteration 5), 1813 s"
     )
@@ -97,32 +106,34 @@ def test_training_labels_are_short_and_the_notes_go_under_the_table() -> None:
 
 def test_training_labels_name_the_exploration_and_the_shaping() -> None:
     gsde = {**PPO_CARD, "hyperparams": {"use_sde": True, "sde_sample_freq": 4}}
-    assert training_label(gsde) == "PPO (gSDE), 2M steps"
-    assert training_note(gsde).startswith("PPO (gSDE), seed ")
+    assert training_label(card(gsde)) == "PPO (gSDE), 2M steps"
+    assert training_note(card(gsde)).startswith("PPO (gSDE), seed ")
     shaped = {**gsde, "shaping": {"potential": "lqr"}}
-    assert training_label(shaped) == "PPO (gSDE) + lqr shaping, 2M steps"
+    assert training_label(card(shaped)) == "PPO (gSDE) + lqr shaping, 2M steps"
     sac_sde = {
         "algo": "sac",
         "timesteps": 90_000,
         "hyperparams": {"policy_kwargs": {"use_sde": True}},
     }
-    assert training_label(sac_sde) == "SAC (gSDE), 90k steps"
-    assert training_label({**PPO_CARD, "hyperparams": {"use_sde": False}}) == "PPO, 2M steps"
+    assert training_label(card(sac_sde)) == "SAC (gSDE), 90k steps"
+    assert training_label(card({**PPO_CARD, "hyperparams": {"use_sde": False}})) == "PPO, 2M steps"
     wide = {"use_sde": True, "policy_kwargs": {"net_arch": [256, 256]}}
-    assert training_label({**PPO_CARD, "hyperparams": wide}) == "PPO (gSDE, 256x256), 2M steps"
-    narrow = {"policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.0}}
-    assert training_label({**PPO_CARD, "hyperparams": narrow}) == "PPO, 2M steps"
-    assert training_label({**PPO_CARD, "hyperparams": {"policy_kwargs": {"net_arch": [32]}}}) == (
-        "PPO (32), 2M steps"
+    assert (
+        training_label(card({**PPO_CARD, "hyperparams": wide})) == "PPO (gSDE, 256x256), 2M steps"
     )
+    narrow = {"policy_kwargs": {"net_arch": [64, 64], "log_std_init": -1.0}}
+    assert training_label(card({**PPO_CARD, "hyperparams": narrow})) == "PPO, 2M steps"
+    assert training_label(
+        card({**PPO_CARD, "hyperparams": {"policy_kwargs": {"net_arch": [32]}}})
+    ) == ("PPO (32), 2M steps")
     randomised = {**PPO_CARD, "hyperparams": wide, "env_kwargs": {"randomize": "mismatch20"}}
-    assert training_label(randomised) == "PPO (gSDE, 256x256, mismatch20), 2M steps"
+    assert training_label(card(randomised)) == "PPO (gSDE, 256x256, mismatch20), 2M steps"
     by_row = {"n_trailers": [1, 3], "trailer_draw": "row", "randomize": {"M": [0.8, 1.2]}}
-    assert training_label({**PPO_CARD, "env_kwargs": by_row}) == (
+    assert training_label(card({**PPO_CARD, "env_kwargs": by_row})) == (
         "PPO (randomised, n by row), 2M steps"
     )
     plain = {"n_trailers": [1, 3], "trailer_draw": "episode"}
-    assert training_label({**PPO_CARD, "env_kwargs": plain}) == "PPO, 2M steps"
+    assert training_label(card({**PPO_CARD, "env_kwargs": plain})) == "PPO, 2M steps"
 
 
 def test_markdown_table_rows_and_footnote() -> None:
@@ -196,10 +207,13 @@ def test_scenario_table_rates_gap_and_rebuild_command() -> None:
 
 
 def test_training_kinds() -> None:
-    assert [training_kind({}, "zero"), training_kind({}, "ilqr")] == ["baseline", "oracle"]
-    assert training_kind(DAGGER_CARD) == "imitation"
-    assert training_kind(PPO_CARD) == "from reward"
-    assert training_kind({"algo": "ppo_lag"}) == "constrained"
+    assert [training_kind(card({}), "zero"), training_kind(card({}), "ilqr")] == [
+        "baseline",
+        "oracle",
+    ]
+    assert training_kind(card(DAGGER_CARD)) == "imitation"
+    assert training_kind(card(PPO_CARD)) == "from reward"
+    assert training_kind(card({"algo": "ppo_lag"})) == "constrained"
     assert set(TRAINING_KINDS) == {"baseline", "oracle", "imitation", "from reward", "constrained"}
 
 

@@ -2,15 +2,34 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from pathlib import Path
 
 import pytest
 
-from agents.evaluation.time_to_ceiling import gap_of, main, time_to_ceiling_table
+from agents.artifacts.results import ResultsDocument, Summary
+from agents.commands.time_to_ceiling import main
+from agents.evaluation.time_to_ceiling import gap_of, time_to_ceiling_table
 
 
-def _document(env_id: str, n: int, policies: list[dict]) -> dict:
+def _summary(rate: float) -> dict:
+    """A summary whose safe and success rates are ``rate`` (the other fields at 0)."""
+    fields = dict.fromkeys(f.name for f in dataclasses.fields(Summary))
+    return {
+        **{name: 0.0 for name in fields},
+        "episodes": 100,
+        "safe_rate_ci": [0.0, 1.0],
+        "safe_rate": rate,
+        "success_rate": rate,
+    }
+
+
+def _document(env_id: str, n: int, policies: list[dict]) -> ResultsDocument:
+    return ResultsDocument.from_json(_raw(env_id, n, policies), "test")
+
+
+def _raw(env_id: str, n: int, policies: list[dict]) -> dict:
     return {
         "env_id": env_id,
         "env_kwargs": {"n_trailers": n},
@@ -27,9 +46,8 @@ def _model(
         "name": name,
         "kind": "model",
         "training": {"wall_time_s": wall, **({"recipe": recipe} if recipe else {})},
-        "safe_rate": rate,
-        "success_rate": rate,
-        "training_seeds": [{"seed": k, "safe_rate": r} for k, r in enumerate(seeds)],
+        **_summary(rate),
+        "training_seeds": [{"seed": k, **_summary(r)} for k, r in enumerate(seeds)],
     }
 
 
@@ -38,7 +56,7 @@ def test_the_best_model_is_set_against_the_committed_ceiling(tmp_path: Path, cap
         "trailer_env/Reverse-v1",
         3,
         [
-            {"name": "lqr", "kind": "baseline", "safe_rate": 0.99, "training": {}},
+            {"name": "lqr", "kind": "baseline", **_summary(0.99)},
             _model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89]),
             _model("fast", 0.98, 600.0),
         ],
@@ -62,7 +80,7 @@ def test_the_best_model_is_set_against_the_committed_ceiling(tmp_path: Path, cap
     at_target = _document("trailer_env/Reverse-v1", 1, [_model("edge", 0.98, 60.0)])
     assert "| 2 | - | 1.0 min | yes | yes | edge | 98 % |" in time_to_ceiling_table([at_target])
     path = tmp_path / "results.json"
-    path.write_text(json.dumps([document]))
+    path.write_text(json.dumps([document.to_json()]))
     assert main([str(path)]) == 0
     assert capsys.readouterr().out == table
 

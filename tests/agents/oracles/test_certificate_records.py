@@ -8,16 +8,16 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from agents.artifacts.action_records import write_actions
 from agents.artifacts.certificates import (
     FEASIBLE,
     actions_path,
     committed_actions,
     committed_certificate,
     planner_records,
-    write_actions,
 )
+from agents.certification.replays import replays_to_success
 from agents.evaluation.metrics import rollout
-from agents.evaluation.witnesses import replays_to_success
 from agents.policies import load_policy
 
 REVERSE_V1 = "trailer_env/Reverse-v1"
@@ -28,7 +28,7 @@ def test_the_records_replay_to_the_certified_ceiling(n: int) -> None:
     certificate = committed_certificate(REVERSE_V1, n)
     records = committed_actions(REVERSE_V1, n)
     assert certificate is not None and records is not None
-    feasible = {start["seed"] for start in certificate["starts"] if start["status"] == FEASIBLE}
+    feasible = {start.seed for start in certificate.starts if start.status == FEASIBLE}
     assert set(records) == feasible
     planner = planner_records(REVERSE_V1, n)
     assert planner is not None
@@ -42,7 +42,7 @@ def test_the_records_replay_to_the_certified_ceiling(n: int) -> None:
     witnessed = feasible - set(planner)
     assert all(replays_to_success(REVERSE_V1, kwargs, seed, records[seed]) for seed in witnessed)
     assert len(witnessed) == (1 if n == 3 else 0)
-    assert len(feasible) == round(100 * certificate["ceiling"])
+    assert len(feasible) == round(100 * certificate.ceiling)
 
 
 def test_the_four_trailer_records_replay_to_their_outcome() -> None:
@@ -50,7 +50,7 @@ def test_the_four_trailer_records_replay_to_their_outcome() -> None:
     certificate = committed_certificate(REVERSE_V1, 4)
     records = committed_actions(REVERSE_V1, 4)
     assert certificate is not None and records is not None
-    statuses = {start["seed"]: start["status"] for start in certificate["starts"]}
+    statuses = {start.seed: start.status for start in certificate.starts}
     seeds = range(1000, 1012)
     feasible = {seed for seed in seeds if statuses[seed] == FEASIBLE}
     assert feasible == set(seeds) - {1010} and feasible == set(records) & set(seeds)
@@ -104,13 +104,13 @@ def test_the_randomised_records_replay_under_each_starts_drawn_physics(n: int) -
     records = committed_actions(REVERSE_V1, n, randomize="mismatch20")
     assert certificate is not None and records is not None
     kwargs = {"n_trailers": n, "randomize": "mismatch20"}
-    assert certificate["env_kwargs"] == kwargs
-    feasible = {start["seed"] for start in certificate["starts"] if start["status"] == FEASIBLE}
+    assert certificate.env_kwargs.kwargs() == kwargs
+    feasible = {start.seed for start in certificate.starts if start.status == FEASIBLE}
     assert set(records) == feasible and len(feasible) == MISMATCH20[n]
     env = gym.make(REVERSE_V1, **kwargs)
-    for start in certificate["starts"]:
-        _, info = env.reset(seed=start["seed"])
-        assert start["params"] == info["params"]
+    for start in certificate.starts:
+        _, info = env.reset(seed=start.seed)
+        assert start.params == info["params"]
     env.close()
     assert all(replays_to_success(REVERSE_V1, kwargs, seed, record)
                for seed, record in records.items())  # fmt: skip

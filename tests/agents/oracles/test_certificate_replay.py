@@ -9,16 +9,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from agents.artifacts.action_records import read_actions, write_actions
 from agents.artifacts.certificates import (
     CERTIFICATES_DIR,
     FEASIBLE,
-    read_actions,
+    Certified,
     read_certificate,
     records_beside,
-    write_actions,
 )
+from agents.certification.replays import check_records
 from agents.commands.certify import DEFAULT_OUT_ROOT, default_out, load_certificate, main
-from agents.evaluation.witnesses import check_records
 
 #: Every committed certificate file.
 COMMITTED = sorted(CERTIFICATES_DIR.glob("*.json"))
@@ -35,7 +35,7 @@ def _copy(source: Path, folder: Path) -> Path:
 
 
 def _statuses(path: Path) -> dict[int, str]:
-    return {start["seed"]: start["status"] for start in read_certificate(path)["starts"]}
+    return {start.seed: start.status for start in read_certificate(path).starts}
 
 
 def _refused(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
@@ -48,14 +48,15 @@ def _refused(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
 
 def _check_loads_and_replays(path: Path) -> None:
     loaded = load_certificate(path)
-    assert {start["seed"]: start["status"] for start in loaded["starts"]} == _statuses(path)
-    feasible = {start["seed"] for start in loaded["starts"] if start["status"] == FEASIBLE}
-    assert set(loaded["actions"]) == feasible and len(feasible) == loaded["feasible"]
+    starts = loaded.certificate.starts
+    assert {start.seed: start.status for start in starts} == _statuses(path)
+    feasible = {start.seed for start in starts if start.status == FEASIBLE}
+    assert set(loaded.actions) == feasible and len(feasible) == loaded.certificate.feasible
 
 
 def test_a_committed_certificate_loads_and_replays_to_its_statuses() -> None:
     _check_loads_and_replays(SMALL)
-    assert read_certificate(SMALL)["feasible"] == 25
+    assert read_certificate(SMALL).feasible == 25
 
 
 @pytest.mark.slow
@@ -174,9 +175,9 @@ def test_the_command_writes_its_default_folder(
 
 def test_check_records_names_a_missing_record() -> None:
     loaded = load_certificate(SMALL)
-    first = min(loaded["actions"])
-    del loaded["actions"][first]
+    first = min(loaded.actions)
+    kept = {seed: record for seed, record in loaded.actions.items() if seed != first}
     with pytest.raises(
         ValueError, match=rf"where: no action record of the feasible starts \[{first}\]"
     ):
-        check_records(loaded, "where")
+        check_records(Certified(loaded.certificate, kept), "where")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from agents.envs import env_settings
-from agents.oracles.experts import PrivilegedExpert
+from agents.oracles.labellers import PrivilegedExpert
 from agents.oracles.planner import PlannerConfig, SamplingPlanner
 from trailer_env.mixed import MixedCore, mixed_settings, pad_observations
 from trailer_env.randomize import PARAMETERS

@@ -8,14 +8,14 @@ import dataclasses
 import numpy as np
 import pytest
 
-from agents.commands.certify import PLANNERS, planner_problem
+from agents.certification.certify import PLANNERS, certified_scenes, certify, planner_problem
 from agents.envs import ENV_IDS, env_settings
-from agents.oracles.certify_goals import GOAL_SCENES, is_goal_scene
-from agents.oracles.experts import EXPERTS, default_expert
 from agents.oracles.ilqr_costs import CostWeights, SceneCost, scene_horizon, scene_weights
 from agents.oracles.ilqr_policy import ILQRPolicy
 from agents.oracles.scenes import NO_ORACLE, SCENE_ORACLES, SceneOracle, scene_oracle
 from agents.policies.baselines import BASELINES, applicable_baselines, make_baseline
+from agents.policies.experts import EXPERTS, default_expert
+from trailer_env.objective import Objective
 from trailer_env.registry import core_class_of
 from trailer_env.scenes import DockCore, HeadingCore, ReverseV1Core
 
@@ -29,15 +29,18 @@ def test_every_record_names_a_scene_and_known_planners() -> None:
         assert set(record.planners) <= set(BASELINES)
         assert set(record.weights) <= {field.name for field in dataclasses.fields(CostWeights)}
         assert {name for name, _ in record.task_residuals} <= set(record.weights)
-    assert GOAL_SCENES == ("Dock", "Coast")
-    goals = {
-        "Reverse-v0": False,
-        "Reverse-v1": False,
-        "Coast-v0": True,
-        "Heading-v0": False,
-        "Dock-v0": True,
+    # The scene says what it asks; the certifying planners follow it and the records.
+    objectives = {
+        "Reverse-v0": Objective.SURVIVAL,
+        "Reverse-v1": Objective.SURVIVAL,
+        "Coast-v0": Objective.GOAL,
+        "Heading-v0": Objective.GOAL,
+        "Dock-v0": Objective.GOAL,
     }
-    assert {name: is_goal_scene(f"trailer_env/{name}") for name in goals} == goals
+    assert {name: core_class_of(f"trailer_env/{name}").objective for name in objectives} == (
+        objectives
+    )
+    assert (certified_scenes("mpc"), certified_scenes("ilqr")) == (["Reverse"], ["Coast", "Dock"])
     assert scene_oracle(HEADING) is scene_oracle(HeadingCore) is NO_ORACLE
     assert scene_oracle("trailer_env/Reverse-v1") is SCENE_ORACLES["Reverse"]
 
@@ -72,21 +75,22 @@ def test_the_records_hold_the_ilqr_defaults() -> None:
 
 
 def test_a_new_scene_is_one_record(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Heading-v0 has no planner; one record makes it a goal scene iLQR plans, with a
-    task residual of its own, and the DAgger expert and the baseline follow."""
+    """Heading-v0 has no planner; one record makes iLQR plan it, with a task residual of
+    its own, and the DAgger expert, the baseline and certification (its objective is a
+    goal) follow."""
 
     def heading_error(core: object) -> np.ndarray:
         return np.asarray(core.heading_error)  # type: ignore[attr-defined]
 
     record = SceneOracle(
         planners=("ilqr",),
-        goal=True,
         horizon=7,
         weights={"heading": 4.0},
         task_residuals=(("heading", heading_error),),
     )
     monkeypatch.setitem(SCENE_ORACLES, "Heading", record)
-    assert is_goal_scene(HEADING) and default_expert(HEADING) == "ilqr"
+    assert certified_scenes("ilqr") == ["Coast", "Heading", "Dock"]
+    assert planner_problem(HEADING, None) is None and default_expert(HEADING) == "ilqr"
     assert EXPERTS["ilqr"].problem(HEADING, 2, None) is None
     assert scene_horizon(HeadingCore) == 7
     assert scene_weights(HeadingCore).heading == 4.0
@@ -101,16 +105,24 @@ def test_a_new_scene_is_one_record(monkeypatch: pytest.MonkeyPatch) -> None:
 
 
 def test_the_certifying_planner_follows_the_scene_s_kind(monkeypatch: pytest.MonkeyPatch) -> None:
-    assert {name: certifier.goal for name, certifier in PLANNERS.items()} == {
-        "mpc": False,
-        "ilqr": True,
+    assert {name: certifier.objective for name, certifier in PLANNERS.items()} == {
+        "mpc": Objective.SURVIVAL,
+        "ilqr": Objective.GOAL,
     }
     assert planner_problem("trailer_env/Reverse-v1", "ilqr") == (
         "trailer_env/Reverse-v1 is certified by surviving the full episode with the sampling "
-        "planner; use --planner mpc (ilqr certifies the goal scenes Dock and Coast)"
+        "planner; use --planner mpc (ilqr certifies the goal scenes Coast and Dock)"
     )
     assert planner_problem("trailer_env/Coast-v0", "ilqr") is None
-    monkeypatch.setitem(SCENE_ORACLES, "Heading", SceneOracle(goal=True))
+    # Heading is a goal scene without a planner: nothing certifies it, before any work.
+    refusal = (
+        "no planner certifies trailer_env/Heading-v0: its scene's record "
+        "(agents.oracles.scenes) does not name ilqr, the planner of its goal objective"
+    )
+    assert planner_problem(HEADING, None) == planner_problem(HEADING, "ilqr") == refusal
+    with pytest.raises(ValueError, match="no planner certifies trailer_env/Heading-v0"):
+        certify(HEADING, 1, [1000])
+    monkeypatch.setitem(SCENE_ORACLES, "Heading", SceneOracle(planners=("ilqr",)))
     assert planner_problem(HEADING, "ilqr") is None
     assert "does not steer it to trailer_env/Heading-v0's goal" in str(
         planner_problem(HEADING, "mpc")

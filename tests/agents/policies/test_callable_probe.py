@@ -1,5 +1,5 @@
 """A ``module:name`` that is no policy is refused where it is named: one line, exit 2,
-nothing written (``--policy`` of evaluate, ``--teacher`` of imitate)."""
+nothing written (``--policy`` of evaluate, ``--expert-policy`` of imitate)."""
 
 from __future__ import annotations
 
@@ -63,8 +63,8 @@ def test_evaluate_and_imitate_refuse_it_and_write_nothing(
     assert "argument --policy: policy 'os:system': calling it" in error
     argv = ["--env", REVERSE, "--n-trailers", "2", "--expert", "specialists"]
     with pytest.raises(SystemExit) as refused:
-        imitate.main([*argv, "--teacher", "os:system", "--run-dir", "run"])
+        imitate.main([*argv, "--expert-policy", "os:system", "--run-dir", "run"])
     assert refused.value.code == 2
     error = capsys.readouterr().err.strip().splitlines()[-1]
-    assert "teacher of n = 2: policy 'os:system': calling it" in error
+    assert "expert policy of n = 2: policy 'os:system': calling it" in error
     assert sorted(path.name for path in tmp_path.iterdir()) == []

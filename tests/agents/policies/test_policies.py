@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 from stable_baselines3 import PPO, SAC
 
+from agents.artifacts.cards import ModelCard
 from agents.envs import env_settings, make_sb3_env
 from agents.evaluation.tables import oracle_note, training_label
 from agents.policies.baselines import (
@@ -65,18 +66,16 @@ def test_a_new_baseline_is_one_record(monkeypatch: pytest.MonkeyPatch) -> None:
     settings = env_settings({"n_trailers": 2})
     assert make_baseline("left", settings, REVERSE)(np.zeros((3, 8))).tolist() == [[-1.0]] * 3
     assert (
-        oracle_note("left", 300) == "oracle, 300 steps" and training_label({}, "left") == "oracle"
+        oracle_note("left", 300) == "oracle, 300 steps"
+        and training_label(ModelCard(), "left") == "oracle"
     )
     assert "left" not in applicable_baselines(REVERSE)
     assert oracle_note("lqr") == "-" and oracle_note("no-such-policy") == "-"
     assert oracle_note("mpc", 400) == (
         "oracle (exact model and state), 768k simulated steps per episode"
     )
-    assert [name for name, baseline in BASELINES.items() if baseline.fits_like] == [
-        "lqr-adaptive",
-        "lqr-estimated",
-        "left",
-    ]
+    fitting_like = [name for name, baseline in BASELINES.items() if baseline.fits_like]
+    assert {"lqr-adaptive", "lqr-estimated"} <= set(fitting_like) and fitting_like[-1] == "left"
 
 
 def test_saved_models_load_by_path_with_their_algorithm(tmp_path: Path) -> None:

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 import torch
 
-from agents.algorithms import recipe_name
+from agents.algorithms.recipes import recipe_name
 from agents.artifacts.curves import read_curve
 from agents.artifacts.stats import read_stats
 from agents.policies.sb3 import load_model
@@ -52,7 +52,7 @@ def test_warm_up_trains_the_value_function_alone_then_the_policy(
     # Frozen statistics: the run's are the source's, exactly.
     source_stats = read_stats(source.with_name("final_model_vecnormalize.json"))
     tuned_stats = read_stats(run / "final_model_vecnormalize.json")
-    assert source_stats["obs_rms"] == tuned_stats["obs_rms"]
+    assert source_stats.obs_rms == tuned_stats.obs_rms
     # The warm-up's evaluations (after 0, 1 and 2 updates) score the source's policy.
     curve = read_curve(run / "evaluations.csv")
     assert [row["timesteps"] for row in curve] == [0, 1024, 2048, 3072]
@@ -119,7 +119,9 @@ def test_refusals_touch_nothing(
     # A model imitated with the mirror acts through it: its bare network is another policy.
     card = source.with_name("final_model.json")
     saved_card = card.read_text()
-    card.write_text(json.dumps({**json.loads(saved_card), "imitation": {"mirror": True}}))
+    imitation = {"iterations": 1, "episodes": 8, "epochs": 1, "batch_size": 64}
+    imitation |= {"learning_rate": 1e-3, "validation_episodes": 8, "mirror": True}
+    card.write_text(json.dumps({**json.loads(saved_card), "imitation": imitation}))
     with pytest.raises(SystemExit):
         _train(tmp_path, "--init-from", str(source), "--run-dir", str(run))
     assert "was trained with the mirror" in capsys.readouterr().err

@@ -13,7 +13,8 @@ from agents.commands.imitate import main
 from agents.envs import make_vector_env
 from agents.oracles.planner import PlannerConfig
 from agents.policies.registry import PaddedPolicy, load_policy
-from agents.training.imitate import ImitationConfig, imitate
+from agents.training.imitate import imitate
+from agents.training.imitation_config import ImitationConfig
 from trailer_env.benchmark import rollout
 
 V1 = "trailer_env/Reverse-v1"

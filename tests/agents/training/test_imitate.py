@@ -13,7 +13,9 @@ from agents.commands.imitate import main
 from agents.envs import env_settings
 from agents.oracles.planner import PlannerConfig, SamplingPlanner
 from agents.policies.registry import load_policy
-from agents.training.imitate import ImitationConfig, collect, imitate
+from agents.training.dagger import collect
+from agents.training.imitate import imitate
+from agents.training.imitation_config import ImitationConfig
 from trailer_env.scenes.reverse_v1 import ReverseV1Core
 from trailer_env.vector import ConvoyVectorEnv
 
@@ -155,7 +157,7 @@ def test_a_resumed_run_ends_as_an_uninterrupted_one(tmp_path: Path) -> None:
 def test_resume_refuses_what_it_cannot_continue(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from agents.training.imitate import CheckpointError
+    from agents.training.imitation_checkpoint import CheckpointError
 
     settings = {"episodes": 2, "epochs": 1, "validation_episodes": 2, "net_arch": (8,)}
     run = tmp_path / "run"

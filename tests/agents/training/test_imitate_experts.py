@@ -13,10 +13,12 @@ import pytest
 from agents.artifacts.curves import read_curve
 from agents.commands import imitate as imitate_command
 from agents.envs import env_settings
-from agents.oracles.experts import EXPERTS, ILQRExpert, default_expert
 from agents.oracles.ilqr import ILQRConfig
+from agents.oracles.labellers import ILQRExpert
 from agents.oracles.planner import PlannerConfig
-from agents.training.imitate import DATASET_FILE, ImitationConfig
+from agents.policies.experts import EXPERTS, default_expert
+from agents.training.imitation_checkpoint import DATASET_FILE
+from agents.training.imitation_config import ImitationConfig
 from trailer_env.scenes.dock import DockCore
 from trailer_env.vector import ConvoyVectorEnv
 
@@ -49,12 +51,19 @@ TINY = [
 
 
 def test_the_table_and_the_scene_defaults() -> None:
-    assert list(EXPERTS) == ["mpc", "ilqr"]
+    assert list(EXPERTS) == ["mpc", "ilqr", "specialists"]
     scenes = ("Reverse-v0", "Reverse-v1", "Dock-v0", "Coast-v0")
     defaults = [default_expert(f"trailer_env/{scene}") for scene in scenes]
     assert defaults == ["mpc", "mpc", "ilqr", "ilqr"]
-    assert [name for name, expert in EXPERTS.items() if expert.fits(DOCK)] == ["ilqr"]
-    assert [name for name, expert in EXPERTS.items() if expert.fits(V1)] == ["mpc", "ilqr"]
+    assert [name for name, expert in EXPERTS.items() if expert.fits(DOCK)] == [
+        "ilqr",
+        "specialists",
+    ]
+    assert [name for name, expert in EXPERTS.items() if expert.fits(V1)] == [
+        "mpc",
+        "ilqr",
+        "specialists",
+    ]
     with pytest.raises(ValueError, match="Heading-v0 has no planner to imitate"):
         default_expert("trailer_env/Heading-v0")
     # The default on Reverse is the committed runs' expert with their settings.
@@ -142,7 +151,7 @@ def test_refused_combinations(kwargs: dict, error: type[Exception], match: str) 
             "argument --expert: trailer_env/Heading-v0 has no planner to imitate",
         ),
         (
-            ["--expert", "mpc", "--teacher", "ppo_dock_n{n}"],
+            ["--expert", "mpc", "--expert-policy", "ppo_dock_n{n}"],
             "argument --expert: the mpc expert takes no planner option 'policy'",
         ),
         (
@@ -150,12 +159,12 @@ def test_refused_combinations(kwargs: dict, error: type[Exception], match: str) 
             "argument --expert: the specialists expert takes no planner option 'samples'",
         ),
         (
-            ["--expert", "specialists", "--teacher", "x{m}"],
-            "the only field a teacher spec may hold is {n}",
+            ["--expert", "specialists", "--expert-policy", "x{m}"],
+            "the only field a policy spec may hold is {n}",
         ),
         (
-            ["--expert", "specialists", "--n-trailers", "1-2", "--teacher", "ppo_dock_n2"],
-            "names one policy for counts [1, 2]",
+            ["--expert", "specialists", "--n-trailers", "1-2", "--expert-policy", "ppo_dock_n2"],
+            "name one policy for counts [1, 2]",
         ),
         (
             [
@@ -163,10 +172,11 @@ def test_refused_combinations(kwargs: dict, error: type[Exception], match: str) 
                 "specialists",
                 "--n-trailers",
                 "1-3",
-                "--teacher",
+                "--expert-policy",
                 "1-2=dagger_reverse_v1_n{n}",
             ],
-            "teacher of n = 3: teacher '1-2=dagger_reverse_v1_n{n}' names no policy for n = 3",
+            "expert policy of n = 3: expert policies '1-2=dagger_reverse_v1_n{n}' name no policy "
+            "for n = 3",
         ),
         (
             [
@@ -195,6 +205,14 @@ def test_refused_options_exit_before_anything_is_written(
     assert error.value.code == 2
     assert message in capsys.readouterr().err.strip().splitlines()[-1]
     assert list(tmp_path.iterdir()) == []
+
+
+def test_teacher_is_the_expert_policy_option_the_recorded_commands_use() -> None:
+    parser = imitate_command.build_parser()
+    for flag in ("--expert-policy", "--teacher"):
+        args = parser.parse_args([flag, "1-2=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}"])
+        assert args.expert_policy == "1-2=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}"
+    assert parser.parse_args([]).expert_policy is None
 
 
 def test_the_default_run_folder_names_a_non_default_expert(

@@ -125,11 +125,11 @@ def _curve_row(old: str, new: str) -> Damage:
 
 IMITATION_DAMAGE: dict[str, tuple[Damage, str]] = {
     "checkpoint empty": (_text("checkpoint.json", ""), "checkpoint.json"),
-    "checkpoint {}": (_json("checkpoint.json", {}), "checkpoint.json: 'iterations'"),
-    "checkpoint a list": (_json("checkpoint.json", []), "checkpoint.json: not a JSON object"),
+    "checkpoint {}": (_json("checkpoint.json", {}), "checkpoint.json: missing field 'iterations'"),
+    "checkpoint a list": (_json("checkpoint.json", []), "checkpoint.json: must be a JSON object"),
     "checkpoint best not numbers": (
         _edit_json("checkpoint.json", best=["high", 0, 0]),
-        "checkpoint.json: 'best'",
+        "checkpoint.json: 'best[0]'",
     ),
     "checkpoint best NaN": (
         _text("checkpoint.json", '{"best": [NaN, 0, 0]}'),
@@ -538,12 +538,13 @@ def test_a_run_or_resume_that_fails_before_new_work_changes_nothing(
 def test_a_record_with_sb3s_default_use_sde_matches_the_files_that_lack_it() -> None:
     """SB3's off-policy algorithms wrote ``use_sde: False`` into the policy_kwargs they were
     given: a record holding it still matches a continuation built from the files."""
+    from agents.artifacts.cards import ModelCard
     from agents.artifacts.run_folder import record_differences
 
-    saved = {"hyperparams": {"policy_kwargs": {"net_arch": [64, 64], "use_sde": False}}}
-    wanted = {"hyperparams": {"policy_kwargs": {"net_arch": [64, 64]}}}
+    saved = ModelCard(hyperparams={"policy_kwargs": {"net_arch": [64, 64], "use_sde": False}})
+    wanted = ModelCard(hyperparams={"policy_kwargs": {"net_arch": [64, 64]}})
     assert record_differences(saved, wanted) == []
-    wider = {"hyperparams": {"policy_kwargs": {"net_arch": [256, 256]}}}
+    wider = ModelCard(hyperparams={"policy_kwargs": {"net_arch": [256, 256]}})
     assert record_differences(saved, wider) == [
         ("hyperparams.policy_kwargs", {"net_arch": [64, 64]}, {"net_arch": [256, 256]})
     ]

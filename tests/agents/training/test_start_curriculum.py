@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.algorithms import recipe_name
+from agents.algorithms.options import StartCurriculum
+from agents.algorithms.recipes import recipe_name
 from agents.artifacts.curves import read_curve
 from agents.commands import train as train_command
-from agents.training.callbacks import StartCurriculum
 from agents.training.config import TrainConfig, load_hyperparams
 from agents.training.sb3 import train
 from tests.agents.training.test_train import SMALL_PPO
@@ -34,7 +34,8 @@ def _folder(tmp_path: Path, normalize: bool = True) -> Path:
 
 def _run(tmp_path: Path, name: str, curriculum: tuple[float, int] | None) -> object:
     hp = load_hyperparams("ppo", V1, _folder(tmp_path, normalize=False))
-    config = TrainConfig.resolve(V1, "ppo", 1, 0, hp, timesteps=2048, start_curriculum=curriculum)
+    options = () if curriculum is None else (StartCurriculum(*curriculum),)
+    config = TrainConfig.resolve(V1, "ppo", 1, 0, hp, timesteps=2048, options=options)
     return train(
         config, tmp_path / name, eval_freq=2048, eval_episodes=8, progress_bar=False, verbose=0
     )

@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from agents.algorithms import recipe_name
+from agents.algorithms.options import StartReplay
+from agents.algorithms.recipes import recipe_name
 from agents.artifacts.curves import read_curve
 from agents.training.config import TrainConfig, load_hyperparams
 from agents.training.sb3 import train
@@ -24,7 +25,8 @@ def test_a_run_with_start_replay_replays_and_records_it(tmp_path: Path) -> None:
     hp = load_hyperparams("ppo", V1, _folder(tmp_path, normalize=False))
     runs = {}
     for name, share in (("plain", None), ("replayed", 0.5)):
-        config = TrainConfig.resolve(V1, "ppo", 1, 0, hp, timesteps=2048, start_replay=share)
+        options = () if share is None else (StartReplay(share),)
+        config = TrainConfig.resolve(V1, "ppo", 1, 0, hp, timesteps=2048, options=options)
         runs[name] = train(
             config, tmp_path / name, eval_freq=2048, eval_episodes=8, progress_bar=False,
             verbose=0,

@@ -15,10 +15,11 @@ import pytest
 
 from agents.commands import imitate as imitate_command
 from agents.envs import env_settings
-from agents.oracles.experts import EXPERTS
+from agents.policies.experts import EXPERTS, PolicyExpert, PolicyExpertConfig
 from agents.policies.registry import load_policy
-from agents.policies.teachers import DAGGER_EXPERTS, SPECIALISTS, TeacherConfig, TeacherExpert
-from agents.training.imitate import DATASET_FILE, ImitationConfig
+from agents.training.imitation_checkpoint import DATASET_FILE
+from agents.training.imitation_config import ImitationConfig
+from trailer_env.mixed import MixedCore
 from trailer_env.registry import core_class_of
 from trailer_env.scenes.reverse_v1 import ReverseV1Core
 from trailer_env.vector import ConvoyVectorEnv
@@ -28,45 +29,47 @@ DOCK = "trailer_env/Dock-v0"
 
 
 def test_the_table_holds_the_planners_then_the_specialists() -> None:
-    assert list(DAGGER_EXPERTS) == [*EXPERTS, "specialists"] == ["mpc", "ilqr", "specialists"]
-    assert SPECIALISTS.fits(V1) and SPECIALISTS.fits("trailer_env/Heading-v0")
-    assert SPECIALISTS.problem(V1, (1, 6), None) is None
-    assert SPECIALISTS.problem(V1, (1, 3), "mismatch20") is None  # a policy acts on what it reads
-    assert SPECIALISTS.configure(policy="ppo_dock_n{n}") == TeacherConfig("ppo_dock_n{n}")
-    assert SPECIALISTS.configure(policy=None) == TeacherConfig("dagger_reverse_v1_n{n}")
+    assert list(EXPERTS) == ["mpc", "ilqr", "specialists"]
+    specialists = EXPERTS["specialists"]
+    assert specialists.fits(V1) and specialists.fits("trailer_env/Heading-v0")
+    assert specialists.problem(V1, (1, 6), None) is None
+    assert specialists.problem(V1, (1, 3), "mismatch20") is None  # a policy acts on what it reads
+    assert specialists.configure(policy="ppo_dock_n{n}") == PolicyExpertConfig("ppo_dock_n{n}")
+    assert specialists.configure(policy=None) == PolicyExpertConfig("dagger_reverse_v1_n{n}")
     with pytest.raises(TypeError, match="takes no planner option 'samples'"):
-        SPECIALISTS.configure(samples=4)
+        specialists.configure(samples=4)
     with pytest.raises(TypeError, match="takes no planner option 'policy'"):
         EXPERTS["mpc"].configure(policy="dagger_reverse_v1_n{n}")
     config = ImitationConfig(V1, (1, 2), expert="specialists")
-    assert config.expert_config == TeacherConfig()
+    assert config.expert_config == PolicyExpertConfig()
 
 
 @pytest.mark.parametrize(
     ("policy", "error", "match"),
     [
         (3, TypeError, "policy must be a str, got int"),
-        ("dagger_reverse_v1_n{m}", ValueError, r"the only field a teacher spec may hold is \{n\}"),
-        ("dagger_{}", ValueError, r"the only field a teacher spec may hold is \{n\}"),
+        ("dagger_reverse_v1_n{m}", ValueError, r"the only field a policy spec may hold is \{n\}"),
+        ("dagger_{}", ValueError, r"the only field a policy spec may hold is \{n\}"),
     ],
 )
-def test_a_bad_teacher_spec_is_refused(policy: object, error: type[Exception], match: str) -> None:
+def test_a_bad_policy_spec_is_refused(policy: object, error: type[Exception], match: str) -> None:
     with pytest.raises(error, match=match):
-        TeacherConfig(policy)  # type: ignore[arg-type]
+        PolicyExpertConfig(policy)  # type: ignore[arg-type]
 
 
 def test_a_range_needs_the_count_in_the_spec() -> None:
     settings = {n: env_settings({"n_trailers": n}) for n in (1, 2)}
-    with pytest.raises(ValueError, match=r"names one policy for counts \[1, 2\]"):
-        TeacherExpert(ReverseV1Core, settings, 4, TeacherConfig("dagger_reverse_v1_n1"))
+    with pytest.raises(ValueError, match=r"name one policy for counts \[1, 2\]"):
+        PolicyExpert(ReverseV1Core, settings, 4, PolicyExpertConfig("dagger_reverse_v1_n1"))
 
 
-def test_each_row_is_labelled_by_its_own_counts_specialist() -> None:
+def test_each_row_is_labelled_by_its_own_counts_policy() -> None:
     envs = ConvoyVectorEnv(ReverseV1Core, 8, autoreset_mode="same_step", n_trailers=(1, 2))
     envs.reset(seed=5)
     settings = {n: env_settings({"n_trailers": n}) for n in (1, 2)}
-    expert = TeacherExpert(ReverseV1Core, settings, 8)
+    expert = PolicyExpert(ReverseV1Core, settings, 8)
     core = envs.core
+    assert isinstance(core, MixedCore)  # a range of counts
     for _ in range(3):  # a few steps, so the labels are not only the starts'
         labels = expert.label(core)
         assert labels.shape == (8, 1) and np.all(np.abs(labels) <= 1.0)
@@ -84,17 +87,20 @@ def test_each_row_is_labelled_by_its_own_counts_specialist() -> None:
 def test_one_count_reads_the_scene_core() -> None:
     envs = ConvoyVectorEnv(core_class_of(DOCK), 4, autoreset_mode="same_step", n_trailers=2)
     envs.reset(seed=9)
-    expert = TeacherExpert(
-        core_class_of(DOCK), {2: env_settings({"n_trailers": 2})}, 4, TeacherConfig("ppo_dock_n2")
+    expert = PolicyExpert(
+        core_class_of(DOCK),
+        {2: env_settings({"n_trailers": 2})},
+        4,
+        PolicyExpertConfig("ppo_dock_n2"),
     )
     own = load_policy("ppo_dock_n2", DOCK, {"n_trailers": 2})
     np.testing.assert_array_equal(expert.label(envs.core)[:, 0], own(envs.core.obs)[:, 0])
 
 
-def test_a_specialist_of_another_n_is_refused() -> None:
+def test_a_policy_of_another_n_is_refused() -> None:
     settings = {3: env_settings({"n_trailers": 3})}
     with pytest.raises(ValueError, match="n_trailers"):
-        TeacherExpert(ReverseV1Core, settings, 2, TeacherConfig("dagger_reverse_v1_n2"))
+        PolicyExpert(ReverseV1Core, settings, 2, PolicyExpertConfig("dagger_reverse_v1_n2"))
 
 
 def test_a_tiny_distillation_labels_the_same_states_the_same_twice(tmp_path: Path) -> None:
@@ -119,8 +125,8 @@ def test_a_tiny_distillation_labels_the_same_states_the_same_twice(tmp_path: Pat
     assert np.unique(labels_a).size > 100
 
 
-def test_counts_pick_their_specialists() -> None:
-    config = TeacherConfig("1-3=ppo_reverse_v1_n{n}, 5=my_n5.zip ,dagger_reverse_v1_n{n}")
+def test_counts_pick_their_policies() -> None:
+    config = PolicyExpertConfig("1-3=ppo_reverse_v1_n{n}, 5=my_n5.zip ,dagger_reverse_v1_n{n}")
     assert [config.spec(n) for n in (1, 3, 4, 5, 6)] == [
         "ppo_reverse_v1_n1",
         "ppo_reverse_v1_n3",
@@ -128,9 +134,9 @@ def test_counts_pick_their_specialists() -> None:
         "my_n5.zip",
         "dagger_reverse_v1_n6",
     ]
-    assert not config.is_one_policy() and TeacherConfig("ppo_dock_n2").is_one_policy()
-    with pytest.raises(ValueError, match="names no policy for n = 4"):
-        TeacherConfig("1-3=ppo_reverse_v1_n{n}").spec(4)
+    assert not config.is_one_policy() and PolicyExpertConfig("ppo_dock_n2").is_one_policy()
+    with pytest.raises(ValueError, match="name no policy for n = 4"):
+        PolicyExpertConfig("1-3=ppo_reverse_v1_n{n}").spec(4)
 
 
 @pytest.mark.parametrize(
@@ -143,9 +149,9 @@ def test_counts_pick_their_specialists() -> None:
         ("1-2=,b{n}", "an item names no policy"),
     ],
 )
-def test_a_bad_list_of_teachers_is_refused(policy: str, match: str) -> None:
+def test_a_bad_list_of_policies_is_refused(policy: str, match: str) -> None:
     with pytest.raises(ValueError, match=match):
-        TeacherConfig(policy)
+        PolicyExpertConfig(policy)
 
 
 def test_the_parameter_features_are_what_an_observing_env_shows() -> None:
@@ -162,11 +168,11 @@ def test_the_parameter_features_are_what_an_observing_env_shows() -> None:
     np.testing.assert_array_equal(features[:, [3, 4]], 0.0)  # m, J: not randomised
 
 
-def _privileged_teacher(folder: Path) -> Path:
+def _privileged_policy(folder: Path) -> Path:
     """An untrained PPO of Reverse-v1 n = 2 that reads the parameter features, with a card."""
     from stable_baselines3 import PPO
 
-    from agents.artifacts.cards import write_card
+    from agents.artifacts.cards import ModelCard, write_card
     from agents.artifacts.sb3_zip import save_model
     from trailer_env.sb3 import ConvoySB3VecEnv
 
@@ -174,28 +180,29 @@ def _privileged_teacher(folder: Path) -> Path:
     venv = ConvoySB3VecEnv(V1, num_envs=2, **kwargs)
     model = PPO("MlpPolicy", venv, n_steps=8, batch_size=16, seed=0, device="cpu")
     path = save_model(model, folder / "privileged_n2.zip")
-    write_card(path, {"env_id": V1, "algo": "ppo", "env_kwargs": kwargs, "normalize": None})
+    card = ModelCard.from_json({"env_id": V1, "algo": "ppo", "env_kwargs": kwargs})
+    write_card(path, card)
     return path
 
 
-def test_a_privileged_teacher_reads_each_rows_parameters(tmp_path: Path) -> None:
-    path = _privileged_teacher(tmp_path)
+def test_a_privileged_policy_reads_each_rows_parameters(tmp_path: Path) -> None:
+    path = _privileged_policy(tmp_path)
     envs = ConvoyVectorEnv(ReverseV1Core, 8, autoreset_mode="same_step", n_trailers=(1, 2),
                            randomize="mismatch20")  # fmt: skip
     envs.reset(seed=11)
     settings = {n: env_settings({"n_trailers": n, "randomize": "mismatch20"}) for n in (1, 2)}
-    config = TeacherConfig(f"1=dagger_reverse_v1_n1,{path}")
-    expert = TeacherExpert(ReverseV1Core, settings, 8, config)
+    config = PolicyExpertConfig(f"1=dagger_reverse_v1_n1,{path}")
+    expert = PolicyExpert(ReverseV1Core, settings, 8, config)
     assert expert.privileged == {2}
     labels = expert.label(envs.core)
     rows = np.flatnonzero(envs.core.trailers == 2)
     core = envs.core.cores[2]
-    teacher = load_policy(str(path), V1, {"n_trailers": 2, "observe_params": True})
+    expert_policy = load_policy(str(path), V1, {"n_trailers": 2, "observe_params": True})
     features = core.parameter_features(rows).astype(np.float32)
     seen = np.hstack([core.obs[rows], features])
-    np.testing.assert_array_equal(labels[rows], teacher(seen))
+    np.testing.assert_array_equal(labels[rows], expert_policy(seen))
     nominal = np.hstack([core.obs[rows], np.zeros_like(features)])
-    assert np.all(labels[rows] != teacher(nominal))  # the parameters change its action
+    assert np.all(labels[rows] != expert_policy(nominal))  # the parameters change its action
     one = envs.core.cores[1]
     ones = np.flatnonzero(envs.core.trailers == 1)
     own = load_policy("dagger_reverse_v1_n1", V1, {"n_trailers": 1})

@@ -13,9 +13,10 @@ from agents.artifacts.certificates import (
     committed_certificate,
     markdown,
 )
-from agents.commands.certify import main, planner_problem
-from agents.oracles.certify import ceiling_note
-from agents.oracles.certify_goals import certify_goals, replay_goal, restart_config
+from agents.certification.certify import certify, planner_problem, replay
+from agents.certification.search import restart_config
+from agents.commands.certify import main
+from agents.evaluation.ceiling import ceiling_note
 from agents.oracles.ilqr import ILQRConfig
 from trailer_env.scenes.dock import DockCore
 
@@ -28,20 +29,22 @@ CERTIFIED = {(DOCK, 1): 100, (DOCK, 2): 100, (COAST, 1): 100, (COAST, 2): 99}
 
 @pytest.mark.parametrize("env_id", [pytest.param(DOCK, marks=pytest.mark.slow), COAST])
 def test_certify_reaches_the_goal_and_the_record_replays(env_id: str) -> None:
-    certificate = certify_goals(env_id, 1, [1000, 1001], restarts=0)
-    assert certificate["feasible"] == 2 and certificate["open"] == 0
-    assert certificate["not_recoverable"] == 0 and certificate["ceiling"] == 1.0
-    assert set(certificate["actions"]) == {1000, 1001}
-    for start in certificate["starts"]:
-        assert start["status"] == FEASIBLE and start["replay_success"] is True
-        record = certificate["actions"][start["seed"]]
-        assert record.dtype == np.float64 and len(record) == start["planner_length"]
-        assert replay_goal(env_id, {"n_trailers": 1}, start["seed"], record) == (
-            True,
-            start["planner_length"],
-        )
+    certified = certify(env_id, 1, [1000, 1001], restarts=0)
+    certificate = certified.certificate
+    assert certificate.feasible == 2 and certificate.open == 0
+    assert certificate.not_recoverable == 0 and certificate.ceiling == 1.0
+    assert certificate.planner.label == "ilqr" and certificate.success is not None
+    assert set(certified.actions) == {1000, 1001}
+    for start in certificate.starts:
+        assert start.status == FEASIBLE and start.replay_success is True
+        assert start.replay_safe is None
+        record = certified.actions[start.seed]
+        assert record.dtype == np.float64 and len(record) == start.planner_length
+        outcome = replay(env_id, {"n_trailers": 1}, start.seed, record)
+        assert outcome.success and outcome.feasible and outcome.length == start.planner_length
         # One step short of the record does not reach the goal: success is the record's.
-        assert replay_goal(env_id, {"n_trailers": 1}, start["seed"], record[:-1])[0] is False
+        short = replay(env_id, {"n_trailers": 1}, start.seed, record[:-1])
+        assert not short.success and not short.feasible
     assert "not applied" in markdown(certificate)
 
 
@@ -50,18 +53,17 @@ def test_committed_goal_records_replay_to_success(env_id: str, n: int) -> None:
     certificate = committed_certificate(env_id, n)
     records = committed_actions(env_id, n)
     assert certificate is not None and records is not None
-    feasible = {
-        start["seed"]: start for start in certificate["starts"] if start["status"] == FEASIBLE
-    }
+    feasible = {start.seed: start for start in certificate.starts if start.feasible}
     assert set(records) == set(feasible)
-    assert certificate["feasible"] == len(feasible) == CERTIFIED[env_id, n]
-    assert certificate["open"] == 100 - CERTIFIED[env_id, n]
-    assert certificate["not_recoverable"] == 0
+    assert certificate.feasible == len(feasible) == CERTIFIED[env_id, n]
+    assert certificate.open == 100 - CERTIFIED[env_id, n]
+    assert certificate.not_recoverable == 0
     for seed in sorted(feasible)[:3]:
-        reached, length = replay_goal(env_id, {"n_trailers": n}, seed, records[seed])
-        assert reached and length == feasible[seed]["planner_length"] == len(records[seed])
+        outcome = replay(env_id, {"n_trailers": n}, seed, records[seed])
+        assert outcome.feasible and outcome.length == len(records[seed])
+        assert outcome.length == feasible[seed].planner_length
     assert ceiling_note(env_id, n, 100, 1000).startswith(
-        f"ceiling: {certificate['feasible']}/100 starts certified feasible"
+        f"ceiling: {certificate.feasible}/100 starts certified feasible"
     )
 
 
@@ -84,10 +86,8 @@ def test_bad_planners_are_refused_before_writing(
         assert not out.exists()
     assert planner_problem(DOCK, "ilqr") is None and planner_problem(DOCK, None) is None
     assert "unknown planner" in str(planner_problem(DOCK, "x"))
-    with pytest.raises(ValueError, match="not a goal scene"):
-        certify_goals("trailer_env/Reverse-v1", 1, [1000])
     with pytest.raises(ValueError, match="closed_loop must be one of"):
-        certify_goals(DOCK, 1, [1000], closed_loop="euler")
+        certify(DOCK, 1, [1000], closed_loop="euler")
 
 
 def test_restarts_lengthen_the_horizon_and_add_iterations() -> None:
