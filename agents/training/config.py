@@ -307,8 +307,8 @@ def raw_entry(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) -> Keyw
 
     Raises:
         FileNotFoundError: If the algorithm has no file.
-        KeyError: If the file has neither an entry for ``env_id`` nor a ``default:`` one.
-        ValueError: If the file is too large, not YAML, or not a mapping of mappings.
+        ValueError: If the file has neither an entry for ``env_id`` nor a ``default:`` one,
+            or if the file is too large, not YAML, or not a mapping of mappings.
     """
     path = hyperparams_file(algo, directory)
     return _entry(path, env_id)[1]
@@ -327,7 +327,7 @@ def _entry(path: Path, env_id: str) -> tuple[str, Keywords]:
         raise ValueError(f"{path} must map environment ids to entries")
     name = env_id if env_id in entries else DEFAULT_ENTRY
     if name not in entries:
-        raise KeyError(
+        raise ValueError(
             f"{path} has no entry for {env_id} and no {DEFAULT_ENTRY!r} entry; entries: "
             f"{sorted(map(str, entries))}"
         )
@@ -342,8 +342,8 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
 
     Raises:
         FileNotFoundError: If the algorithm has no file.
-        KeyError: If the file has neither an entry for ``env_id`` nor a ``default:`` one.
-        ValueError: On a value the trainer cannot use.
+        ValueError: If the file has neither an entry for ``env_id`` nor a ``default:`` one,
+            or on a value the trainer cannot use.
     """
     path = hyperparams_file(algo, directory)
     name, raw = _entry(path, env_id)

@@ -379,7 +379,7 @@ class TuneSettings:
         """The algorithm file's entry for the environment, raw (the trials' base).
 
         Raises:
-            FileNotFoundError, KeyError, ValueError: As :func:`raw_entry`.
+            FileNotFoundError, ValueError: As :func:`raw_entry`.
         """
         directory = self.hyperparams or HYPERPARAMS_DIR
         load_hyperparams(self.algo, self.env_id, directory)  # the base must be valid
@@ -611,7 +611,7 @@ def _run_trial(
             verbose=0,
             hooks=[report],
         )
-    except (ValueError, KeyError, FileNotFoundError, RuntimeError) as error:
+    except (ValueError, FileNotFoundError, RuntimeError) as error:
         # A sampled combination the trainer refuses (or a diverging run) fails the trial,
         # not the search.
         trial.set_user_attr("error", f"{type(error).__name__}: {error}"[:500])

@@ -250,7 +250,8 @@ def _check_loader(name: str, folder: Path, budget: Any) -> None:
         except (ValueError, TypeError):
             return
         if name == "stats":  # accepted statistics are finite and well formed
-            assert all(math.isfinite(x) for x in result["obs_rms"]["mean"])
+            assert isinstance(result.obs_rms.mean, tuple)
+            assert all(math.isfinite(x) for x in result.obs_rms.mean)
 
     check()
 

@@ -113,7 +113,7 @@ def test_linear_schedule_and_unknown_entries(tmp_path: Path) -> None:
     schedule = hp.algo_kwargs["learning_rate"]
     assert schedule(1.0) == pytest.approx(1e-3) and schedule(0.5) == pytest.approx(5e-4)
     assert hp.n_timesteps == 10_000 and hp.normalize is None
-    with pytest.raises(KeyError, match="no entry for trailer_env/Dock-v0 and no 'default' entry"):
+    with pytest.raises(ValueError, match="no entry for trailer_env/Dock-v0 and no 'default' entry"):
         load_hyperparams("ppo", "trailer_env/Dock-v0", tmp_path)
     with pytest.raises(FileNotFoundError, match=r"sac\.yml"):
         load_hyperparams("sac", "trailer_env/Reverse-v0", tmp_path)
@@ -177,7 +177,7 @@ def test_an_id_without_an_entry_reads_the_default(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match=r"entry default: n_envs must be an integer"):
         load_hyperparams("ppo", "trailer_env/Dock-v0", tmp_path)
     (tmp_path / "ppo.yml").write_text("trailer_env/Reverse-v0:\n  n_envs: 1\n")
-    with pytest.raises(KeyError, match="no entry for trailer_env/Dock-v0 and no 'default' entry"):
+    with pytest.raises(ValueError, match="no entry for trailer_env/Dock-v0 and no 'default' entry"):
         raw_entry("ppo", "trailer_env/Dock-v0", tmp_path)
 
 
