@@ -47,16 +47,6 @@ def _by_row(record: Mapping[str, object]) -> str | None:
     return "n by row" if _at(record, "env_kwargs", "trailer_draw") == "row" else None
 
 
-def _shaping(record: Mapping[str, object]) -> str | None:
-    """Reward shaping, by its potential."""
-    shaping = _at(record, "shaping")
-    return (
-        f" + {_at(record, 'shaping', 'potential')} shaping"
-        if isinstance(shaping, Mapping)
-        else None
-    )
-
-
 @dataclass(frozen=True)
 class RecipeTag:
     """One part of a recipe's name, read from the run's record.
@@ -79,7 +69,6 @@ RECIPE_TAGS: tuple[RecipeTag, ...] = (
     RecipeTag("a network other than DEFAULT_NET_ARCH", _net_width),
     RecipeTag("randomised physics", _randomize),
     RecipeTag("counts fixed by the batch row", _by_row),
-    RecipeTag("reward shaping", _shaping, inside=False),
 )
 
 

@@ -207,19 +207,6 @@ class Selection(SparsePart):
 
 
 @dataclasses.dataclass(frozen=True)
-class Shaping(SparsePart):
-    """``--shaping``: the potential-based reward shaping (its wrapper's keywords)."""
-
-    potential: str
-    scale: float | None = None
-    reference: float | None = None
-
-    def as_kwargs(self) -> dict[str, object]:
-        """The shaping wrapper's keywords."""
-        return self.to_json()
-
-
-@dataclasses.dataclass(frozen=True)
 class Spaces(SparsePart):
     """The spaces an exported RLlib policy was trained with."""
 
@@ -254,7 +241,6 @@ class ModelCard(SparseRecord):
     n_envs: int | None = None
     backend: str | None = None
     # Training options.
-    shaping: Shaping | None = None
     #: The training options the run was given (``TRAINING_OPTIONS``), each read from and
     #: written to its own keys by its record.
     options: tuple[TrainingOption, ...] = dataclasses.field(default=(), metadata=NOT_IN_JSON)

@@ -124,7 +124,6 @@ _FLAGS = {
     "env_id": "--env",
     "seed": "--seed",
     "n_envs": "--n-envs",
-    "shaping": "--shaping",
     "env_kwargs.n_trailers": "--n-trailers",
     "env_kwargs.randomize": "--randomize",
 }

@@ -104,7 +104,7 @@ from agents.commands.sources import SourceModel, resumed_run_problem, target_pro
 from agents.envs import settings_by_count
 from agents.policies.sb3 import limit_torch_threads
 from agents.progress import plural
-from agents.training.config import Hyperparams, TrainConfig, load_hyperparams, shaping_setting
+from agents.training.config import Hyperparams, TrainConfig, load_hyperparams
 from agents.training.sb3 import train
 
 #: How the command line reads each kind of a training option's value.
@@ -112,6 +112,7 @@ _VALUE_TYPES: dict[str, Callable[[str], object]] = {
     "share": cli.open_share,
     "schedule": cli.start_curriculum,
     "path": Path,
+    "text": str,
 }
 
 
@@ -184,14 +185,6 @@ def _add_run_arguments(parser: argparse.ArgumentParser) -> None:
         type=Path,
         default=None,
         help="folder of <algo>.yml files (default agents/hyperparams)",
-    )
-    parser.add_argument(
-        "--shaping",
-        default=None,
-        metavar="POTENTIAL",
-        help="potential-based reward shaping over the file's `shaping` (sb3 only): "
-        "'lqr' (the log of the LQR's cost-to-go, trailer_env.shaping) or 'none'; the "
-        "success metric and the recorded returns stay the scene's",
     )
 
 
@@ -291,7 +284,6 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
         ("--resume", args.resume is not None),
         ("--export", args.export is not None),
         ("--stop-on-plateau", args.stop_on_plateau is not None),
-        ("--shaping", args.shaping not in (None, "none")),
         *(
             (kind.flag(), kind.given(args))
             for kind in TRAINING_OPTIONS
@@ -317,7 +309,8 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
 
 
 def _hyperparams(parser: argparse.ArgumentParser, args: argparse.Namespace) -> Hyperparams:
-    """The hyperparameter file's entry, with ``--shaping`` over its ``shaping``."""
+    """The hyperparameter file's entry; ``--shaping`` (``none`` included) replaces its
+    ``shaping``."""
     try:
         hp = (
             load_hyperparams(args.algo, args.env, args.hyperparams)
@@ -328,15 +321,7 @@ def _hyperparams(parser: argparse.ArgumentParser, args: argparse.Namespace) -> H
         text = str(error.args[0]) if isinstance(error, KeyError) else str(error)
         parser.error(f"argument --hyperparams: {text}")
     if args.shaping is not None:
-        try:
-            hp.shaping = shaping_setting(args.shaping, "--shaping")
-        except ValueError as error:
-            parser.error(f"argument {error}")
-    if hp.shaping is not None and isinstance(args.n_trailers, tuple):
-        # The potential is one LQR's cost-to-go, designed for one n.
-        parser.error(
-            "argument --shaping (or the file's shaping): one count of trailers, not a range"
-        )
+        hp.shaping = None
     return hp
 
 

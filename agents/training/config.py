@@ -53,6 +53,7 @@ import yaml
 from agents.algorithms import algo_class
 from agents.algorithms.bounds import argument_problem
 from agents.algorithms.options.base import OptionT, TrainingOption
+from agents.algorithms.options.shaping import Shaping
 from agents.artifacts import files, limits
 from agents.policies.extractors import FEATURE_EXTRACTORS, feature_extractor
 
@@ -143,9 +144,9 @@ class Hyperparams:
             a string is parsed like ``policy_kwargs``.
         action_noise_std: Gaussian exploration noise (rl-zoo3's ``noise_type: normal``,
             ``noise_std``) for TD3, or None.
-        shaping: Potential-based reward shaping (this project's key, not rl-zoo3's): the
-            keywords of :class:`trailer_env.sb3.PotentialShapingVecEnv` but ``gamma``
-            (the algorithm's), e.g. ``{"potential": "lqr"}``, or None. The file's
+        shaping: Potential-based reward shaping (this project's key, not rl-zoo3's), or
+            None: the training option :class:`~agents.algorithms.options.shaping.Shaping`
+            a run without ``--shaping`` takes (:meth:`TrainConfig.resolve`). The file's
             ``shaping: lqr`` names a potential; a ``dict(...)`` string sets its keywords.
         algo_kwargs: Everything else, ready for the algorithm's constructor.
     """
@@ -156,7 +157,7 @@ class Hyperparams:
     env_kwargs: Keywords = field(default_factory=dict)
     normalize: AlgoKwargs | None = None
     action_noise_std: float | None = None
-    shaping: AlgoKwargs | None = None
+    shaping: Shaping | None = None
     algo_kwargs: AlgoKwargs = field(default_factory=dict)
 
     @property
@@ -372,7 +373,10 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
     for key in result.normalize or {}:
         if key not in _NORMALIZE_KEYS:
             raise ValueError(f"{where}: normalize has no setting {key!r}; {list(_NORMALIZE_KEYS)}")
-    result.shaping = shaping_setting(raw.pop("shaping", None), where)
+    try:
+        result.shaping = Shaping.from_setting(raw.pop("shaping", None))
+    except ValueError as error:
+        raise ValueError(f"{where}: {error}") from None
     for key in _INT_KEYS:
         if key in raw:
             bound = MAX_BUFFER_SIZE if key == "buffer_size" else limits.MAX_TIMESTEPS
@@ -411,39 +415,6 @@ def load_hyperparams(algo: str, env_id: str, directory: Path = HYPERPARAMS_DIR) 
         if unsupported in raw:
             raise ValueError(f"{path}: {unsupported!r} is not supported by agents.train")
     return result
-
-
-def shaping_setting(value: object, where: str) -> Keywords | None:
-    """An entry's (or ``--shaping``'s) ``shaping`` as the wrapper's keywords, or None.
-
-    ``None``, ``False`` and ``"none"`` mean no shaping; a name of
-    :data:`trailer_env.shaping.POTENTIALS` means that potential with its defaults; a
-    ``dict(potential=..., scale=..., reference=...)`` string or a mapping sets them.
-
-    Raises:
-        ValueError: An unknown potential or keyword, or a value that is not a number.
-    """
-    from trailer_env.shaping import POTENTIALS
-
-    if value is None or value is False or value == "none":
-        return None
-    if isinstance(value, str) and not value.lstrip().startswith("dict("):
-        setting: Keywords = {"potential": value.strip()}
-    elif isinstance(value, (str, dict)):
-        setting = parse_policy_kwargs(value) if isinstance(value, str) else dict(value)
-    else:
-        raise ValueError(f"{where}: shaping must be a potential or a dict, got {value!r:.60}")
-    if setting.get("potential") not in POTENTIALS:
-        raise ValueError(
-            f"{where}: shaping needs a potential among {sorted(POTENTIALS)}, got "
-            f"{setting.get('potential')!r:.60}"
-        )
-    for key, number in setting.items():
-        if key not in ("potential", "scale", "reference"):
-            raise ValueError(f"{where}: shaping has no {key!r} (potential, scale, reference)")
-        if key != "potential" and not files.is_number(number):
-            raise ValueError(f"{where}: shaping {key} must be a finite number, got {number!r:.60}")
-    return setting
 
 
 def _count(value: object, key: str, maximum: int, where: str, minimum: int = 1) -> int:
@@ -577,7 +548,8 @@ class TrainConfig:
         randomize: str | None = None,
         options: tuple[TrainingOption, ...] = (),
     ) -> TrainConfig:
-        """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's.
+        """The run's configuration: ``timesteps`` and ``n_envs`` default to the file's, and
+        an SB3 run without a :class:`Shaping` option takes the file's ``shaping``.
 
         Raises:
             ValueError: On a setting out of bounds; an :class:`OptionError` names the
@@ -594,7 +566,7 @@ class TrainConfig:
             backend=backend,
             command=tuple(command),
             randomize=randomize,
-            options=tuple(options),
+            options=_with_file_options(options, hyperparams, backend),
         )
 
     def option(self, kind: type[OptionT]) -> OptionT | None:
@@ -641,8 +613,17 @@ class TrainConfig:
                 "normalize": self.hyperparams.normalize,
             }
         )
-        if self.hyperparams.shaping is not None:
-            record.update(shaping=dict(self.hyperparams.shaping))
         for option in self.options:
             record.update(option.record())
         return record
+
+
+def _with_file_options(
+    options: tuple[TrainingOption, ...], hyperparams: Hyperparams, backend: str
+) -> tuple[TrainingOption, ...]:
+    """``options`` and the hyperparameter entry's shaping when they have none (an SB3
+    entry's setting: an RLlib run leaves it)."""
+    shaping = hyperparams.shaping
+    if shaping is None or backend != "sb3" or any(isinstance(o, Shaping) for o in options):
+        return tuple(options)
+    return (shaping, *options)

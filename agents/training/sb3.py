@@ -153,19 +153,17 @@ def _flat_action_dim(config: TrainConfig) -> int:
 
 
 def _training_env(config: TrainConfig, resume: Path | None, trust_pickle: bool) -> VecEnv:
-    """The training batch under its shaping and normalisation (statistics restored from
-    ``resume`` or a fine-tuning run's source, and frozen for the latter)."""
+    """The training batch under its options' wrappers (the shaping) and normalisation
+    (statistics restored from ``resume`` or a fine-tuning run's source, and frozen for the
+    latter)."""
     from stable_baselines3.common.vec_env import VecNormalize
-
-    from trailer_env.sb3 import PotentialShapingVecEnv
 
     hp = config.hyperparams
     gamma = hp.gamma
-    batch = make_sb3_env(config.env_id, config.n_envs, config.env_kwargs, seed=config.seed)
-    venv: VecEnv = batch
-    if hp.shaping is not None:
+    venv: VecEnv = make_sb3_env(config.env_id, config.n_envs, config.env_kwargs, seed=config.seed)
+    for option in config.options:
         # Under the normalisation, so its statistics (and the policy) see the scene's states.
-        venv = PotentialShapingVecEnv(batch, gamma=gamma, **hp.shaping)
+        venv = option.wrap(venv, gamma=gamma)
     if hp.normalize is None:
         return venv
     normalized = VecNormalize(venv, **{"gamma": gamma, **hp.normalize})

@@ -15,6 +15,7 @@ from collections.abc import Mapping
 
 from agents.algorithms.options.base import OptionError, TrainingOption
 from agents.algorithms.options.fine_tune import FineTune
+from agents.algorithms.options.shaping import Shaping
 from agents.algorithms.options.start_curriculum import StartCurriculum
 from agents.algorithms.options.start_replay import StartReplay
 
@@ -22,6 +23,7 @@ __all__ = [
     "TRAINING_OPTIONS",
     "FineTune",
     "OptionError",
+    "Shaping",
     "StartCurriculum",
     "StartReplay",
     "TrainingOption",
@@ -29,7 +31,12 @@ __all__ = [
 ]
 
 #: Every training option, in the order their tags follow the recipe's name.
-TRAINING_OPTIONS: tuple[type[TrainingOption], ...] = (StartCurriculum, StartReplay, FineTune)
+TRAINING_OPTIONS: tuple[type[TrainingOption], ...] = (
+    Shaping,
+    StartCurriculum,
+    StartReplay,
+    FineTune,
+)
 
 
 def recorded_options(record: Mapping[str, object]) -> tuple[TrainingOption, ...]:

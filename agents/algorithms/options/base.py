@@ -10,13 +10,14 @@ from typing import TYPE_CHECKING, ClassVar, Literal, Protocol, TypeVar
 
 if TYPE_CHECKING:
     from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.vec_env import VecEnv
 
 OptionT = TypeVar("OptionT", bound="TrainingOption")
 
 #: The kinds of value a flag takes; the command line parses each (agents.commands.options):
 #: a share in (0, 1), an integer in ``low .. high``, ``FROM,STEPS`` (a scale in (0, 1)
-#: and a step count), a file.
-ValueKind = Literal["share", "count", "schedule", "path"]
+#: and a step count), a file, a text the option reads itself.
+ValueKind = Literal["share", "count", "schedule", "path", "text"]
 
 
 @dataclass(frozen=True)
@@ -95,8 +96,8 @@ class TrainingOption:
     against the command and the run (:meth:`check_command`, :meth:`check`), writes its
     part of the run record and reads it back (:meth:`record`, :meth:`from_record`), names
     itself in the recipe (:meth:`tag`) and in refusals (:meth:`flags_text`), and
-    attaches itself to an SB3 run (:meth:`prepare`
-    before the first reset, :meth:`callbacks` during it). It is one entry of
+    attaches itself to an SB3 run (:meth:`wrap` around the training batch,
+    :meth:`prepare` before the first reset, :meth:`callbacks` during it). It is one entry of
     :data:`agents.algorithms.options.TRAINING_OPTIONS`.
     """
 
@@ -174,6 +175,12 @@ class TrainingOption:
     def same_run(self, other: TrainingOption) -> bool:
         """Whether a run recorded with ``other`` may go on with this option."""
         return self == other
+
+    def wrap(self, venv: VecEnv, *, gamma: float) -> VecEnv:
+        """The training batch under its wrapper, inside the normalisation (``venv`` by
+        default); ``gamma`` is the algorithm's discount."""
+        del gamma
+        return venv
 
     def prepare(self, venv: StartScalable, *, seed: int, start_steps: int) -> None:
         """Set the training environment up before its first reset (nothing by default)."""

@@ -13,6 +13,7 @@ from agents.algorithms.options import (
     TRAINING_OPTIONS,
     FineTune,
     OptionError,
+    Shaping,
     StartCurriculum,
     StartReplay,
     recorded_options,
@@ -45,9 +46,10 @@ def _args(**given: object) -> argparse.Namespace:
 
 
 def test_the_table_orders_the_tags_and_names_every_flag_once() -> None:
-    assert (StartCurriculum, StartReplay, FineTune) == TRAINING_OPTIONS
+    assert (Shaping, StartCurriculum, StartReplay, FineTune) == TRAINING_OPTIONS
     flags = [flag.name for kind in TRAINING_OPTIONS for flag in kind.FLAGS]
     assert flags == [
+        "--shaping",
         "--start-curriculum",
         "--start-replay",
         "--start-replay-max",
@@ -55,12 +57,19 @@ def test_the_table_orders_the_tags_and_names_every_flag_once() -> None:
         "--critic-warmup",
     ]
     keys = [key for kind in TRAINING_OPTIONS for key in kind.KEYS]
-    assert keys == ["start_curriculum", "start_replay", "init_from", "critic_warmup"]
+    assert keys == ["shaping", "start_curriculum", "start_replay", "init_from", "critic_warmup"]
 
 
 @pytest.mark.parametrize(
     ("option", "part", "tag", "flags"),
     [
+        (Shaping("lqr"), {"shaping": {"potential": "lqr"}}, " + lqr shaping", "--shaping lqr"),
+        (
+            Shaping("lqr", 1, -0.5),
+            {"shaping": {"potential": "lqr", "scale": 1, "reference": -0.5}},
+            " + lqr shaping",
+            "--shaping \"dict(potential='lqr', scale=1, reference=-0.5)\"",
+        ),
         (
             StartCurriculum(0.2, 2048),
             {"start_curriculum": {"from": 0.2, "steps": 2048}},
@@ -88,7 +97,7 @@ def test_the_table_orders_the_tags_and_names_every_flag_once() -> None:
     ],
 )
 def test_each_option_writes_reads_back_and_names_itself(
-    option: StartCurriculum | StartReplay | FineTune,
+    option: Shaping | StartCurriculum | StartReplay | FineTune,
     part: dict[str, object],
     tag: str,
     flags: str,
@@ -119,7 +128,7 @@ def test_the_recipe_is_named_from_the_tags_then_the_options_in_table_order() -> 
         recipe_name({"algo": "sac", "hyperparams": {"policy_kwargs": {"net_arch": [64, 64]}}})
         == "sac"
     )
-    assert [tag.inside for tag in RECIPE_TAGS] == [True, True, True, True, False]
+    assert [tag.inside for tag in RECIPE_TAGS] == [True, True, True, True]
 
 
 @pytest.mark.parametrize(
@@ -128,6 +137,8 @@ def test_the_recipe_is_named_from_the_tags_then_the_options_in_table_order() -> 
         ({"start_replay_max": 2}, "--start-replay-max", "needs start_replay"),
         ({"critic_warmup": 1024}, "--critic-warmup", "only with --init-from"),
         ({"start_curriculum": (1.5, 10)}, "--start-curriculum", "0 < low < 1"),
+        ({"shaping": "energy"}, "--shaping", "shaping needs a potential among ['lqr']"),
+        ({"shaping": "dict(potential='lqr', weight=2)"}, "--shaping", "shaping has no 'weight'"),
     ],
 )
 def test_values_that_do_not_go_together_are_refused_naming_the_flag(
@@ -145,6 +156,8 @@ def test_values_that_do_not_go_together_are_refused_naming_the_flag(
 @pytest.mark.parametrize(
     ("option", "run", "flag", "words"),
     [
+        (Shaping("lqr"), Run(backend="rllib"), "--shaping", "not supported with --backend rllib"),
+        (Shaping("lqr"), Run(n_trailers=(1, 3)), "--shaping", "one count of trailers"),
         (StartReplay(0.5), Run(backend="rllib"), "--start-replay", "not supported"),
         (StartReplay(0.5), Run(n_trailers=(1, 3)), "--start-replay", "one count of trailers"),
         (
@@ -169,7 +182,7 @@ def test_values_that_do_not_go_together_are_refused_naming_the_flag(
     ],
 )
 def test_an_option_refuses_a_run_it_cannot_be_part_of(
-    option: StartReplay | StartCurriculum | FineTune, run: Run, flag: str, words: str
+    option: Shaping | StartReplay | StartCurriculum | FineTune, run: Run, flag: str, words: str
 ) -> None:
     with pytest.raises(OptionError, match=re.escape(words)) as refused:
         option.check(run)
@@ -187,6 +200,10 @@ def test_an_option_refuses_a_run_it_cannot_be_part_of(
             "start_curriculum.steps must be an integer",
         ),
         ({"init_from": 3}, "init_from must be a path"),
+        ({"shaping": "lqr"}, "shaping must be an object"),
+        ({"shaping": {"potential": 1}}, "shaping.potential must be a string"),
+        ({"shaping": {"potential": "lqr", "scale": "big"}}, "shaping.scale must be a number"),
+        ({"shaping": {"potential": "lqr", "weight": 2}}, "shaping has no field 'weight'"),
     ],
 )
 def test_a_malformed_recorded_option_is_refused_naming_its_key(
@@ -201,3 +218,12 @@ def test_a_fine_tuning_run_goes_on_from_the_same_source_by_its_resolved_path() -
     assert FineTune("runs/a/best_model.zip", 1024).same_run(saved)
     assert not FineTune("runs/a/best_model.zip", 0).same_run(saved)
     assert not StartReplay(0.5).same_run(StartReplay(0.5, 2))
+
+
+def test_shaping_none_is_no_option_and_no_flag_given() -> None:
+    assert Shaping.from_args(_args(shaping="none")) is None
+    assert Shaping.from_args(_args()) is None
+    assert not Shaping.given(_args(shaping="none")) and Shaping.given(_args(shaping="lqr"))
+    parsed = Shaping.from_args(_args(shaping="dict(potential='lqr', scale=0.5)"))
+    assert parsed == Shaping("lqr", 0.5)
+    assert parsed.keywords() == {"potential": "lqr", "scale": 0.5}

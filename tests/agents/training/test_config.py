@@ -8,15 +8,18 @@ from pathlib import Path
 import pytest
 import torch.nn
 
+from agents.algorithms.options import Shaping
 from agents.artifacts.shipped import MODELS_DIR
 from agents.envs import ENV_IDS
 from agents.training.config import (
     HYPERPARAMS_DIR,
+    TrainConfig,
     load_hyperparams,
     parse_policy_kwargs,
     raw_entry,
-    shaping_setting,
 )
+
+V0 = "trailer_env/Reverse-v0"
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
@@ -125,20 +128,31 @@ def test_shaping_entries_name_a_potential_and_its_numbers(tmp_path: Path) -> Non
         "trailer_env/Reverse-v1:\n  shaping: lqr\n"
         "trailer_env/Reverse-v0:\n  shaping: \"dict(potential='lqr', scale=0.5)\"\n"
     )
-    assert load_hyperparams("ppo", "trailer_env/Reverse-v1", tmp_path).shaping == {
-        "potential": "lqr"
-    }
+    assert load_hyperparams("ppo", "trailer_env/Reverse-v1", tmp_path).shaping == Shaping("lqr")
     hp = load_hyperparams("ppo", "trailer_env/Reverse-v0", tmp_path)
-    assert hp.shaping == {"potential": "lqr", "scale": 0.5} and "shaping" not in hp.algo_kwargs
-    assert shaping_setting("none", "--shaping") is None
+    assert hp.shaping == Shaping("lqr", 0.5) and "shaping" not in hp.algo_kwargs
+    assert hp.shaping.record() == {"shaping": {"potential": "lqr", "scale": 0.5}}
+    assert Shaping.from_setting("none") is None
     for bad, words in (
         ("energy", "potential among"),
         ("dict(potential='lqr', weight=2)", "no 'weight'"),
         ("dict(potential='lqr', scale='big')", "scale must be a finite number"),
+        ("dict('lqr')", "dict\\(name=value"),
         (3, "a potential or a dict"),
     ):
         with pytest.raises(ValueError, match=words):
-            shaping_setting(bad, "--shaping")
+            Shaping.from_setting(bad)
+    # An SB3 run without --shaping takes the entry's; its own option goes over it.
+    sb3 = TrainConfig.resolve(V0, "ppo", 2, 0, hp, timesteps=2048)
+    assert sb3.options == (Shaping("lqr", 0.5),)
+    assert sb3.document()["shaping"] == {"potential": "lqr", "scale": 0.5}
+    given = (Shaping("lqr"),)
+    assert TrainConfig.resolve(V0, "ppo", 2, 0, hp, timesteps=2048, options=given).options == given
+    rllib = TrainConfig.resolve(V0, "ppo", 2, 0, hp, timesteps=2048, backend="rllib")
+    assert rllib.options == () and "shaping" not in rllib.document()
+    (tmp_path / "ppo.yml").write_text("trailer_env/Reverse-v1:\n  shaping: energy\n")
+    with pytest.raises(ValueError, match="entry trailer_env/Reverse-v1: shaping needs a potential"):
+        load_hyperparams("ppo", "trailer_env/Reverse-v1", tmp_path)
 
 
 def test_an_entry_may_name_the_multi_input_policy_and_the_encoder(tmp_path: Path) -> None:

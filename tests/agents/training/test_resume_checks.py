@@ -331,11 +331,7 @@ MISMATCHES = {
         "env_id = trailer_env/Reverse-v1, not trailer_env/Reverse-v0",
     ),
     "seed": (["--seed", "1"], "argument --seed", "seed = 0, not 1"),
-    "shaping": (
-        ["--shaping", "lqr"],
-        "argument --shaping",
-        'shaping = none, not {"potential": "lqr"}',
-    ),
+    "shaping": (["--shaping", "lqr"], "argument --resume", "no --shaping"),
     "n_envs": (["--n-envs", "4"], "argument --n-envs", "n_envs = 8, not 4"),
     "n_trailers": (
         ["--n-trailers", "2"],

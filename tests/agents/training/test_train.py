@@ -229,7 +229,7 @@ def test_a_generalist_trains_on_a_range_of_counts_and_randomised_physics(
         (("--n-trailers", "3-1"), "a range LOW-HIGH needs 0 <= LOW < HIGH"),
         (("--n-trailers", "1-9"), "n_trailers = (1, 9)"),
         (("--randomize", "mismatch50"), "invalid choice: 'mismatch50'"),
-        (("--n-trailers", "1-3", "--shaping", "lqr"), "--shaping (or the file's shaping): one"),
+        (("--n-trailers", "1-3", "--shaping", "lqr"), "--shaping: shaping (--shaping or the"),
     ):
         with pytest.raises(SystemExit) as refused:
             _train(tmp_path, "--timesteps", "2048", "--run-dir", str(tmp_path / "r2"), *bad)
