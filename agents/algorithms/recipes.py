@@ -49,18 +49,17 @@ def _by_row(record: Mapping[str, object]) -> str | None:
 
 @dataclass(frozen=True)
 class RecipeTag:
-    """One part of a recipe's name, read from the run's record.
+    """One part of a recipe's name, read from the run's record: it goes in the parentheses
+    after the algorithm ("ppo (gSDE)"); the training options' tags follow them
+    ("ppo (gSDE) + lqr shaping").
 
     Attributes:
         name: What it marks.
         read: The part's text for a record, or None when the record has no such part.
-        inside: Whether it goes in the parentheses after the algorithm ("ppo (gSDE)")
-            or after them ("ppo + lqr shaping").
     """
 
     name: str
     read: Callable[[Mapping[str, object]], str | None]
-    inside: bool = True
 
 
 #: The parts of a recipe's name that are not training options, in their order.
@@ -88,8 +87,7 @@ def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     name = str(_at(record, "algo") or "?")
     if upper:
         name = name.upper()
-    inside = [text for tag in RECIPE_TAGS if tag.inside and (text := tag.read(record))]
+    inside = [text for tag in RECIPE_TAGS if (text := tag.read(record))]
     if inside:
         name += f" ({', '.join(inside)})"
-    name += "".join(text for tag in RECIPE_TAGS if not tag.inside and (text := tag.read(record)))
     return name + "".join(option.tag() for option in recorded_options(record))
