@@ -62,6 +62,7 @@ import numpy as np
 
 from trailer_env.json_types import JSONObject
 from trailer_env.observation import flat_observation
+from trailer_env.settings import MAX_HISTORY
 
 PROTOCOL = "trailer_env-benchmark/1"
 #: First seed of the test episodes.
@@ -382,6 +383,7 @@ def score(
     out: str | os.PathLike[str] | None = None,
     overwrite: bool = False,
     goal_conditioned: bool = False,
+    history: int = 0,
 ) -> Score:
     """Score a batched policy on the protocol's episodes of ``env_id`` with ``n_trailers``.
 
@@ -398,12 +400,15 @@ def score(
         overwrite: Replace an existing ``score.json`` / ``score.md`` (a bool).
         goal_conditioned: The policy reads :class:`trailer_env.wrappers.GoalConditioned`'s
             ``Dict`` observations (batched; Dock-v0 and Heading-v0), e.g. an SB3 HER agent.
+        history: The policy reads a window of this many past observations and actions
+            (``gym.make``'s ``history``, :mod:`trailer_env.history`; 0 to 64): a policy
+            with a memory. The episodes are the same, so the score stays on protocol.
 
     Integers may be NumPy integers (they are written to the JSON as ints).
 
     Raises:
         TypeError: On a bool or float where an integer is wanted (``n_trailers``,
-            ``episodes``, ``seed``), a ``name`` that is not a str, ``overwrite`` or
+            ``episodes``, ``seed``, ``history``), a ``name`` that is not a str, ``overwrite`` or
             ``goal_conditioned`` not a bool, ``out`` not a path.
         ValueError: On a bad id, count or seed, an empty ``out``, or an ``out`` whose
             ``score.json`` or ``score.md`` exists (without ``overwrite``), is a folder or
@@ -419,6 +424,11 @@ def score(
         raise TypeError(f"name must be a str, got {type(name).__name__} {name!r}")
     overwrite = _flag("overwrite", overwrite)
     goal_conditioned = _flag("goal_conditioned", goal_conditioned)
+    history = _integer("history", history)
+    if not 0 <= history <= MAX_HISTORY:
+        raise ValueError(f"history must be in 0..{MAX_HISTORY}, got {history}")
+    if history and goal_conditioned:
+        raise ValueError("history needs the flat observation, not goal_conditioned=True")
     observe = None
     if goal_conditioned:
         from trailer_env.scenes.dock import DockCore
@@ -429,7 +439,10 @@ def score(
             raise ValueError(f"goal_conditioned=True needs Dock-v0 or Heading-v0, not {env_id}")
         observe = goal_observation
     folder = _out_folder(out, overwrite)
-    results = rollout(policy, env_id, episodes, seed, {"n_trailers": n_trailers}, observe)
+    kwargs: dict[str, object] = {"n_trailers": n_trailers}
+    if history:
+        kwargs["history"] = history
+    results = rollout(policy, env_id, episodes, seed, kwargs, observe)
     document = {
         "protocol": PROTOCOL,
         "on_protocol": (env_id, n_trailers) in TASKS and (episodes, seed) == (EPISODES, TEST_SEED),
@@ -442,6 +455,8 @@ def score(
         "headline_metric": core.headline_metric,
         "metrics": summarize(results),
     }
+    if history:
+        document["history"] = history
     hits = int((results.safe if core.headline_metric == "safe_rate" else results.success).sum())
     document["headline_ci"] = [round(bound, 6) for bound in wilson_interval(hits, episodes)]
     result = Score(document, results)

@@ -62,6 +62,7 @@ from trailer_env.core import ConvoyCore
 from trailer_env.core_infos import INFO_FIELDS, Info
 from trailer_env.core_protocol import BatchCore
 from trailer_env.generators import GeneratorBank
+from trailer_env.history import HistoryCore
 from trailer_env.observation import ObservationView
 from trailer_env.settings import EnvSettings, settings_from_keywords
 
@@ -130,6 +131,31 @@ def pad_observations(obs: np.ndarray, n: int, top: int) -> np.ndarray:
     out[:, columns[: batch.shape[1]]] = batch
     out[:, columns[batch.shape[1] :]] = 1.0
     return out
+
+
+def pad_window_observations(
+    obs: np.ndarray, n: int, top: int, history: int, action_dim: int
+) -> np.ndarray:
+    """:func:`pad_observations` of observations with a window of ``history`` past frames
+    (:mod:`trailer_env.history`): each frame's observation padded, its action kept, as
+    the env made with ``n_trailers=(low, top)`` and the same ``history`` observes it.
+
+    Raises:
+        ValueError: As :func:`pad_observations`, or if the width is not a window's.
+    """
+    batch = np.atleast_2d(np.asarray(obs, dtype=np.float32))
+    width, frames = batch.shape[1] - history * action_dim, history + 1
+    if width % frames:
+        raise ValueError(
+            f"observations of width {batch.shape[1]} are not windows of {history} past "
+            f"frames with {action_dim} action entries each"
+        )
+    d = width // frames
+    parts = [pad_observations(batch[:, :d], n, top)]
+    for start in range(d, batch.shape[1], d + action_dim):
+        parts += [pad_observations(batch[:, start : start + d], n, top)]
+        parts += [batch[:, start + d : start + d + action_dim]]
+    return np.concatenate(parts, axis=1)
 
 
 @cached_njit()
@@ -426,19 +452,25 @@ def build_core(
     core_class: type[ConvoyCore], kwargs: Mapping[str, object], batch_size: int, track_pose: bool
 ) -> tuple[EnvSettings, BatchCore]:
     """The settings and the batch core the keywords ask for: a :class:`MixedCore` when
-    ``n_trailers`` is a range, the scene's own core otherwise.
+    ``n_trailers`` is a range, the scene's own core otherwise; in a
+    :class:`~trailer_env.history.HistoryCore` with ``history=k``.
 
     Raises:
         TypeError, ValueError: On bad keywords, naming them; rendering with a range.
     """
+    core: BatchCore
     if not is_trailer_range(kwargs.get("n_trailers")):
         settings = settings_from_keywords(kwargs)
-        return settings, core_class(settings, batch_size, track_pose=track_pose)
-    by_count = mixed_settings(kwargs)
-    if track_pose:
-        raise ValueError("rendering needs one number of trailers, not a range")
-    core = MixedCore(core_class, by_count, batch_size)
-    return core.settings, core
+        core = core_class(settings, batch_size, track_pose=track_pose)
+    else:
+        by_count = mixed_settings(kwargs)
+        if track_pose:
+            raise ValueError("rendering needs one number of trailers, not a range")
+        core = MixedCore(core_class, by_count, batch_size)
+        settings = core.settings
+    if settings.history:
+        core = HistoryCore(core, settings.history)
+    return settings, core
 
 
 def observation_view(core: BatchCore) -> ObservationView:

@@ -54,14 +54,14 @@ _M, _J0, _A, _L, _MU = (PARAMETERS.index(name) for name in ("M", "J0", "a", "l",
 MAX_FACTOR = 1e3
 
 _MATTER = ("M", "J0", "a", "l", "mu")
-#: Named presets: +-10 % and +-20 % on the parameters that change the LQR's results on
+#: Named presets: +-10, 20, 30 and 40 % on the parameters that change the LQR's results on
 #: Reverse-v1 (docs/physics.md, "Parameter mismatch"); ``m`` and ``J`` do not. A preset
 #: applies to every scene: one whose formulas hold a parameter fixed (Dock-v0's ``l``,
 #: ``ConvoyCore.fixed_parameters``) varies the others (:meth:`Randomization.without`);
 #: a dict of ranges that names such a parameter is refused there.
 PRESETS: dict[str, dict[str, tuple[float, float]]] = {
-    "mismatch10": {name: (0.9, 1.1) for name in _MATTER},
-    "mismatch20": {name: (0.8, 1.2) for name in _MATTER},
+    f"mismatch{size}": {name: (1.0 - size / 100, 1.0 + size / 100) for name in _MATTER}
+    for size in (10, 20, 30, 40)
 }
 
 

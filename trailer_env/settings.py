@@ -49,6 +49,10 @@ REFERENCE_SPEED = 2.0
 TRAILER_DRAWS = ("episode", "row")
 
 
+#: The longest window of past frames ``history`` takes (:mod:`trailer_env.history`).
+MAX_HISTORY = 64
+
+
 @dataclass(frozen=True)
 class EnvSettings:
     """Everything but the task: physics, control period, actuator and safety thresholds.
@@ -103,6 +107,9 @@ class EnvSettings:
         trailer_draw: How an environment made with a range of ``n_trailers`` gives each
             episode its count (:data:`TRAILER_DRAWS`, :mod:`trailer_env.mixed`); with one
             count there is nothing to draw and it changes nothing.
+        history: Past frames (observation, applied action) appended to the observation,
+            an integer in 0 .. 64 (:mod:`trailer_env.history`); 0 (default) appends
+            none. Needs ``observation="flat"``.
 
     Each field's ``metadata["keyword"]`` is its one-line meaning as a ``gym.make``
     keyword (:data:`MAKE_KEYWORDS`).
@@ -158,6 +165,11 @@ class EnvSettings:
         },
     )
 
+    history: int = field(
+        default=0,
+        metadata={"keyword": "past observations and applied actions appended, 0-64 (0)"},
+    )
+
     def __post_init__(self) -> None:
         if not isinstance(self.params, ConvoyParams):
             raise TypeError(f"params must be a ConvoyParams, got {type(self.params).__name__}")
@@ -169,6 +181,13 @@ class EnvSettings:
             object.__setattr__(self, name, bounded_real(name, getattr(self, name), *RATE_RANGE))
         one_of("action_mode", self.action_mode, ACTION_MODES)
         one_of("trailer_draw", self.trailer_draw, TRAILER_DRAWS)
+        history = bounded_integer("history", self.history, 0, MAX_HISTORY)
+        object.__setattr__(self, "history", history)
+        if self.history and self.observation != "flat":
+            raise ValueError(
+                f"history = {self.history} needs observation='flat', got "
+                f"{self.observation!r}: a Dict observation has no place for past frames"
+            )
         if self.rail_accel_max * self.dt**2 > self.params.s_max:
             raise ValueError(
                 f"rail_accel_max * dt**2 = {self.rail_accel_max * self.dt**2:.4g} exceeds s_max = "
@@ -281,6 +300,7 @@ def settings_from_kwargs(
     observation: str = "flat",
     max_trailers: int | None = None,
     trailer_draw: str = "episode",
+    history: int = 0,
     **param_overrides: float,
 ) -> EnvSettings:
     """Build settings from ``gym.make``-style keyword arguments.
@@ -292,7 +312,7 @@ def settings_from_kwargs(
         dt, fidelity, action_mode, rail_accel_max, servo_bandwidth: See :class:`EnvSettings`.
         singular_band, fold_angle, randomize, observe_params: See :class:`EnvSettings`.
         observation, max_trailers: See :class:`EnvSettings`.
-        trailer_draw: See :class:`EnvSettings`.
+        trailer_draw, history: See :class:`EnvSettings`.
         **param_overrides: ConvoyParams fields, e.g. ``mu=0.4``.
 
     Raises:
@@ -339,6 +359,7 @@ def settings_from_kwargs(
         observation=observation,
         max_trailers=max_trailers,
         trailer_draw=trailer_draw,
+        history=history,
     )
 
 

@@ -64,6 +64,7 @@ import math
 import numpy as np
 
 from dynamics import ConvoyParams
+from dynamics._kernel import row_params
 from dynamics.columns import ETA_DDOT, ETA_DOT, OMEGA, XI_DDOT, XI_DOT, U
 from dynamics.jit import cached_njit
 
@@ -263,7 +264,8 @@ def auto_substeps(z: np.ndarray, act: np.ndarray, settings: np.ndarray, out: np.
     """The auto rule of the module docstring for every row: substep counts into ``out``.
 
     ``act`` must hold the accelerations of the step about to be taken; ``settings``
-    comes from :func:`auto_settings`.
+    comes from :func:`auto_settings` (shared, (12,)) or holds one row of them per row
+    ((B, 12): per-row parameters, as the kernel's draws set them).
     """
     for i in range(z.shape[0]):
-        out[i], _ = auto_substeps_row(z, act, settings, i)
+        out[i], _ = auto_substeps_row(z, act, row_params(settings, i), i)

@@ -47,6 +47,12 @@ def _by_row(record: Mapping[str, object]) -> str | None:
     return "n by row" if _at(record, "env_kwargs", "trailer_draw") == "row" else None
 
 
+def _history(record: Mapping[str, object]) -> str | None:
+    """A memory: the window of past frames the policy reads ("history 16")."""
+    history = _at(record, "env_kwargs", "history")
+    return f"history {history}" if isinstance(history, int) and history > 0 else None
+
+
 @dataclass(frozen=True)
 class RecipeTag:
     """One part of a recipe's name, read from the run's record: it goes in the parentheses
@@ -68,6 +74,7 @@ RECIPE_TAGS: tuple[RecipeTag, ...] = (
     RecipeTag("a network other than DEFAULT_NET_ARCH", _net_width),
     RecipeTag("randomised physics", _randomize),
     RecipeTag("counts fixed by the batch row", _by_row),
+    RecipeTag("a memory of past frames", _history),
 )
 
 
@@ -75,6 +82,7 @@ def recipe_name(record: Mapping[str, object], upper: bool = False) -> str:
     """A run's recipe from its configuration or model card: "ppo", "ppo (gSDE)",
     "ppo (gSDE, 256x256)", "ppo (gSDE) + lqr shaping", "ppo (gSDE) + start curriculum",
     "ppo (gSDE, 256x256) + start replay 0.25", "ppo (mismatch20)", "ppo (n by row)",
+    "dagger (mismatch20, history 16)",
     "ppo from dagger_reverse_v1_n4" (the algorithm's name upper-cased when ``upper``).
 
     Each of :data:`RECIPE_TAGS` and each training option the record holds is a recipe of

@@ -63,6 +63,8 @@ class EnvKwargs(SparsePart):
     max_trailers: int | None = None
     randomize: str | Mapping[str, object] | None = None
     trailer_draw: str | None = None
+    #: Past frames in the observation (``gym.make``'s ``history``; None: none).
+    history: int | None = None
     #: The other keywords, as written.
     other: Mapping[str, object] = dataclasses.field(default_factory=dict)
 

@@ -30,12 +30,20 @@ def shipped_models() -> list[str]:
 SEEDS_DIR = MODELS_DIR / "seeds"
 
 
-def committed_models(env_id: str, n_trailers: int, directory: Path = MODELS_DIR) -> list[Path]:
-    """Models under ``directory`` whose card names ``env_id`` and ``n_trailers``."""
+def committed_models(
+    env_id: str, n_trailers: int, directory: Path = MODELS_DIR, randomize: object = None
+) -> list[Path]:
+    """Models under ``directory`` whose card names ``env_id``, ``n_trailers`` and the
+    physics ``randomize`` (None: nominal; a model trained under randomised physics is not
+    the nominal scenario's policy, nor the other way round)."""
     found = []
     for path in sorted(directory.glob("*.zip")):
         card = read_model_card(path)
-        if card.env_id == env_id and card.n_trailers == n_trailers:
+        if (
+            card.env_id == env_id
+            and card.n_trailers == n_trailers
+            and card.env_kwargs.randomize == randomize
+        ):
             found.append(path)
     return found
 

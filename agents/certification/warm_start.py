@@ -142,10 +142,10 @@ def _warm_rows(
     """Each policy plays every open start; its prefixes at the split fractions of its
     episode (each at least one step and one short of the episode) are the rows."""
     rows: list[_Row] = []
-    for label, (_, policy) in policies.items():
+    for label, (spec, policy) in policies.items():
         if not open_seeds:
             break
-        run = witness_run(policy, upgrade.env_id, upgrade.env_kwargs, open_seeds)
+        run = witness_run(policy, upgrade.env_id, upgrade.played(spec), open_seeds)
         for i, seed in enumerate(open_seeds):
             length = int(run.lengths[i])
             for k in sorted({max(1, min(length - 1, round(split * length))) for split in splits}):

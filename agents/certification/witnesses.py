@@ -51,7 +51,7 @@ from agents.certification.replays import is_goal, replays_to_success
 from agents.certification.search import CLOSED_LOOP_TOLERANCE
 from agents.envs import MakeKwargs, check_env_id, make_vector_env, scene_baselines
 from agents.policies.baselines import Policy
-from agents.policies.registry import PaddedPolicy, load_policy, policy_label
+from agents.policies.registry import PaddedPolicy, load_policy, policy_label, window_kwargs
 from agents.policies.sb3 import ModelPolicy, SampledPolicy
 from trailer_env.benchmark import privileged_view
 from trailer_env.observation import flat_observation
@@ -186,9 +186,15 @@ class Upgrade:
             for start in certificate.starts
         }
 
+    def played(self, spec: str, kwargs: MakeKwargs | None = None) -> dict[str, object]:
+        """The env the witness ``spec`` plays in: the certificate's, or ``kwargs``, with a
+        model's memory window (:func:`agents.policies.registry.window_kwargs`); its records
+        replay in the certificate's env, whose dynamics the window does not change."""
+        return window_kwargs(spec, self.env_kwargs if kwargs is None else kwargs)
+
     def load(self, spec: str, trust_pickle: bool = False) -> Policy:
-        """The policy ``spec`` loaded for the certificate's env and n."""
-        return load_policy(spec, self.env_id, dict(self.env_kwargs), trust_pickle=trust_pickle)
+        """The policy ``spec`` loaded for the certificate's env and n (and its window)."""
+        return load_policy(spec, self.env_id, self.played(spec), trust_pickle=trust_pickle)
 
     def open_seeds(self) -> list[int]:
         """The starts not feasible yet, in the certificate's order."""
@@ -335,7 +341,7 @@ def _witness_tally(
     pending = upgrade.open_seeds()
     if not pending:
         return WitnessTally(source=label, tried=0, solved=0)
-    run = witness_run(policy, upgrade.env_id, upgrade.env_kwargs, pending)
+    run = witness_run(policy, upgrade.env_id, upgrade.played(spec), pending)
     solved = []
     for row, seed in enumerate(pending):
         if run.success[row] and upgrade.solves(seed, record := run.record(row)):
@@ -344,7 +350,7 @@ def _witness_tally(
     if solved and closed_loop:
         # A fresh copy of the policy: a stateful one (random) starts as it did above.
         again = upgrade.load(spec, trust)
-        checked = witness_run(again, upgrade.env_id, upgrade.plant(), solved)
+        checked = witness_run(again, upgrade.env_id, upgrade.played(spec, upgrade.plant()), solved)
         upgrade.mark_closed_loop(solved, checked.success)
     return WitnessTally(source=label, tried=len(pending), solved=len(solved))
 
@@ -356,7 +362,8 @@ def sampled(policy: Policy, seed: int) -> Policy | None:
     if type(policy) is ModelPolicy:
         return SampledPolicy(policy, seed)
     if type(policy) is PaddedPolicy and type(policy.policy) is ModelPolicy:
-        return PaddedPolicy(SampledPolicy(policy.policy, seed), policy.n, policy.top)
+        drawing = SampledPolicy(policy.policy, seed)
+        return PaddedPolicy(drawing, policy.n, policy.top, policy.history, policy.action_dim)
     return None
 
 
@@ -391,7 +398,7 @@ def _sampled_witness(
     entry of the ``witnesses`` block."""
     source = f"{witness.label} (sampled)"
     rows = [seed for seed in pending for _ in range(witness.samples)]
-    run = witness_run(witness.draws(), upgrade.env_id, upgrade.env_kwargs, rows)
+    run = witness_run(witness.draws(), upgrade.env_id, upgrade.played(witness.spec), rows)
     solved: dict[int, int] = {}
     for row, seed in enumerate(rows):
         if seed in solved or not run.success[row]:
@@ -405,7 +412,8 @@ def _sampled_witness(
     if solved and closed_loop:
         # The same draws: the same seed on the same batch of rows, on the plant.
         fresh = upgrade.load(witness.spec, trust_pickle)
-        checked = witness_run(witness.draws(fresh), upgrade.env_id, upgrade.plant(), rows)
+        plant = upgrade.played(witness.spec, upgrade.plant())
+        checked = witness_run(witness.draws(fresh), upgrade.env_id, plant, rows)
         upgrade.mark_closed_loop(solved, (checked.success[row] for row in solved.values()))
     return WitnessTally(
         source=source,

@@ -13,7 +13,7 @@ argument              bound
 ``--planner``         the planner of the scene's objective: mpc (survival:
                       Reverse) or ilqr (goal: Dock, Coast); the other is refused
 ``--closed-loop``     dopri5 (goal scenes only)
-``--randomize``       a preset (mismatch10, mismatch20) or a JSON object of
+``--randomize``       a preset (mismatch10 .. mismatch40) or a JSON object of
                       factor ranges; survival scenes only
 ====================  ===================================================
 
@@ -85,7 +85,7 @@ from agents.envs import (
 )
 from agents.oracles.ilqr import ILQRConfig
 from agents.oracles.planner import PlannerConfig
-from agents.policies.registry import load_policy
+from agents.policies.registry import load_policy, window_kwargs
 from trailer_env.randomize import PRESETS
 
 #: The defaults of --env, --n-trailers and --seeds.
@@ -434,7 +434,7 @@ def _check_policies(
         parser.error(f"argument --warm-start: two specs of one label: {repeated}")
     for spec in [*specs, *warm]:
         try:
-            load_policy(spec, env_id, env_kwargs)
+            load_policy(spec, env_id, window_kwargs(spec, env_kwargs))
         except (OSError, ValueError) as error:
             parser.error(f"argument --witnesses: {error}")
 

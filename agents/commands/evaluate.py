@@ -14,8 +14,11 @@ imported from the working folder; the episodes are the benchmark protocol's,
 loaded without unpickling anything unless ``--trust-pickle``
 (:mod:`agents.artifacts`), and a model whose card names another environment id or
 number of trailers is refused unless ``--force``; without ``--env`` (``--n-trailers``) the
-first model's card names them (else Reverse-v1, n = 2). ``--video PATH.mp4|.gif`` also
-writes every frame of one episode (seed ``--seed``) of the first policy.
+first model's card names them (else Reverse-v1, n = 2), and a model with a memory
+(``history=k`` on its card, :mod:`trailer_env.history`) gives the env its window unless
+``--set history=`` does; the other policies then read the window's current frame.
+``--video PATH.mp4|.gif`` also writes every frame of one episode (seed ``--seed``) of
+the first policy.
 
 Without ``--policy`` it evaluates the scene's baselines and every committed model
 (``agents/models/*.zip``) trained for that environment and number of trailers.
@@ -136,9 +139,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def env_from_cards(specs: list[str]) -> tuple[str | None, int | None, str | None]:
-    """The environment id and number of trailers on the card of the first model among
-    ``specs`` that has a readable card: ``(env_id, n_trailers, spec)``, Nones without.
+def env_from_cards(specs: list[str]) -> tuple[str | None, int | None, str | None, int]:
+    """The environment id, number of trailers and window of past frames on the card of
+    the first model among ``specs`` that has a readable card: ``(env_id, n_trailers,
+    spec, history)``, Nones and 0 without.
 
     A generalist's range of counts gives no n (the default 2 stands); a card that cannot
     be read is passed over here and reported when the model loads.
@@ -153,8 +157,8 @@ def env_from_cards(specs: list[str]) -> tuple[str | None, int | None, str | None
         env_id = card.env_id
         if env_id in ENV_IDS:
             n = card.n_trailers
-            return env_id, n if isinstance(n, int) else None, spec
-    return None, None, None
+            return env_id, n if isinstance(n, int) else None, spec, card.env_kwargs.history or 0
+    return None, None, None, 0
 
 
 #: The folder the default ``--out`` lies in.
@@ -210,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:
         cli.check_out_file(parser, args.video, "--video")
         if args.video.exists() and not args.overwrite:
             parser.error(f"argument --video: {args.video} exists; pass --overwrite to replace it")
-    card_env, card_n, card_of = env_from_cards(args.policy or [])
+    card_env, card_n, card_of, card_history = env_from_cards(args.policy or [])
     from_card = []
     if args.env is None and card_env is not None:
         args.env = card_env
@@ -218,6 +222,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.n_trailers is None and card_n is not None:
         args.n_trailers = card_n
         from_card.append(f"n = {card_n}")
+    if card_history and not any(item.startswith("history=") for item in args.set):
+        args.set = [*args.set, f"history={card_history}"]  # the model's memory
+        from_card.append(f"history = {card_history}")
     if from_card:
         print(f"evaluate: {', '.join(from_card)} from the card of {card_of}", file=sys.stderr)
     args.env = args.env or HEADLINE_ENV_ID
@@ -229,7 +236,12 @@ def main(argv: list[str] | None = None) -> int:
         _check_out(parser, args)
     specs = args.policy or [
         *default_baselines(env_id),
-        *(str(path) for path in committed_models(env_id, args.n_trailers)),
+        *(
+            str(path)
+            for path in committed_models(
+                env_id, args.n_trailers, randomize=env_kwargs.get("randomize")
+            )
+        ),
     ]
     limit_torch_threads()
     started = time.perf_counter()

@@ -22,6 +22,7 @@ argument                   bound
 ``--randomize``            a preset of :data:`trailer_env.randomize.PRESETS`
 ``--observation``          ``flat`` or ``trailers``
 ``--max-trailers``         the largest n .. 256 (``trailers`` only; default 8)
+``--history``              0 .. 64 past frames (``flat`` only)
 =========================  ==========================================
 
 The expert (``--expert``): ``mpc`` (the sampling planner; the default on Reverse) or
@@ -42,6 +43,12 @@ mask only.
 ``--observation trailers``: the student reads the Dict of ``observation="trailers"``
 through :class:`~agents.policies.convoy_encoder.ConvoyEncoder`, so it acts with any n up
 to ``--max-trailers``; its default run folder ends in ``_trailers``.
+
+``--history K``: the student reads the last K observations and applied actions beside
+the current one (``gym.make(..., history=K)``, :mod:`trailer_env.history`): a memory
+from which it can tell the convoy's parameters under ``--randomize`` while the expert
+plans with the true ones. The card's ``env_kwargs`` record it, so ``agents.evaluate``
+rebuilds the window; its default run folder ends in ``_history<K>``.
 
 The run folder and ``--export`` are checked as by ``agents.train`` (writable, no
 symbolic link, locked while the run writes it). ``--resume`` first checks every file the
@@ -162,6 +169,14 @@ def build_parser() -> argparse.ArgumentParser:
         "from the cart, from the last trailer, or both passes",
     )
     parser.add_argument(
+        "--history",
+        type=int,
+        default=0,
+        metavar="K",
+        help="past frames (observation, applied action) the student reads beside the "
+        "current observation (gym.make's history=; default 0)",
+    )
+    parser.add_argument(
         "--mirror",
         action="store_true",
         help="train with the convoy's mirror image: mirrored copies of every "
@@ -219,6 +234,7 @@ def main(argv: list[str] | None = None) -> int:
             max_trailers=args.max_trailers,
             mirror=args.mirror,
             convoy_direction=args.convoy_direction,
+            history=args.history,
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))
@@ -235,6 +251,8 @@ def main(argv: list[str] | None = None) -> int:
         default = default.with_name(f"{default.name}_{config.observation}")
     if config.mirror:
         default = default.with_name(f"{default.name}_mirror")
+    if config.history:
+        default = default.with_name(f"{default.name}_history{config.history}")
     if config.convoy_direction != CONVOY_DIRECTIONS[0]:
         default = default.with_name(f"{default.name}_{config.convoy_direction}")
     checkpoint = None

@@ -26,16 +26,37 @@ def _covered(certificate: Certificate, episodes: int, seed: int) -> list[Certifi
     return [by_seed[episode_seed] for episode_seed in wanted]
 
 
-def ceiling_fraction(
-    env_id: str, n_trailers: int, episodes: int, seed: int, directory: Path = CERTIFICATES_DIR
-) -> float | None:
-    """The certified share of the starts of episodes ``seed .. seed + episodes - 1``, or None
-    when no committed certificate covers all of them (the leaderboard's ceiling line)."""
-    certificate = committed_certificate(env_id, n_trailers, directory)
+def status_count(
+    status: str,
+    env_id: str,
+    n_trailers: int,
+    episodes: int,
+    seed: int,
+    directory: Path = CERTIFICATES_DIR,
+    randomize: str | None = None,
+) -> int | None:
+    """How many starts of episodes ``seed .. seed + episodes - 1`` the committed
+    certificate (of the randomisation preset ``randomize``; None: nominal physics) gives
+    ``status``, or None when none covers all of them."""
+    certificate = committed_certificate(env_id, n_trailers, directory, randomize)
     starts = None if certificate is None else _covered(certificate, episodes, seed)
     if starts is None:
         return None
-    return sum(start.status == FEASIBLE for start in starts) / episodes
+    return sum(start.status == status for start in starts)
+
+
+def ceiling_fraction(
+    env_id: str,
+    n_trailers: int,
+    episodes: int,
+    seed: int,
+    directory: Path = CERTIFICATES_DIR,
+    randomize: str | None = None,
+) -> float | None:
+    """The certified share of the starts of episodes ``seed .. seed + episodes - 1``, or None
+    when no committed certificate covers all of them (the leaderboard's ceiling line)."""
+    feasible = status_count(FEASIBLE, env_id, n_trailers, episodes, seed, directory, randomize)
+    return None if feasible is None else feasible / episodes
 
 
 def ceiling_note(

@@ -26,6 +26,7 @@ from agents.policies.registry import (
     load_policy,
     model_card,
     policy_label,
+    window_kwargs,
 )
 from agents.progress import Progress
 from agents.seeds import TEST_SEED
@@ -80,13 +81,19 @@ def load_policies(
     """Load every spec first (so a bad one fails before any episode runs): (spec, policy).
 
     Shipped models' stems are resolved to their paths
-    (:func:`agents.artifacts.shipped.resolve_model`).
+    (:func:`agents.artifacts.shipped.resolve_model`); a model with a memory is loaded for
+    its window (:func:`agents.policies.registry.window_kwargs`).
     """
     return [
         (
             resolve_model(spec),
             load_policy(
-                spec, env_id, env_kwargs, seed=seed, trust_pickle=trust_pickle, force=force
+                spec,
+                env_id,
+                window_kwargs(spec, env_kwargs),
+                seed=seed,
+                trust_pickle=trust_pickle,
+                force=force,
             ),
         )
         for spec in specs
@@ -120,7 +127,7 @@ def evaluate_policies(
     total = len(loaded) + sum(len(paths) for paths in siblings.values())
     with Progress(total, f"evaluating on {env_id}", quiet=not progress) as bar:
         for spec, policy in loaded:
-            results = rollout(policy, env_id, episodes, seed, dict(env_kwargs))
+            results = rollout(policy, env_id, episodes, seed, window_kwargs(spec, env_kwargs))
             bar.advance(policy_label(spec))
             seed_summaries = None
             if siblings[spec]:
@@ -134,7 +141,7 @@ def evaluate_policies(
                     force=force,
                 ):
                     sibling_results = rollout(
-                        sibling_policy, env_id, episodes, seed, dict(env_kwargs)
+                        sibling_policy, env_id, episodes, seed, window_kwargs(sibling, env_kwargs)
                     )
                     card = model_card(sibling)
                     seed_summaries.append((card.seed, summary_of(sibling_results)))

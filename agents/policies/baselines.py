@@ -47,7 +47,7 @@ import numpy as np
 from agents.envs import ENV_IDS, scene_baselines
 from agents.oracles.scenes import scene_oracle
 from trailer_env.controllers import LQRController, heading_policy
-from trailer_env.core import ConvoyCore
+from trailer_env.core_protocol import BatchCore
 from trailer_env.randomize import PARAMETERS
 from trailer_env.registry import core_class_of
 from trailer_env.settings import EnvSettings
@@ -104,7 +104,7 @@ class PrivilegedObservation(NamedTuple):
 class AdaptiveLQRPolicy:
     """The LQR of :class:`LQRPolicy` designed for each row's episode parameters.
 
-    The parameters come from the environment's core, ``core.param_values`` (B, 7): the
+    The parameters come from the environment's core, ``core.params_batch()`` (B, 7): the
     rollouts (:func:`trailer_env.benchmark.rollout` and the project's commands) call
     :meth:`observe` with the core and pass what it returns instead of the observations.
     A design is cached per distinct parameter vector: a new episode with new draws costs
@@ -124,9 +124,11 @@ class AdaptiveLQRPolicy:
             name in PARAMETERS for name in randomize.names
         )
 
-    def observe(self, core: ConvoyCore, obs: np.ndarray) -> PrivilegedObservation:
+    def observe(self, core: BatchCore, obs: np.ndarray) -> PrivilegedObservation:
         """The observations and the core's per-row episode parameters (copies)."""
-        return PrivilegedObservation(np.asarray(obs), np.array(core.param_values, dtype=np.float64))
+        drawn = core.params_batch()
+        values = np.column_stack([drawn[name] for name in PARAMETERS]).astype(np.float64)
+        return PrivilegedObservation(np.asarray(obs), values)
 
     def controller(self, values: np.ndarray) -> LQRController:
         """The regulator designed for the parameter vector ``values`` (columns PARAMETERS)."""

@@ -457,9 +457,11 @@ class ParameterEstimator:
             # correlated (the valleys are narrow) and a clipped component leaves them.
             largest = np.max(np.abs(delta), axis=1, keepdims=True)
             delta = delta * np.minimum(1.0, self.MAX_STEP / np.maximum(largest, 1e-300))
-            candidate = np.clip(
-                self.from_coordinates(coordinates[pending] + delta), self.inner_low, self.inner_high
-            )
+            # A step past a zero mass coordinate gives non-finite factors; its prediction
+            # is then not finite, its cost infinite, and the step is refused below.
+            with np.errstate(divide="ignore", invalid="ignore"):
+                factors = self.from_coordinates(coordinates[pending] + delta)
+            candidate = np.clip(factors, self.inner_low, self.inner_high)
             trial = np.zeros((self.batch, count))
             trial[batch_rows] = candidate
             entries = np.isin(rows, batch_rows)

@@ -33,7 +33,12 @@ from agents.policies.baselines import BASELINES, Policy, make_baseline
 from agents.policies.mirror import MIRROR_SUFFIX, MirroredPolicy, mirror_signs_of, split_mirror
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy, load_model, load_stats
 from dynamics.params import MAX_TRAILERS, bounded_integer
-from trailer_env.mixed import is_trailer_range, pad_observations, trailer_range
+from trailer_env.mixed import (
+    is_trailer_range,
+    pad_observations,
+    pad_window_observations,
+    trailer_range,
+)
 from trailer_env.vector import as_action_batch
 
 #: The ``gym.make`` keywords the registry reads from an env's keywords.
@@ -186,15 +191,64 @@ def _wanted_trailers(env_kwargs: Mapping[str, object]) -> int | tuple[int, int]:
 class PaddedPolicy:
     """A generalist (trained on ``n_trailers=(low, top)``) acting in a scene of one n:
     each observation is laid out as the mixed env would observe the same state
-    (:func:`trailer_env.mixed.pad_observations`: zeros beyond n, the mask's n ones)."""
+    (:func:`trailer_env.mixed.pad_observations`: zeros beyond n, the mask's n ones; with
+    a window of ``history`` past frames, each frame so, :func:`pad_window_observations`)."""
 
-    def __init__(self, policy: Policy, n: int, top: int) -> None:
+    def __init__(
+        self, policy: Policy, n: int, top: int, history: int = 0, action_dim: int = 1
+    ) -> None:
         self.policy = policy
         self.n = n
         self.top = top
+        self.history = history
+        self.action_dim = action_dim
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
+        if self.history:
+            padded = pad_window_observations(obs, self.n, self.top, self.history, self.action_dim)
+            return np.asarray(self.policy(padded))
         return np.asarray(self.policy(pad_observations(obs, self.n, self.top)))
+
+
+class CurrentObservationPolicy:
+    """A policy trained without a memory acting in an env with ``history=k``: it reads
+    the current observation, the window's first ``width`` entries
+    (:mod:`trailer_env.history`)."""
+
+    def __init__(self, policy: Policy, width: int) -> None:
+        self.policy = policy
+        self.width = width
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        return np.asarray(self.policy(np.atleast_2d(obs)[:, : self.width]))
+
+
+def window_kwargs(spec: str, env_kwargs: Mapping[str, object]) -> dict[str, object]:
+    """The env ``spec`` plays in: ``env_kwargs``, with a model's memory window (``history``
+    on its card, :mod:`trailer_env.history`) where they name none. The window changes
+    what the policy reads, not the dynamics or the episodes, so policies played with and
+    without one are compared on the same starts."""
+    played = dict(env_kwargs)
+    if "history" not in played and is_model_spec(spec):
+        history = model_card(spec).env_kwargs.history
+        if history:
+            played["history"] = history
+    return played
+
+
+def _history_of(spec: str, card: ModelCard, kwargs: Mapping[str, object]) -> tuple[int, int]:
+    """``(the model's history, the env's)``: a model with a memory runs only in an env
+    with the same window (ValueError naming both)."""
+    trained = card.env_kwargs.history or 0
+    given = kwargs.get("history", 0)
+    wanted = given if isinstance(given, int) and not isinstance(given, bool) else 0
+    if trained and trained != wanted:
+        raise ValueError(
+            f"model {spec} reads a window of history = {trained} past frames (its card), "
+            f"the environment has history = {wanted}: evaluate it with history={trained} "
+            f"(--set history={trained})"
+        )
+    return trained, wanted
 
 
 def _trailers_model(
@@ -343,7 +397,10 @@ def _card_policy(
     read_curve(curve_path(path), CURVE_COLUMNS)  # a damaged curve fails now, not at the end
     trained_n = card.n_trailers
     padded: tuple[int, int] | None = None
-    space_kwargs = kwargs
+    history, env_history = _history_of(spec, card, kwargs)
+    space_kwargs = {key: value for key, value in kwargs.items() if key != "history"}
+    if history:
+        space_kwargs["history"] = history
     wanted_n = _wanted_trailers(kwargs)
     if isinstance(trained_n, tuple) and isinstance(wanted_n, int):
         top = trained_n[1]
@@ -354,7 +411,7 @@ def _card_policy(
                 f"n_trailers = {wanted_n}"
             )
         padded = (wanted_n, top)
-        space_kwargs = {**kwargs, N_TRAILERS: list(trained_n)}
+        space_kwargs = {**space_kwargs, N_TRAILERS: list(trained_n)}
     model = load_model(path, env_id=env_id, env_kwargs=space_kwargs, trust_pickle=trust_pickle)
     stats = load_stats(path, model.observation_space, trust_pickle)
     if stats is None and card.normalize is not None and card.normalize.norm_obs:
@@ -362,6 +419,14 @@ def _card_policy(
             f"model {path} was trained on normalised observations (its card), but its "
             f"statistics {stats_path(path).name} are missing"
         )
+    policy: Policy = ModelPolicy(model, stats)
     if padded is not None:
-        return PaddedPolicy(ModelPolicy(model, stats), *padded)
-    return ModelPolicy(model, stats)
+        action_dim = int(np.prod(model.action_space.shape or (1,)))
+        policy = PaddedPolicy(policy, *padded, history, action_dim)
+    if env_history and not history:
+        width = int(np.prod(model.observation_space.shape or (0,)))
+        if padded is not None:  # an n-trailer frame is 3 top - 2 n narrower than a padded one
+            n, top = padded
+            width -= 3 * top - 2 * n
+        policy = CurrentObservationPolicy(policy, width)
+    return policy

@@ -106,6 +106,7 @@ _OWN_KEYS = (
     "expert",
     "observation",
     "max_trailers",
+    "history",
 )
 
 
@@ -167,9 +168,10 @@ class _Dagger:
         self.envs = ConvoyVectorEnv(
             core_class,
             config.episodes,
+            max_episode_steps=None,
+            render_mode=None,
             autoreset_mode="same_step",
-            n_trailers=config.n_trailers,
-            randomize=config.randomize,
+            **config.env_kwargs,
         )
         self.signs = self.envs.core.mirror_signs() if config.mirror else None
         if config.mirror and self.signs is None:

@@ -13,9 +13,11 @@ from agents.policies.convoy_order import CONVOY_DIRECTIONS, check_direction
 from agents.policies.experts import EXPERTS, ExpertConfig, PolicyExpertConfig, default_expert
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy
 from agents.seeds import TRAINING_SEED
+from dynamics.params import bounded_integer
 from trailer_env.mixed import is_trailer_range, trailer_range
 from trailer_env.observation import checked_observation, trailers_observation
 from trailer_env.randomize import PRESETS, Randomization
+from trailer_env.settings import MAX_HISTORY
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm
@@ -69,6 +71,10 @@ class ImitationConfig:
         convoy_direction: The order in which the "trailers" student's encoder reads the
             convoy, one of :data:`agents.policies.convoy_order.CONVOY_DIRECTIONS` (default
             ``"cart_first"``; another needs ``observation="trailers"``).
+        history: Past frames (observation, applied action) the student reads beside the
+            current observation (the env's ``history=``, :mod:`trailer_env.history`): a
+            memory from which it can tell the convoy's parameters under ``randomize``;
+            0 (default) none. Needs ``observation="flat"``.
     """
 
     env_id: str
@@ -88,9 +94,14 @@ class ImitationConfig:
     max_trailers: int | None = None
     mirror: bool = False
     convoy_direction: str = "cart_first"
+    history: int = 0
 
     def __post_init__(self) -> None:
         check_env_id(self.env_id)
+        history = bounded_integer("history", self.history, 0, MAX_HISTORY)
+        if history and self.observation != "flat":
+            raise ValueError(f"history = {history} needs observation='flat' (the flat student)")
+        object.__setattr__(self, "history", history)
         if is_trailer_range(self.n_trailers):
             object.__setattr__(self, "n_trailers", trailer_range(self.n_trailers))
         if self.randomize is not None:
@@ -164,10 +175,13 @@ class ImitationConfig:
 
     @property
     def env_kwargs(self) -> dict[str, object]:
-        """The labelling and validation envs' keywords: the counts and the physics."""
+        """The labelling and validation envs' keywords: the counts, the physics and the
+        student's memory."""
         kwargs: dict[str, object] = {"n_trailers": self.n_trailers}
         if self.randomize is not None:
             kwargs["randomize"] = self.randomize
+        if self.history:
+            kwargs["history"] = self.history
         return kwargs
 
     @property

@@ -194,7 +194,8 @@ def test_presets() -> None:
     assert preset is not None
     assert preset.names == ("M", "J0", "a", "l", "mu")
     assert all((low, high) == (0.8, 1.2) for _, low, high in preset.ranges)
-    assert set(PRESETS) == {"mismatch10", "mismatch20"}
+    assert set(PRESETS) == {"mismatch10", "mismatch20", "mismatch30", "mismatch40"}
+    assert PRESETS["mismatch40"]["mu"] == (0.6, 1.4)
     assert Randomization.coerce({"mu": [0.9, 1.1]}) == Randomization((("mu", 0.9, 1.1),))
 
 

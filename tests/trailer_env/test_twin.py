@@ -281,3 +281,34 @@ def test_cuda_step_matches_cpu() -> None:
     torch.testing.assert_close(on_gpu.state.z.cpu(), on_cpu.state.z, rtol=1e-12, atol=1e-12)
     torch.testing.assert_close(on_gpu.reward.cpu(), on_cpu.reward, rtol=1e-12, atol=1e-12)
     assert torch.equal(on_gpu.terminated.cpu(), on_cpu.terminated)
+
+
+def test_per_row_parameters_with_different_substep_counts_match_the_kernel() -> None:
+    """Rows whose states need different substep counts are integrated in groups: each
+    group with its own rows' parameters (as the kernel's blocks)."""
+    from trailer_env.randomize import PARAMETERS
+    from trailer_env.twin.physics import substep_counts
+
+    envs = gym.make_vec(
+        "trailer_env/Reverse-v1",
+        num_envs=64,
+        vectorization_mode="vector_entry_point",
+        n_trailers=2,
+        randomize="mismatch40",
+    )
+    speeds = np.linspace(-0.5, -6.0, 64)
+    starts = np.column_stack([speeds, np.zeros(64), np.full(64, 0.1), np.full(64, -0.05)])
+    envs.reset(seed=3, options={"state": starts})
+    core = envs.unwrapped.core
+    values = torch.from_numpy(core.param_values.copy())
+    params = TwinParams.make("trailer_env/Reverse-v1", n_trailers=2).replace(
+        **{name: values[:, k] for k, name in enumerate(PARAMETERS)}
+    )
+    state = TwinState.from_core(core)
+    action = torch.linspace(-1.0, 1.0, 64, dtype=torch.float64)[:, None]
+    counts = substep_counts(state.z, state.act, params)
+    assert counts.unique().numel() > 1
+    after, *_ = step(state, action, params)
+    envs.step(action.numpy())
+    kernel = torch.from_numpy(core.z.copy())
+    torch.testing.assert_close(after.z, kernel, rtol=1e-12, atol=1e-12)

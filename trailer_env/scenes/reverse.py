@@ -348,14 +348,15 @@ class ReverseEnv(ConvoyEnv):
     s_max = 0.5` for the actuator).
     `randomize` (None): per-episode factors of the nominal parameters, a dict such as
     `{"M": (0.8, 1.2), "mu": (0.9, 1.1), "speed": (0.5, 1.0)}` (any of M, J0, a, m, J,
-    l, mu; `speed` scales the start's drawn u) or a preset (`"mismatch10"`,
-    `"mismatch20"`: +-10 / 20 % on M, J0, a, l, mu; a scene that holds `l` fixed,
+    l, mu; `speed` scales the start's drawn u) or a preset (`"mismatch10"` ..
+    `"mismatch40"`: +-10 .. 40 % on M, J0, a, l, mu; a scene that holds `l` fixed,
     Dock-v0, varies the other four), drawn uniformly after the start
     from the env's generator (`trailer_env.randomize`); bad ranges raise ValueError or
     TypeError naming the entry. `observe_params` (False): append the factors'
     logarithms to the observation. `observation` (`"flat"`): `"trailers"` for the Dict
     above; `max_trailers` (8 with `"trailers"`, an integer from n to 256; refused with
-    `"flat"`).
+    `"flat"`). `history` (0): append the last k observations and applied actions, a
+    memory from which a policy can tell the drawn parameters (`trailer_env.history`).
 
     ## References
 

@@ -6,14 +6,18 @@ import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
 import torch
 
 from trailer_env.core import ConvoyCore
+from trailer_env.randomize import apply_params
 from trailer_env.settings import EnvSettings, settings_from_keywords
 
 #: The scenes the twin restates (``ConvoyCore.scene``).
 SCENES = ("Reverse", "Coast", "Heading", "Dock")
 
+#: The physical fields, which may be per-row tensors (the packed parameters' order).
+PHYSICAL = ("M", "J0", "a", "m", "J", "l", "mu")
 #: A physical parameter: a number for every row, or a tensor broadcasting over the rows
 #: (B,) (per-row physics; a tensor that requires grad gives the gradient in it).
 Scalar = float | torch.Tensor
@@ -157,6 +161,43 @@ class TwinParams:
     def action_dim(self) -> int:
         """1, or 2 in planar mode."""
         return 2 if self.mode == "planar" else 1
+
+    def auto_by_row(self, rows: int) -> np.ndarray | None:
+        """The auto rule's settings of each of ``rows`` rows (rows, 12) where a physical
+        field is a per-row tensor, as the kernel's draws set them
+        (:func:`trailer_env.randomize.apply_params`); None where the parameters are shared."""
+        values = [getattr(self, name) for name in PHYSICAL]
+        if not any(isinstance(value, torch.Tensor) and value.numel() > 1 for value in values):
+            return None
+        packed = np.column_stack(
+            [
+                np.broadcast_to(
+                    np.asarray(
+                        value.detach().cpu().numpy() if isinstance(value, torch.Tensor) else value,
+                        dtype=np.float64,
+                    ),
+                    (rows,),
+                )
+                for value in values
+            ]
+        )
+        nominal = np.asarray(self.auto, dtype=np.float64)
+        auto = np.tile(nominal, (rows, 1))
+        scratch = np.empty_like(packed)
+        planar = self.mode == "planar"
+        indices = np.arange(rows, dtype=np.int64)
+        apply_params(indices, packed, scratch, nominal, auto, self.b, self.s_max, planar)
+        return auto
+
+    def rows(self, index: torch.Tensor) -> TwinParams:
+        """The parameters of the rows ``index`` of the batch: each per-row tensor (B,)
+        indexed, the numbers and the tensors that broadcast kept."""
+        changes = {}
+        for name in PHYSICAL:
+            value = getattr(self, name)
+            if isinstance(value, torch.Tensor) and value.dim() > 0 and value.shape[0] > 1:
+                changes[name] = value[index]
+        return self.replace(**changes) if changes else self
 
     def replace(self, **changes: Any) -> TwinParams:
         """A copy with ``changes`` (e.g. ``mu=torch.tensor(0.5, requires_grad=True)``)."""

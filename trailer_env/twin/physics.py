@@ -165,14 +165,16 @@ def substep_counts(z: Tensor, act: Tensor, p: TwinParams) -> Tensor:
     """Substeps of every row (int64, (B,)): fixed, or the kernel's own auto rule
     (:func:`trailer_env.substeps.auto_substeps`, run on a host copy: the count is
     piecewise constant, so it carries no gradient, and the same compiled rule keeps the
-    twin's counts the kernel's)."""
+    twin's counts the kernel's; per-row parameters get per-row settings, as the kernel's
+    draws give them)."""
     if p.substeps is not None:
         return torch.full((z.shape[0],), p.substeps, dtype=torch.int64, device=z.device)
     counts = np.empty(z.shape[0], dtype=np.int64)
+    by_row = p.auto_by_row(z.shape[0])
     auto_substeps(
         z.detach().cpu().numpy(),
         act.detach().cpu().numpy(),
-        np.asarray(p.auto, dtype=np.float64),
+        np.asarray(p.auto, dtype=np.float64) if by_row is None else by_row,
         counts,
     )
     return torch.from_numpy(counts).to(z.device)
@@ -253,7 +255,7 @@ def physics_step(z: Tensor, act: Tensor, action: Tensor, p: TwinParams) -> Physi
         for value in values.tolist():
             rows = torch.nonzero(counts == value).squeeze(1)
             part, part_folded = rk4(
-                z[rows], held[rows], (xi_ddot[rows], eta_ddot[rows]), int(value), p
+                z[rows], held[rows], (xi_ddot[rows], eta_ddot[rows]), int(value), p.rows(rows)
             )
             z_new = z_new.index_copy(0, rows, part)
             folded[rows] = part_folded

@@ -114,21 +114,26 @@ def test_the_recipe_is_named_from_the_tags_then_the_options_in_table_order() -> 
     record = {
         "algo": "ppo",
         "hyperparams": {"use_sde": True, "policy_kwargs": {"net_arch": [256, 256]}},
-        "env_kwargs": {"n_trailers": 2, "randomize": "mismatch20", "trailer_draw": "row"},
+        "env_kwargs": {
+            "n_trailers": 2,
+            "randomize": "mismatch20",
+            "trailer_draw": "row",
+            "history": 8,
+        },
         "shaping": {"potential": "lqr"},
         **FineTune("m/dagger_reverse_v1_n2.zip").record(),
         **StartReplay(0.25, 3).record(),
         **StartCurriculum(0.5, 100).record(),
     }
     assert recipe_name(record, upper=True) == (
-        "PPO (gSDE, 256x256, mismatch20, n by row) + lqr shaping + start curriculum"
+        "PPO (gSDE, 256x256, mismatch20, n by row, history 8) + lqr shaping + start curriculum"
         " + start replay 0.25 (max 3) from dagger_reverse_v1_n2"
     )
     assert (
         recipe_name({"algo": "sac", "hyperparams": {"policy_kwargs": {"net_arch": [64, 64]}}})
         == "sac"
     )
-    assert len(RECIPE_TAGS) == 4  # every tag goes in the parentheses; options follow them
+    assert len(RECIPE_TAGS) == 5  # every tag goes in the parentheses; options follow them
 
 
 @pytest.mark.parametrize(

@@ -84,7 +84,7 @@ def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     # With the generalist, the three sequence generalists from the planner (ConvoyEncoder:
     # n = 1-3, n = 1-6 and n = 1-6 trained with the mirror) and the two distilled from the
     # specialists (n = 1-3, n = 1-6).
-    assert len(zips) == 28 and not list(MODELS_DIR.glob("**/*.pkl"))
+    assert len(zips) == 30 and not list(MODELS_DIR.glob("**/*.pkl"))
     # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model and of the
     # distilled n = 1-6 policy.
     assert len(seeds) == 36

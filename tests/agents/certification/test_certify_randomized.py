@@ -178,8 +178,8 @@ def test_randomize_is_validated_before_anything_runs() -> None:
     supported = r"mpc\) on trailer_env/Reverse-v0, trailer_env/Reverse-v1"
     with pytest.raises(ValueError, match=supported):
         certify(DOCK, 1, [1000], SMALL, randomize="mismatch20")
-    with pytest.raises(ValueError, match="unknown preset 'mismatch30'"):
-        certify(V1, 1, [1000], SMALL, randomize="mismatch30")
+    with pytest.raises(ValueError, match="unknown preset 'mismatch50'"):
+        certify(V1, 1, [1000], SMALL, randomize="mismatch50")
     with pytest.raises(TypeError, match="randomize must be None, a preset name or a dict"):
         certify(V1, 1, [1000], SMALL, randomize=0.2)  # type: ignore[arg-type]
 
@@ -188,7 +188,10 @@ def test_randomize_is_validated_before_anything_runs() -> None:
     ("argv", "message"),
     [
         (["--env", DOCK, "--randomize", "mismatch20"], "not for trailer_env/Dock-v0"),
-        (["--randomize", "mismatch30"], r"expected a preset \(mismatch10, mismatch20\) or a JSON"),
+        (
+            ["--randomize", "mismatch50"],
+            r"expected a preset \(mismatch10, mismatch20, mismatch30, mismatch40\) or a JSON",
+        ),
         (["--randomize", '{"mu": [1.2, 0.8]}'], r"randomize\['mu'\] = \(1.2, 0.8\): low > high"),
         (["--randomize", '{"b": [0.9, 1.1]}'], "unknown name"),
         (["--randomize", '{"mu": ' * 70 + "1" + "}" * 70], "nested 70 deep, over the limit"),

@@ -274,3 +274,18 @@ def test_models_are_sampled_alone_or_padded_and_baselines_are_not() -> None:
     assert isinstance(sampled(load_policy("ppo_reverse_v1_n2", V1, kwargs), 0), SampledPolicy)
     assert sampled(load_policy("lqr", V1, kwargs), 0) is None
     assert sampled(load_policy("dagger_reverse_v1_sequence", V1, kwargs), 0) is None
+
+
+def test_a_model_with_a_memory_plays_its_window_and_is_sampled_with_it(tmp_path: Path) -> None:
+    """A witness whose card holds ``history`` plays in an env with that window; its records
+    replay in the certificate's env (the window changes what it reads, not the dynamics)."""
+    committed = Path("agents/certificates/reverse_v1_mismatch20_n3.json")
+    argv = ["--from-certificate", str(committed), "--witnesses", "dagger_reverse_v1_memory"]
+    assert main([*argv, "--witness-samples", "2", "--out", str(tmp_path / "out")]) == 0
+    document = read_certificate(tmp_path / "out" / "certificate.json")
+    assert document.witnesses is not None
+    runs = [(run.source, run.tried) for run in document.witnesses.runs]
+    assert runs[-2:] == [("dagger_reverse_v1_memory", 2), ("dagger_reverse_v1_memory (sampled)", 2)]
+    kwargs = {"n_trailers": 2, "randomize": "mismatch20", "history": 16}
+    padded = sampled(load_policy("dagger_reverse_v1_memory", V1, kwargs), 0)
+    assert isinstance(padded, PaddedPolicy) and (padded.history, padded.top) == (16, 3)

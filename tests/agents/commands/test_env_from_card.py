@@ -47,20 +47,22 @@ def test_given_env_wins_and_a_mismatch_is_still_refused(
 
 
 def test_env_from_cards() -> None:
-    assert evaluate.env_from_cards(["zero", "lqr"]) == (None, None, None)
+    assert evaluate.env_from_cards(["zero", "lqr"]) == (None, None, None, 0)
     assert evaluate.env_from_cards(["lqr", "ppo_dock_n1", "ppo_reverse_n2"]) == (
         "trailer_env/Dock-v0",
         1,
         "ppo_dock_n1",
+        0,
     )
     # A generalist's card holds a range of counts: the scene, and no n.
     assert evaluate.env_from_cards(["dagger_reverse_v1_general"]) == (
         "trailer_env/Reverse-v1",
         None,
         "dagger_reverse_v1_general",
+        0,
     )
     # An unreadable model is passed over here (its load reports it).
-    assert evaluate.env_from_cards(["absent/model.zip"]) == (None, None, None)
+    assert evaluate.env_from_cards(["absent/model.zip"]) == (None, None, None, 0)
 
 
 def test_usage_names_the_console_script_that_runs(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -39,7 +39,7 @@ def test_the_generalists_configuration() -> None:
         ({"n_trailers": (3, 1)}, ValueError, "needs low < high"),
         ({"n_trailers": (1, 2, 3)}, TypeError, "pair"),
         ({"n_trailers": (0, 9)}, ValueError, "more than 8"),
-        ({"n_trailers": (1, 3), "randomize": "mismatch30"}, ValueError, "unknown preset"),
+        ({"n_trailers": (1, 3), "randomize": "mismatch50"}, ValueError, "unknown preset"),
         ({"n_trailers": 2, "randomize": {"M": (1.2, 0.8)}}, ValueError, "low > high"),
         ({"n_trailers": 2, "randomize": {"b": (0.9, 1.1)}}, ValueError, "unknown name"),
         ({"n_trailers": 2, "randomize": 0.2}, TypeError, "randomize must be"),
@@ -59,7 +59,7 @@ def test_bad_generalist_configurations_are_refused(
         (["--n-trailers", "1-"], "a range LOW-HIGH such as 1-3"),
         (["--n-trailers", "a-b"], "a range LOW-HIGH such as 1-3"),
         (["--n-trailers", "0-9"], "more than 8"),
-        (["--n-trailers", "1-3", "--randomize", "mismatch30"], "invalid choice"),
+        (["--n-trailers", "1-3", "--randomize", "mismatch50"], "invalid choice"),
     ],
 )
 def test_bad_options_exit_before_any_file_is_written(

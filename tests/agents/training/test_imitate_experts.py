@@ -189,6 +189,11 @@ def test_refused_combinations(kwargs: dict, error: type[Exception], match: str) 
             ],
             "with n_trailers = 2, not trailer_env/Reverse-v1 with n_trailers = 1",
         ),
+        (["--history", "65"], "history must be an integer in [0, 64], got 65"),
+        (
+            ["--history", "4", "--observation", "trailers"],
+            "history = 4 needs observation='flat' (the flat student)",
+        ),
     ],
 )
 def test_refused_options_exit_before_anything_is_written(
