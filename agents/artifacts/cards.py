@@ -176,6 +176,7 @@ class Planner(SparsePart):
     seed: int | None = None
     alphas: tuple[float, ...] | None = None
     reuse: bool | None = None
+    jacobians: str | None = None
     central: bool | None = None
     state_step: float | None = None
     control_step: float | None = None

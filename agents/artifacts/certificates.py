@@ -109,6 +109,10 @@ class PlannerPart(_Part):
     seed: int | None = None
     restarts: int
     restart_rule: str | None = None
+    #: iLQR's Jacobians of the step (:attr:`~agents.oracles.ilqr.ILQRConfig.jacobians`);
+    #: None: the sampling planner, or an iLQR certificate written before the choice
+    #: existed (differences).
+    jacobians: str | None = None
     #: None on the Reverse-v0 certificates (written before the first pass was timed).
     first_pass_safe: int | None = None
     first_pass_wall_time_s: float | None = None

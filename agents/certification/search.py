@@ -318,6 +318,7 @@ def goal_search(
         iterations=config.iterations,
         restarts=restarts,
         restart_rule=RESTART_RULE,
+        jacobians=config.jacobians,
         first_pass_safe=first_pass_success,
         first_pass_wall_time_s=round(first_pass_time, 1),
         simulated_steps_per_episode=simulated / count,

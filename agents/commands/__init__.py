@@ -1,9 +1,9 @@
 """The command-line programs (argument parsing only; the work is in the layers below).
 
 ``python -m agents.<name>`` runs ``agents.commands.<name>``'s ``main`` (``agents/<name>.py``
-imports it): the main job, ``train``, ``evaluate``, ``certify``, ``imitate``, ``report``,
+imports it): the main job, ``train``, ``evaluate``, ``certify``, ``imitate``, ``shac``, ``report``,
 ``tune``, ``curves``, ``reproduce`` and the analyses ``across_n``, ``gains``,
-``estimation``, ``by_stroke``, ``rl_from_reward`` and ``time_to_ceiling`` (their
+``estimation``, ``gradients``, ``by_stroke``, ``rl_from_reward`` and ``time_to_ceiling`` (their
 computations in :mod:`agents.evaluation`); ``agents.model_files`` runs
 :mod:`agents.commands.convert_stats`. Their shared options, number and range parsers are
 :mod:`agents.commands.options`.

@@ -13,6 +13,7 @@ argument              bound
 ``--planner``         the planner of the scene's objective: mpc (survival:
                       Reverse) or ilqr (goal: Dock, Coast); the other is refused
 ``--closed-loop``     dopri5 (goal scenes only)
+``--jacobians``       exact (default) or differences (goal scenes only)
 ``--randomize``       a preset (mismatch10 .. mismatch40) or a JSON object of
                       factor ranges; survival scenes only
 ====================  ===================================================
@@ -83,7 +84,7 @@ from agents.envs import (
     env_settings,
     scene_of,
 )
-from agents.oracles.ilqr import ILQRConfig
+from agents.oracles.ilqr import JACOBIANS, ILQRConfig
 from agents.oracles.planner import PlannerConfig
 from agents.policies.registry import load_policy, window_kwargs
 from trailer_env.randomize import PRESETS
@@ -209,6 +210,13 @@ def _add_planner_options(parser: argparse.ArgumentParser) -> None:
         default=None,
         help="goal scenes: also re-plan every start on a plant with this integrator "
         "(rtol = atol = 1e-8) and record whether it still reaches the goal",
+    )
+    parser.add_argument(
+        "--jacobians",
+        choices=JACOBIANS,
+        default=None,
+        help="ilqr: the step's Jacobians exact (autograd through the differentiable twin, "
+        "the default: fewer starts left open) or by finite differences of the kernel",
     )
     parser.add_argument(
         "--samples",
@@ -397,6 +405,11 @@ def _certified_by_ilqr(env_id: str) -> bool:
         return False
 
 
+#: iLQR's Jacobians when certifying (``--jacobians``): exact, which left 11 of the 400
+#: goal starts open where differences left 32 (benchmarks/results/ilqr_jacobians.md).
+CERTIFY_JACOBIANS = "exact"
+
+
 def _planner_config(
     parser: argparse.ArgumentParser, args: argparse.Namespace, env_id: str
 ) -> PlannerConfig | ILQRConfig:
@@ -408,10 +421,13 @@ def _planner_config(
     goal = certifying_planner(env_id) == "ilqr"
     if args.closed_loop is not None and not goal:
         parser.error(f"argument --closed-loop: only for the goal scenes, not {env_id}")
+    if args.jacobians is not None and not goal:
+        parser.error(f"argument --jacobians: only for ilqr (the goal scenes), not {env_id}")
     try:
         if goal:
             iterations = ILQRConfig.iterations if args.iterations is None else args.iterations
-            return ILQRConfig(iterations=iterations)
+            jacobians = CERTIFY_JACOBIANS if args.jacobians is None else args.jacobians
+            return ILQRConfig(iterations=iterations, jacobians=jacobians)
         return PlannerConfig(
             samples=args.samples,
             iterations=PlannerConfig.iterations if args.iterations is None else args.iterations,

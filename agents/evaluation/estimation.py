@@ -111,7 +111,7 @@ def markdown(
 
 def draw(found: dict[int, tuple[list[str], np.ndarray, dict[str, float]]], out: Path) -> Path:
     """The error against time, one panel per n (log scale), written atomically."""
-    from agents.evaluation.plots import PAGE_DPI, PAGE_WIDTH_PX, _pyplot
+    from agents.evaluation.plots import PAGE_DPI, PAGE_WIDTH_PX, _pyplot, save_page_figure
 
     plt = _pyplot()
     counts = sorted(found)
@@ -132,10 +132,7 @@ def draw(found: dict[int, tuple[list[str], np.ndarray, dict[str, float]]], out: 
         axis.grid(alpha=0.3)
     axes[0][0].set_ylabel("|estimate / truth - 1| (%)")
     axes[0][-1].legend(fontsize=8)
-    with files.replacing(out) as temporary:
-        fig.savefig(temporary, dpi=PAGE_DPI)
-    plt.close(fig)
-    return out
+    return save_page_figure(fig, plt, out)
 
 
 def write_estimation(

@@ -269,6 +269,15 @@ def plot_frames(
     return out
 
 
+def save_page_figure(fig: Figure, plt: ModuleType, out: Path) -> Path:
+    """Write a page-width figure laid out by its own constraints to ``out`` atomically, at
+    :data:`PAGE_DPI`, and close it."""
+    with files.replacing(out) as temporary:
+        fig.savefig(temporary, dpi=PAGE_DPI)
+    plt.close(fig)
+    return out
+
+
 def _save(fig: Figure, plt: ModuleType, out: Path, title: str = "") -> Path:
     """Lay out ``fig`` (under ``title``, if any), write it to ``out`` and close it."""
     if title:

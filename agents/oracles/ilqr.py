@@ -21,7 +21,11 @@ second copy of the equations:
   39, in 0.78 of the time); their ``refresh()`` also differentiates the cost's residuals
   (:mod:`agents.oracles.ilqr_costs`), which read the scene's task arrays. That core
   integrates with fixed RK4 substeps set per row to the count the nominal step used, so
-  the auto rule switching counts between two copies never shows up as a derivative.
+  the auto rule switching counts between two copies never shows up as a derivative;
+* or, with ``jacobians="exact"``, the step's Jacobians come from the differentiable
+  twin by autograd (:mod:`agents.oracles.ilqr_tangent`, the same substep counts), exact
+  where the differences read a kink's jump over their step; the residuals keep their
+  differences (``agents.certify``'s default; benchmarks/results/ilqr_jacobians.md).
 
 The control. The planner's variable is the rail acceleration as a fraction ``v`` of
 ``rail_accel_max``, boxed in [-1, 1] (the acceleration bound); the action sent is the
@@ -49,6 +53,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -61,6 +66,9 @@ from trailer_env.core import ConvoyCore
 from trailer_env.fidelity import Fidelity
 from trailer_env.settings import EnvSettings
 
+if TYPE_CHECKING:
+    from agents.oracles.ilqr_tangent import StepTangent
+
 
 def _positive_int(name: str, value: object, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
@@ -68,6 +76,10 @@ def _positive_int(name: str, value: object, minimum: int) -> int:
     if value < minimum:
         raise ValueError(f"{name} must be >= {minimum}, got {value}")
     return int(value)
+
+
+#: Where the step's Jacobians come from (:attr:`ILQRConfig.jacobians`).
+JACOBIANS = ("differences", "exact")
 
 
 @dataclass(frozen=True)
@@ -79,7 +91,11 @@ class ILQRConfig:
         iterations: iLQR iterations per control step (>= 0; 0 plays the better warm start).
         alphas: Line-search step sizes, each in (0, 1], tried in one batch (>= 1 of them).
         reuse: Warm-start from the previous call's shifted solution as well as the LQR.
-        central: Central differences (2 (d + 1) copies per step), else forward (d + 2).
+        jacobians: "differences" (the step's Jacobians by differences of the kernel's
+            step) or "exact" (forward-mode autograd through the differentiable twin,
+            :mod:`agents.oracles.ilqr_tangent`; needs torch).
+        central: Central differences (2 (d + 1) copies per step), else forward (d + 2);
+            with "exact", of the cost's residuals only.
         state_step, control_step: Central-difference steps (state units; fraction of
             the acceleration bound), > 0.
         regularization: Initial ``Q_vv`` damping of each plan (>= 0).
@@ -90,6 +106,7 @@ class ILQRConfig:
     iterations: int = 3
     alphas: tuple[float, ...] = (1.0, 0.5, 0.2, 0.05)
     reuse: bool = True
+    jacobians: str = "differences"
     central: bool = False
     state_step: float = 1e-5
     control_step: float = 1e-5
@@ -106,6 +123,10 @@ class ILQRConfig:
             for a in alphas
         ):
             raise ValueError(f"alphas must be numbers in (0, 1], at least one, got {alphas!r}")
+        if not isinstance(self.jacobians, str):
+            raise TypeError(f"jacobians must be a str, got {type(self.jacobians).__name__}")
+        if self.jacobians not in JACOBIANS:
+            raise ValueError(f"jacobians must be one of {list(JACOBIANS)}, got {self.jacobians!r}")
         for name in ("reuse", "central"):
             if not isinstance(getattr(self, name), bool):
                 raise TypeError(f"{name} must be a bool, got {type(getattr(self, name)).__name__}")
@@ -220,6 +241,13 @@ class ILQRPlanner:
         self.jac = core_class(
             _derivative_settings(settings), count * (horizon + 1) * self.perturbed
         )
+        self.tangent: StepTangent | None = None
+        if self.config.jacobians == "exact":
+            from agents.oracles.ilqr_tangent import StepTangent
+
+            self.tangent = StepTangent(
+                core_class, _derivative_settings(settings), self.model.with_pose
+            )
         self.lqr = LQRController(settings)
         step = self.config.state_step
         self._delta = np.zeros((self.perturbed, d))
@@ -233,9 +261,12 @@ class ILQRPlanner:
 
     @property
     def steps_per_decision(self) -> int:
-        """Simulated steps per environment and control step (rollouts and perturbed copies)."""
+        """Simulated steps per environment and control step: the rollouts, and the
+        perturbed copies or (exact Jacobians) the twin's steps."""
         config = self.config
         rollouts = (config.iterations + 1) * config.candidates * self.horizon
+        if self.tangent is not None:  # one twin step (with its tangents) per state
+            return rollouts + config.iterations * self.horizon
         return rollouts + config.iterations * (self.horizon + 1) * self.perturbed
 
     def reset(self, rows: np.ndarray | None = None) -> None:
@@ -365,8 +396,9 @@ class ILQRPlanner:
         return out
 
     def _derivatives(self, nominal: Trajectory) -> tuple[np.ndarray, ...]:
-        """Jacobians of the step (A, B) and of the residuals along ``nominal`` (E rows),
-        from one step of the perturbed copies."""
+        """Jacobians of the step (A, B) and of the residuals along ``nominal`` (E rows):
+        the residuals' from the perturbed copies, the step's from one step of them or,
+        with exact Jacobians, from the twin's tangent."""
         jac = self.jac
         count = nominal.x.shape[0]
         horizon = self.horizon
@@ -388,6 +420,27 @@ class ILQRPlanner:
         terminal = self.cost.terminal_residuals(jac.z[last.ravel()], jac.act[last.ravel()], index)
         terminal = terminal.reshape(count, p, -1)
         terminal_jacobian = (terminal[:, plus] - terminal[:, minus]) / divisor
+        jacobian = np.ascontiguousarray(np.swapaxes(jacobian, 2, 3))
+        terminal_jacobian = np.ascontiguousarray(np.swapaxes(terminal_jacobian, 1, 2))
+        if self.tangent is not None:
+            # Live steps only: the backward pass reads no Jacobian after an episode ends.
+            live = nominal.alive[:, :horizon].reshape(-1)
+            a_matrix = np.zeros((count * horizon, d, d))
+            b_vector = np.zeros((count * horizon, d))
+            if live.any():
+                _, a_matrix[live], b_vector[live] = self.tangent.jacobians(
+                    nominal.z[:, :horizon].reshape(-1, width)[live],
+                    nominal.act[:, :horizon].reshape(-1, ACT_WIDTH)[live],
+                    nominal.v.reshape(-1)[live],
+                    nominal.substeps.reshape(-1)[live],
+                )
+            self.simulated_steps += int(live.sum())
+            return (
+                a_matrix.reshape(count, horizon, d, d),
+                b_vector.reshape(count, horizon, d),
+                jacobian,
+                terminal_jacobian,
+            )
         # Controls: the nominal's, and on the control rows +-h around it (central, kept
         # inside the box) or the nominal and v + h (forward; v - h at the upper bound).
         h = self.config.control_step
@@ -412,8 +465,6 @@ class ILQRPlanner:
         b_vector = (after[:, :, up] - after[:, :, down]) / spread
         # after[..., j, i] = x_i after perturbing x_j: A[i, j] wants the transpose.
         a_matrix = np.ascontiguousarray(np.swapaxes(a_matrix, 2, 3))
-        jacobian = np.ascontiguousarray(np.swapaxes(jacobian, 2, 3))
-        terminal_jacobian = np.ascontiguousarray(np.swapaxes(terminal_jacobian, 1, 2))
         return a_matrix, b_vector, jacobian, terminal_jacobian
 
     # ------------------------------------------------------------------ plan
@@ -536,4 +587,4 @@ class ILQRPlanner:
         return nominal.actions[:, :1].copy()
 
 
-__all__ = ["ILQRConfig", "ILQRPlanner", "Trajectory"]
+__all__ = ["JACOBIANS", "ILQRConfig", "ILQRPlanner", "Trajectory"]

@@ -51,10 +51,10 @@ def test_start_distribution(n: int) -> None:
 
 def test_radius_beyond_the_sized_counts() -> None:
     assert PERTURBATION_RADII == {1: 0.064, 2: 0.0365, 3: 0.0229, 4: 0.0122, 5: 0.00443,
-                                  6: 0.00151}  # fmt: skip
+                                  6: 0.00151, 7: 0.000424, 8: 0.0000981}  # fmt: skip
     assert ReverseV1Core.perturbation_radius(0) == PERTURBATION_RADII[1]
-    for n in (7, 8, 32):
-        expected = 0.00151 * (6 / n) ** PERTURBATION_EXPONENT
+    for n in (9, 12, 32):
+        expected = 0.0000981 * (8 / n) ** PERTURBATION_EXPONENT
         assert ReverseV1Core.perturbation_radius(n) == pytest.approx(expected, rel=1e-15)
 
 

@@ -312,3 +312,29 @@ def test_per_row_parameters_with_different_substep_counts_match_the_kernel() -> 
     envs.step(action.numpy())
     kernel = torch.from_numpy(core.z.copy())
     torch.testing.assert_close(after.z, kernel, rtol=1e-12, atol=1e-12)
+
+
+def test_straight_through_keeps_the_values_and_passes_the_saturated_gradient() -> None:
+    envs = gym.make_vec(
+        "trailer_env/Reverse-v1", num_envs=4, vectorization_mode="vector_entry_point", n_trailers=2
+    )
+    envs.reset(seed=50000)
+    core = envs.unwrapped.core
+    exact = TwinParams.from_core(core)
+    surrogate = exact.replace(straight_through=True)
+    state = TwinState.from_core(core)
+    # Targets far from the mass (the servo saturates) and beyond the box (the action clips).
+    action = torch.tensor([[0.9], [-0.9], [1.5], [0.0]], dtype=torch.float64)
+    grads = []
+    for params in (exact, surrogate):
+        pushed = action.clone().requires_grad_(True)
+        after = step(state, pushed, params)[0]
+        (after.z[:, 1].sum()).backward()  # the turning rate after the step
+        assert pushed.grad is not None
+        grads.append((after.z.detach(), pushed.grad[:, 0].numpy().copy()))
+    (values, exact_grad), (same_values, surrogate_grad) = grads
+    assert torch.equal(values, same_values)  # the forward step is untouched
+    # Saturated rows: no gradient exactly, the surrogate's through the clip.
+    np.testing.assert_array_equal(exact_grad[:3], 0.0)
+    assert np.all(np.abs(surrogate_grad[:3]) > 1e-6)
+    envs.close()

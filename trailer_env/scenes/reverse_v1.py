@@ -19,7 +19,16 @@ SPEED_RANGE = (0.9, 1.2)
 #: needs about 80 % of the rail's stroke (agents.oracles.screen). Beyond the sized counts the
 #: radius continues as n**-PERTURBATION_EXPONENT from the last one (not sized, not certified;
 #: the sized radii fall much faster than that law from n = 4 on, docs/physics.md section 14).
-PERTURBATION_RADII = {1: 0.064, 2: 0.0365, 3: 0.0229, 4: 0.0122, 5: 0.00443, 6: 0.00151}
+PERTURBATION_RADII = {
+    1: 0.064,
+    2: 0.0365,
+    3: 0.0229,
+    4: 0.0122,
+    5: 0.00443,
+    6: 0.00151,
+    7: 0.000424,
+    8: 0.0000981,
+}
 PERTURBATION_EXPONENT = 1.1
 #: Minimum reversing speed, m/s: the episode fails once -u is at most this.
 MIN_REVERSE_SPEED = 0.3
@@ -72,7 +81,7 @@ class ReverseV1Core(ReverseCore):
     def perturbation_radius(cls, n_trailers: int) -> float:
         """Radius of the starting (omega, alpha) perturbation for ``n_trailers``.
 
-        The sized radii for 1-6 trailers (``n = 0`` takes one trailer's); beyond, the last
+        The sized radii for 1-8 trailers (``n = 0`` takes one trailer's); beyond, the last
         sized radius times ``(n_last / n)**1.1``.
         """
         radii = cls.perturbation_radii
@@ -127,12 +136,13 @@ class ReverseV1Env(ReverseEnv):
     ## Starting State
 
     `u ~ -U(0.9, 1.2)` m/s; the perturbation `(omega, alpha_1..alpha_n)` uniform on
-    the sphere of radius 0.064, 0.0365, 0.0229, 0.0122, 0.00443 and 0.00151 for
-    n = 1 .. 6 (rad/s and rad), each sized so that the hardest of 200 tuning starts
-    (seeds 2000-2199) needs about 80 % of the stroke under the screen (0.79, 0.80,
-    0.80, 0.80, 0.80, 0.80); for n > 6 the radius continues as `0.00151 (6 / n)^1.1`
-    (not sized, not certified: continued the same way from n = 3, it left 11, 99
-    and 158 of the 200 tuning starts at n = 4, 5, 6 beyond the stroke); the mass at
+    the sphere of radius 0.064, 0.0365, 0.0229, 0.0122, 0.00443, 0.00151, 0.000424
+    and 0.0000981 for n = 1 .. 8 (rad/s and rad), each sized so that the hardest of
+    200 tuning starts (seeds 2000-2199) needs about 80 % of the stroke under the
+    screen (0.79, 0.80, 0.80, 0.80, 0.80, 0.80, 0.80, 0.80); for n > 8 the radius
+    continues as `0.0000981 (8 / n)^1.1` (not sized, not certified: continued the
+    same way from n = 3, it left 11, 99 and 158 of the 200 tuning starts at n = 4, 5,
+    6 beyond the stroke); the mass at
     rest at the rail's centre. `core.set_start_scale(s)` multiplies the radius by `s` in
     (0, 2] for the starts drawn after it (a start curriculum, `agents.train
     --start-curriculum`; such starts are not the scene's and carry no certificate).

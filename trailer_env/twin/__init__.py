@@ -26,7 +26,10 @@ the rail (and at its ends). The substep count is piecewise constant (no gradient
 change of count is a jump of the order of the integrator's error). Termination, success,
 the jackknife flag and the cost are booleans or indicators (no gradient); the rewards'
 penalties on them are piecewise constant, and ``min(omega^2, 1)``, ``min(|omega|, 1)``
-pass no gradient beyond 1. Nothing here smooths them.
+pass no gradient beyond 1. Nothing here smooths them, except on request:
+``TwinParams(straight_through=True)`` passes the gradient through the action's clip and
+the acceleration's clip to its bound as if they did not clip (the values unchanged), the
+surrogate a learner needs where the servo saturates (:mod:`agents.training.shac`).
 
 Not restated: the divergence retry (a step the kernel redoes with 8 times the substeps
 or refuses returns non-finite or huge values here), the work budget, "rk4-energy",

@@ -43,6 +43,12 @@ class TwinParams:
         substeps: Fixed substeps, or None for the auto rule with the packed settings
             ``auto`` (:func:`trailer_env.substeps.auto_settings`).
         band_penalty .. min_reverse_speed: The scene's reward constants (its core's).
+        straight_through: A surrogate gradient for learners: the action's clip to
+            [-1, 1] and the acceleration's clip to [-A, A] keep their values but pass the
+            gradient as if they did not clip (the servo saturates within 8 % of the rail
+            of its target, so the true gradient of the state with respect to the action is
+            zero for most actions). The rail guard's bounds are kept as they are. Off: the
+            exact gradient of the branch taken.
     """
 
     scene: str
@@ -73,6 +79,7 @@ class TwinParams:
     success_bonus: float = 0.0
     failure_penalty: float = 0.0
     min_reverse_speed: float = 0.0
+    straight_through: bool = False
 
     @classmethod
     def from_settings(
@@ -100,7 +107,7 @@ class TwinParams:
             settings.actuator.planar,
             settings.rail_speed_max + settings.rail_accel_max * settings.dt,
         )
-        constants = {
+        constants: dict[str, Any] = {
             name: float(getattr(core_class, name))
             for name in (
                 "band_penalty",

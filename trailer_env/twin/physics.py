@@ -129,8 +129,10 @@ def guarded_accel(accel: Tensor, s: Tensor, v: Tensor, p: TwinParams) -> Tensor:
     upper = rail_accel_upper(s, v, p)
     lower = -rail_accel_upper(-s, -v, p)
     A = p.accel_max
-    accel = _min(_max(accel, torch.full_like(accel, -A)), torch.full_like(accel, A))
-    return _max(_min(accel, upper), lower)
+    bounded = _min(_max(accel, torch.full_like(accel, -A)), torch.full_like(accel, A))
+    if p.straight_through:  # the value clipped, the gradient as if it were not
+        bounded = accel + (bounded - accel).detach()
+    return _max(_min(bounded, upper), lower)
 
 
 def servo_accel(target: Tensor, s: Tensor, v: Tensor, p: TwinParams) -> Tensor:
@@ -148,6 +150,8 @@ def servo_accel(target: Tensor, s: Tensor, v: Tensor, p: TwinParams) -> Tensor:
 def mass_accelerations(action: Tensor, act: Tensor, p: TwinParams) -> tuple[Tensor, Tensor]:
     """(xi_ddot, eta_ddot) the actuator commands for ``action`` (B, action_dim)."""
     command = torch.clamp(action[:, 0], -1.0, 1.0)
+    if p.straight_through:
+        command = action[:, 0] + (command - action[:, 0]).detach()
     if p.mode == "servo":
         return act[:, XI_DDOT], servo_accel(command * p.s_max, act[:, ETA], act[:, ETA_DOT], p)
     if p.mode == "accel":

@@ -48,6 +48,19 @@ def test_certify_reaches_the_goal_and_the_record_replays(env_id: str) -> None:
     assert "not applied" in markdown(certificate)
 
 
+def test_exact_jacobians_certify_and_say_so() -> None:
+    certified = certify(COAST, 1, [1000, 1001], ILQRConfig(jacobians="exact"), restarts=0)
+    certificate = certified.certificate
+    assert certificate.feasible == 2 and certificate.planner.jacobians == "exact"
+    for start in certificate.starts:
+        outcome = replay(COAST, {"n_trailers": 1}, start.seed, certified.actions[start.seed])
+        assert outcome.success and outcome.length == start.planner_length
+    default = certify(COAST, 1, [1000], restarts=0).certificate
+    assert default.planner.jacobians == "differences"
+    # The committed goal certificates came before the choice: they read as None.
+    assert committed_certificate(COAST, 1).planner.jacobians is None  # type: ignore[union-attr]
+
+
 @pytest.mark.parametrize(("env_id", "n"), [(DOCK, 1), (DOCK, 2), (COAST, 1), (COAST, 2)])
 def test_committed_goal_records_replay_to_success(env_id: str, n: int) -> None:
     certificate = committed_certificate(env_id, n)
@@ -78,6 +91,8 @@ def test_bad_planners_are_refused_before_writing(
         (["--env", "trailer_env/Reverse-v1", "--planner", "ilqr"], "use --planner mpc"),
         (["--env", "trailer_env/Reverse-v1", "--closed-loop", "dopri5"], "only for the goal"),
         (["--env", DOCK, "--closed-loop", "rk45"], "invalid choice: 'rk45'"),
+        (["--env", "trailer_env/Reverse-v1", "--jacobians", "exact"], "only for ilqr"),
+        (["--env", COAST, "--jacobians", "analytic"], "invalid choice: 'analytic'"),
     ]:
         with pytest.raises(SystemExit) as raised:
             main([*argv, "--seeds", "1000", "--out", str(out)])

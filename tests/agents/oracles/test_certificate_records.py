@@ -63,7 +63,7 @@ def test_the_replay_refuses_other_physics() -> None:
     with pytest.raises(ValueError, match="default settings only"):
         load_policy("mpc-replay", REVERSE_V1, {"n_trailers": 2, "M": 1.2})
     with pytest.raises(ValueError, match="no committed action records"):
-        load_policy("mpc-replay", REVERSE_V1, {"n_trailers": 7})
+        load_policy("mpc-replay", REVERSE_V1, {"n_trailers": 9})
 
 
 @pytest.mark.parametrize(

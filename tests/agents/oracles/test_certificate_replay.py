@@ -59,6 +59,18 @@ def test_a_committed_certificate_loads_and_replays_to_its_statuses() -> None:
     assert read_certificate(SMALL).feasible == 25
 
 
+@pytest.mark.parametrize(("n", "feasible"), [(7, 97), (8, 100)])
+def test_the_seven_and_eight_trailer_certificates_replay_to_their_outcome(
+    n: int, feasible: int
+) -> None:
+    path = CERTIFICATES_DIR / f"reverse_v1_n{n}.json"
+    _check_loads_and_replays(path)
+    certificate = read_certificate(path)
+    assert (certificate.feasible, certificate.not_recoverable) == (feasible, 0)
+    # The hardest test start needs 0.80 (n = 7) and 0.86 (n = 8) of the stroke.
+    assert max(start.screen_stroke_fraction or 0.0 for start in certificate.starts) < 0.9
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("path", COMMITTED, ids=[path.stem for path in COMMITTED])
 def test_every_committed_certificate_loads_and_replays_to_its_statuses(path: Path) -> None:

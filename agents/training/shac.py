@@ -1,0 +1,556 @@
+"""SHAC: a first-order learner that backpropagates short rollouts through the exact model.
+
+Short-Horizon Actor-Critic (Xu et al., ICLR 2022, "Accelerated Policy Learning with Parallel
+Differentiable Simulation"): every iteration, ``num_envs`` convoys are rolled ``horizon``
+control steps through the differentiable twin (:mod:`trailer_env.twin`, float64, the
+kernel's step restated), the actor's action reparameterised (``mean + std * noise``), and
+the actor takes one Adam step on the gradient of
+
+    - mean over convoys of [ sum_t gamma^t r_t + gamma^k V(s_k) ] / horizon
+
+(``k`` the window's last step, or the step an episode was cut by the time limit; 0 after
+a fold or a stop), back through the rollout's every step, the actuator and the integrator.
+The critic then regresses on TD(lambda) targets of the same window (detached). Why SHAC
+and not plain backpropagation through the whole episode (APG, BPTT): reversing a convoy
+is unstable, and the gradient of an H-step return grows geometrically with H when the
+policy does not stabilise it (``python -m agents.gradients``: 1e4-fold from H = 8 to 64
+with one trailer, 1e5-fold with eight); the critic cuts the window so the horizon stays
+where that gradient is usable. AHAC (Georgiev et al. 2024) adapts the window to the
+contact stiffness of the model; this model has no contact, so a fixed window is kept.
+
+The smooth surrogates. Termination (a fold, the convoy slowing to the minimum speed) is
+a step function: it passes no gradient (the twin's rule), and a convoy that ends is
+replaced by a new start that carries none either; its bootstrap value is 0, so the
+critic's value is what carries the fold's penalty back into the actor's gradient. The
+reward's own terms are smooth where they count (the hitch angles' cosines, the turning
+rate below 1 rad/s); its band and fold penalties are indicators (no gradient).
+
+Two surrogates the gradient needs, both optional in the sense that the forward values are
+the kernel's: the twin's ``straight_through`` (always on here: the servo saturates within
+8 % of the rail of its target, where the exact gradient with respect to the action is
+zero, so the clips pass the gradient as if they did not clip), and ``surrogate_weight``,
+a smooth stand-in for the fold (``- weight * (omega^2 + sum alpha_k^2)`` per step, off by
+default).
+
+Status: experimental. It trains and its losses fall, but it has not yet learnt to keep
+the convoy safe: from scratch on Reverse-v1 with one trailer, 200 windows of 64 x 16 or
+64 x 32 steps kept no validation start safe (with or without the fold's surrogate), and
+started from ``dagger_reverse_v1_n4`` (after 30 windows fitting the critic alone) 120
+windows lowered its validation rate (0.92 to 0.64-0.83). The actor's gradient norm
+before clipping reaches 1e3-1e6 in those runs: the short windows still see the
+instability that ``python -m agents.gradients`` measures.
+
+The model is SB3's PPO ``MlpPolicy`` (the actor is its Gaussian policy, the critic its value
+network) with observation statistics frozen from the starts, saved as JSON: it loads and
+evaluates like any PPO model (``agents.evaluate``), and its card names the recipe
+``shac``. Starts are drawn from the scene's own reset, seeded from
+:data:`agents.seeds.TRAINING_SEED` on; validation plays the validation seeds. The run
+folder gets ``config.json``, ``evaluations.csv`` (one row per validation),
+``best_model.zip`` and ``final_model.zip`` with their cards and statistics. No resume: a
+run is sized to minutes (a cut run is started again).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from agents.envs import HEADLINE_ENV_ID
+from agents.seeds import TRAINING_SEED, VALIDATION_SEED
+
+#: Columns of ``evaluations.csv``.
+CURVE_FIELDS = (
+    "iteration",
+    "timesteps",
+    "wall_s",
+    "safe_rate",
+    "mean_return",
+    "jackknife_rate",
+    "actor_loss",
+    "critic_loss",
+    "gradient_norm",
+)
+
+
+@dataclass(frozen=True)
+class SHACConfig:
+    """Settings of a SHAC run.
+
+    Attributes:
+        env_id: The scene (one the twin restates, rail actuator).
+        n_trailers: Trailers (one count).
+        seed: The run's seed (network initialisation, starts, noise).
+        iterations: Actor updates (each one window of ``num_envs * horizon`` steps).
+        num_envs: Convoys rolled per window.
+        horizon: Control steps per window (SHAC's short horizon).
+        gamma, lam: Discount and TD(lambda) parameter of the critic's targets.
+        actor_lr, critic_lr: Adam step sizes.
+        critic_iterations: Critic passes over each window's targets (minibatches of a
+            quarter of the window each).
+        max_grad_norm: The actor's gradient is clipped to this norm.
+        net_arch: Hidden layers of the actor and of the critic.
+        log_std_init: The actor's initial log standard deviation (exploration noise).
+        eval_every: Iterations between validations (and at the last one).
+        validation_episodes: Validation episodes (seeds from VALIDATION_SEED).
+        init_from: A PPO ``MlpPolicy`` model (a zip with its JSON statistics, of the
+            same hidden layers) whose actor, critic and observation statistics the run
+            starts from (a stabilising start, e.g. an imitated policy); None: from scratch.
+        critic_warmup: Iterations at the start that fit the critic only (the actor
+            waits for values worth bootstrapping from).
+        surrogate_weight: Weight of the smooth surrogate of the fold in the learner's
+            reward, ``- weight * (omega^2 + sum_k alpha_k^2)`` per step (0: the scene's
+            reward alone).
+    """
+
+    env_id: str = HEADLINE_ENV_ID
+    n_trailers: int = 2
+    seed: int = 0
+    iterations: int = 200
+    num_envs: int = 64
+    horizon: int = 32
+    gamma: float = 0.99
+    lam: float = 0.95
+    actor_lr: float = 1e-3
+    critic_lr: float = 1e-3
+    critic_iterations: int = 8
+    max_grad_norm: float = 1.0
+    net_arch: tuple[int, ...] = (64, 64)
+    log_std_init: float = -1.5
+    eval_every: int = 20
+    validation_episodes: int = 64
+    init_from: str | None = None
+    critic_warmup: int = 0
+    surrogate_weight: float = 0.0
+
+    def __post_init__(self) -> None:
+        integers = {
+            "n_trailers": (1, 64),
+            "seed": (0, 2**31 - 1),
+            "iterations": (1, 1_000_000),
+            "num_envs": (2, 4096),
+            "horizon": (1, 1024),
+            "critic_iterations": (1, 1000),
+            "eval_every": (1, 1_000_000),
+            "validation_episodes": (1, 10_000),
+            "critic_warmup": (0, 1_000_000),
+        }
+        for name, (low, high) in integers.items():
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise TypeError(f"{name} must be an int, got {type(value).__name__}")
+            if not low <= value <= high:
+                raise ValueError(f"{name} must be in [{low}, {high}], got {value}")
+        if isinstance(self.surrogate_weight, bool) or not isinstance(
+            self.surrogate_weight, (int, float)
+        ):
+            raise TypeError("surrogate_weight must be a real number")
+        if not (np.isfinite(self.surrogate_weight) and self.surrogate_weight >= 0.0):
+            raise ValueError(f"surrogate_weight must be >= 0, got {self.surrogate_weight}")
+        for name in ("gamma", "lam", "actor_lr", "critic_lr", "max_grad_norm", "log_std_init"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
+            if not np.isfinite(value):
+                raise ValueError(f"{name} must be finite, got {value}")
+        for name in ("gamma", "lam"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
+        for name in ("actor_lr", "critic_lr", "max_grad_norm"):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
+        if not self.net_arch or not all(
+            isinstance(width, int) and not isinstance(width, bool) and 1 <= width <= 4096
+            for width in self.net_arch
+        ):
+            raise ValueError(f"net_arch must be widths in [1, 4096], got {self.net_arch!r}")
+        if self.init_from is not None and not isinstance(self.init_from, str):
+            raise TypeError(f"init_from must be a path, got {type(self.init_from).__name__}")
+        from trailer_env.registry import core_class_of
+        from trailer_env.twin import SCENES
+
+        core_class = core_class_of(self.env_id)  # ValueError on an unknown id
+        if core_class.scene not in SCENES:
+            raise ValueError(f"SHAC needs a scene the twin restates {SCENES}, not {self.env_id}")
+
+
+class _Learner:
+    """The actor, the critic, the twin and the convoys of one run."""
+
+    def __init__(self, config: SHACConfig) -> None:
+        import torch
+        from stable_baselines3 import PPO
+        from stable_baselines3.common.vec_env import VecNormalize
+
+        from agents.envs import make_sb3_env
+        from trailer_env.registry import core_class_of
+        from trailer_env.settings import settings_from_kwargs
+        from trailer_env.twin import TwinParams
+
+        self.config = config
+        self.torch = torch
+        torch.manual_seed(config.seed)
+        self.noise = torch.Generator().manual_seed(config.seed)
+        venv = make_sb3_env(config.env_id, 1, {"n_trailers": config.n_trailers}, seed=config.seed)
+        self.stats = VecNormalize(venv, norm_obs=True, norm_reward=False, training=False)
+        self.policy_kwargs: dict[str, object] = {
+            "net_arch": list(config.net_arch),
+            "log_std_init": config.log_std_init,
+        }
+        self.model = PPO(
+            "MlpPolicy",
+            self.stats,
+            seed=config.seed,
+            device="cpu",
+            verbose=0,
+            policy_kwargs=self.policy_kwargs,
+        )
+        policy = self.model.policy
+        self.actor_parameters = [
+            *policy.mlp_extractor.policy_net.parameters(),
+            *policy.action_net.parameters(),
+            policy.log_std,
+        ]
+        self.critic_parameters = [
+            *policy.mlp_extractor.value_net.parameters(),
+            *policy.value_net.parameters(),
+        ]
+        self.actor_optimizer = torch.optim.Adam(self.actor_parameters, lr=config.actor_lr)
+        self.critic_optimizer = torch.optim.Adam(self.critic_parameters, lr=config.critic_lr)
+        self.core_class = core_class_of(config.env_id)
+        settings = settings_from_kwargs(n_trailers=config.n_trailers)
+        self.core = self.core_class(settings, config.num_envs)
+        # The servo's saturation passes no gradient: the learner takes the surrogate.
+        self.params = TwinParams.from_core(self.core).replace(straight_through=True)
+        self.max_steps = int(self.core_class.max_episode_steps)
+        self.next_seed = TRAINING_SEED + config.seed * 1_000_000
+        rows = np.arange(config.num_envs)
+        self._reset(rows)
+        self.state = self._states(rows)
+        self.steps = np.zeros(config.num_envs, dtype=np.int64)
+        self.simulated_steps = 0
+        self.iterations = 0
+        # The observation statistics as tensors (set from the starts or the model).
+        self.obs_mean: Any = None
+        self.obs_scale: Any = None
+        self.clip = 10.0
+        if config.init_from is None:
+            self._freeze_statistics()
+        else:
+            self._start_from(Path(config.init_from))
+
+    # ----------------------------------------------------------------- convoys
+    def _reset(self, rows: np.ndarray) -> None:
+        from trailer_env.vector import seed_generators
+
+        seeds = list(range(self.next_seed, self.next_seed + rows.size))
+        self.next_seed += rows.size
+        self.core.reset_rows(rows, seed_generators(seeds, rows.size, None))
+
+    def _states(self, rows: np.ndarray) -> Any:
+        from trailer_env.twin import TwinState
+
+        return TwinState.from_core(self.core, rows)
+
+    def _freeze_statistics(self) -> None:
+        """Observation statistics from the starts of a few windows of the zero action (the
+        variances floored as DAgger's students' are), then frozen."""
+        from agents.training.dagger import freeze_statistics
+        from trailer_env.twin import observe, step
+
+        torch = self.torch
+        state = self.state
+        seen = []
+        with torch.no_grad():
+            zero = torch.zeros(self.config.num_envs, 1, dtype=torch.float64)
+            for _ in range(min(self.config.horizon, 16)):
+                seen.append(observe(state, self.params).numpy().copy())
+                state = step(state, zero, self.params)[0]
+        freeze_statistics(self.stats, np.concatenate(seen).astype(np.float32))
+        self._statistics_tensors()
+
+    def _start_from(self, path: Path) -> None:
+        """Take the weights and the statistics of the model at ``path`` (loaded without
+        unpickling); its exploration noise is reset to ``log_std_init``."""
+        from agents.artifacts.paths import stats_path
+        from agents.artifacts.sb3_zip import load_sb3
+        from agents.artifacts.stats import read_stats, restore_stats
+
+        torch = self.torch
+        own = self.model.policy
+        loaded = load_sb3(path, "ppo", own.observation_space, own.action_space)
+        theirs = loaded.policy.state_dict()
+        mine = own.state_dict()
+        shapes = {key: tuple(value.shape) for key, value in theirs.items()}
+        if shapes != {key: tuple(value.shape) for key, value in mine.items()}:
+            raise ValueError(
+                f"init_from: {path}'s network is not this run's (net_arch "
+                f"{list(self.config.net_arch)}, a flat MlpPolicy)"
+            )
+        own.load_state_dict(theirs)
+        with torch.no_grad():
+            own.log_std.fill_(self.config.log_std_init)
+        restore_stats(self.stats, read_stats(stats_path(path)))
+        self._statistics_tensors()
+
+    def _statistics_tensors(self) -> None:
+        torch = self.torch
+        rms = self.stats.obs_rms
+        assert not isinstance(rms, dict)  # the flat observation: one array
+        self.obs_mean = torch.tensor(rms.mean, dtype=torch.float32)
+        self.obs_scale = torch.tensor(np.sqrt(rms.var + self.stats.epsilon), dtype=torch.float32)
+        self.clip = float(self.stats.clip_obs)
+
+    # ------------------------------------------------------------------ nets
+    def normalized(self, state: Any) -> Any:
+        """The actor's and critic's input: the twin's observation, float32, normalised as
+        VecNormalize does (clipped)."""
+        from trailer_env.twin import observe
+
+        torch = self.torch
+        raw = observe(state, self.params).to(torch.float32)
+        return torch.clamp((raw - self.obs_mean) / self.obs_scale, -self.clip, self.clip)
+
+    def _features(self, obs: Any) -> Any:
+        """The policy's features of ``obs`` (a flat MlpPolicy: one tensor, shared)."""
+        return self.model.policy.extract_features(obs)
+
+    def act(self, obs: Any) -> Any:
+        policy = self.model.policy
+        latent = policy.mlp_extractor.forward_actor(self._features(obs))
+        mean = policy.action_net(latent)
+        noise = self.torch.randn(mean.shape, generator=self.noise, dtype=mean.dtype)
+        return mean + policy.log_std.exp() * noise
+
+    def value(self, obs: Any) -> Any:
+        policy = self.model.policy
+        latent = policy.mlp_extractor.forward_critic(self._features(obs))
+        return policy.value_net(latent)[:, 0]
+
+    # ----------------------------------------------------------------- update
+    def iterate(self) -> dict[str, float]:
+        """One window: the actor's step, then the critic's; returns the iteration's
+        figures."""
+        from dynamics.columns import ALPHA, OMEGA
+        from trailer_env.twin.scenes import step_outcome
+
+        torch, config = self.torch, self.config
+        count, horizon = config.num_envs, config.horizon
+        gamma = config.gamma
+        for parameter in self.critic_parameters:
+            parameter.requires_grad_(False)
+        state = self.state
+        objective = torch.zeros(count, dtype=torch.float64)
+        discount = torch.ones(count, dtype=torch.float64)
+        observations, rewards, ends, folds, next_values = [], [], [], [], []
+        for t in range(horizon):
+            obs = self.normalized(state)
+            action = self.act(obs).to(torch.float64)  # the twin clips it (straight through)
+            outcome = step_outcome(state, action, self.params)
+            z = outcome.state.z
+            bend = z[:, OMEGA] ** 2 + (z[:, ALPHA : ALPHA + config.n_trailers] ** 2).sum(dim=1)
+            reward = outcome.reward - config.surrogate_weight * bend
+            objective = objective + discount * reward
+            discount = discount * gamma
+            self.steps += 1
+            terminated = outcome.terminated.numpy().copy()
+            truncated = (self.steps >= self.max_steps) & ~terminated
+            ended = terminated | truncated
+            after = outcome.state
+            next_obs = self.normalized(after)
+            next_value = self.value(next_obs).to(torch.float64)
+            last = t == horizon - 1
+            bootstrap = torch.from_numpy(truncated | (last & ~terminated))
+            objective = objective + torch.where(bootstrap, discount * next_value, 0.0)
+            observations.append(obs.detach())
+            rewards.append(reward.detach())
+            ends.append(ended)
+            folds.append(terminated)
+            next_values.append(next_value.detach())
+            if ended.any():
+                rows = np.flatnonzero(ended)
+                self._reset(rows)
+                fresh = self._states(rows)
+                index = torch.from_numpy(rows)
+                after = after._replace(
+                    z=after.z.index_put((index,), fresh.z),
+                    act=after.act.index_put((index,), fresh.act),
+                    task=after.task.index_put((index,), fresh.task),
+                    hold=after.hold.index_put((index,), fresh.hold),
+                )
+                discount = discount.index_put((index,), torch.ones(rows.size, dtype=torch.float64))
+                self.steps[rows] = 0
+            state = after
+        loss = -objective.mean() / horizon
+        self.actor_optimizer.zero_grad()
+        loss.backward()
+        norm = torch.nn.utils.clip_grad_norm_(self.actor_parameters, config.max_grad_norm)
+        finite = bool(torch.isfinite(norm))
+        if finite and self.iterations >= config.critic_warmup:
+            self.actor_optimizer.step()
+        self.iterations += 1
+        for parameter in self.critic_parameters:
+            parameter.requires_grad_(True)
+        self.state = type(state)(*(part.detach() for part in state))
+        self.simulated_steps += count * horizon
+        critic_loss = self._fit_critic(observations, rewards, ends, folds, next_values)
+        return {
+            "actor_loss": float(loss.detach()),
+            "critic_loss": critic_loss,
+            "gradient_norm": float(norm) if finite else float("nan"),
+            "window_return": float(torch.stack(rewards).sum(0).mean()),
+        }
+
+    def _fit_critic(
+        self,
+        observations: list[Any],
+        rewards: list[Any],
+        ends: list[np.ndarray],
+        folds: list[np.ndarray],
+        next_values: list[Any],
+    ) -> float:
+        """TD(lambda) targets of the window (an episode's end restarts them; 0 after a
+        fold), then ``critic_iterations`` passes of minibatch regression."""
+        torch, config = self.torch, self.config
+        gamma, lam = config.gamma, config.lam
+        horizon = len(rewards)
+        targets = [torch.zeros(0)] * horizon
+        follow = torch.zeros(config.num_envs, dtype=torch.float64)
+        for t in reversed(range(horizon)):
+            value = torch.where(torch.from_numpy(folds[t]), 0.0, next_values[t])
+            if t == horizon - 1:
+                follow = value
+            else:
+                follow = torch.where(torch.from_numpy(ends[t]), value, follow)
+            targets[t] = rewards[t] + gamma * ((1.0 - lam) * value + lam * follow)
+            follow = targets[t]
+        inputs = torch.cat(observations)
+        wanted = torch.cat(targets).to(torch.float32)
+        size = max(1, inputs.shape[0] // 4)
+        total = 0.0
+        for _ in range(config.critic_iterations):
+            order = torch.randperm(inputs.shape[0], generator=self.noise)
+            for start in range(0, inputs.shape[0], size):
+                batch = order[start : start + size]
+                loss = torch.mean((self.value(inputs[batch]) - wanted[batch]) ** 2)
+                self.critic_optimizer.zero_grad()
+                loss.backward()
+                self.critic_optimizer.step()
+                total = float(loss.detach())
+        return total
+
+
+def train_shac(
+    config: SHACConfig, run_dir: Path, verbose: int = 1, command: Sequence[str] | None = None
+) -> dict[str, object]:
+    """Train (see the module); returns the run's record (also its ``config.json``)."""
+    from agents.artifacts.cards import card_of, read_model_card, write_card
+    from agents.artifacts.curves import append_rows, write_curve
+    from agents.artifacts.paths import stats_path
+    from agents.artifacts.run_folder import BEST_MODEL, CURVE_FILE, FINAL_MODEL, write_config
+    from agents.artifacts.sb3_zip import save_model
+    from agents.artifacts.stats import save_stats
+    from agents.evaluation.metrics import Summary, rollout, summarize
+    from agents.policies.sb3 import ModelPolicy
+    from agents.progress import Progress
+    from agents.training.callbacks import score
+
+    started = time.perf_counter()
+    learner = _Learner(config)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    env_kwargs = {"n_trailers": config.n_trailers}
+    settings = {
+        key: (list(value) if isinstance(value, tuple) else value)
+        for key, value in dataclasses.asdict(config).items()
+        if key not in ("env_id", "n_trailers", "seed")
+    }
+    record: dict[str, object] = {
+        "algo": "ppo",
+        "recipe": "shac",
+        "command": list(command or ["python", "-m", "agents.shac", *sys.argv[1:]]),
+        "env_id": config.env_id,
+        "env_kwargs": env_kwargs,
+        "seed": config.seed,
+        "hyperparams": {**settings, "policy_kwargs": learner.policy_kwargs},
+        "normalize": {"norm_obs": True, "norm_reward": False},
+        "policy": "MlpPolicy",
+        "training_seed": TRAINING_SEED,
+        "budget": config.iterations * config.num_envs * config.horizon,
+    }
+    write_config(run_dir, card_of(record, "of the SHAC run"))
+    best: tuple[float, float, float] | None = None
+    summary: Mapping[str, object] = {}
+    first = True
+    with Progress(config.iterations, f"shac {config.env_id}, n = {config.n_trailers}") as bar:
+        for iteration in range(config.iterations):
+            figures = learner.iterate()
+            last = iteration == config.iterations - 1
+            if (iteration + 1) % config.eval_every and not last:
+                bar.advance(f"return per window {figures['window_return']:.2f}")
+                continue
+            policy = ModelPolicy(learner.model, learner.stats)
+            results = rollout(
+                policy, config.env_id, config.validation_episodes, VALIDATION_SEED, env_kwargs
+            )
+            summary = summarize(results)
+            figures_of = Summary.from_json(summary, "of the validation")
+            row = {
+                "iteration": iteration + 1,
+                "timesteps": learner.simulated_steps,
+                "wall_s": round(time.perf_counter() - started, 1),
+                "safe_rate": float(figures_of.safe_rate),
+                "mean_return": float(figures_of.mean_return),
+                "jackknife_rate": float(figures_of.jackknife_rate),
+                **{key: round(figures[key], 6) for key in CURVE_FIELDS[6:]},
+            }
+            if first:
+                write_curve(run_dir / CURVE_FILE, [row], CURVE_FIELDS)
+                first = False
+            else:
+                append_rows(run_dir / CURVE_FILE, [row], CURVE_FIELDS)
+            if best is None or score(figures_of) > best:
+                best = score(figures_of)
+                card = card_of(
+                    {
+                        **record,
+                        "validation": summary,
+                        "selected_at_iteration": iteration + 1,
+                        "selected_at_timesteps": learner.simulated_steps,
+                        "timesteps": learner.simulated_steps,
+                    },
+                    "of the SHAC run",
+                )
+                save_stats(learner.stats, stats_path(run_dir / BEST_MODEL))
+                write_card(run_dir / BEST_MODEL, card)
+                save_model(learner.model, run_dir / BEST_MODEL)
+            bar.advance(f"validation safe {row['safe_rate']:.2f}")
+            if verbose:
+                print(
+                    f"iteration {iteration + 1}: validation safe {row['safe_rate']:.2f}, "
+                    f"return {row['mean_return']:.1f}, actor loss {figures['actor_loss']:.4f}, "
+                    f"critic loss {figures['critic_loss']:.4f}, |g| {figures['gradient_norm']:.3g} "
+                    f"({row['wall_s']:.0f} s)",
+                    flush=True,
+                )
+    totals = {
+        "timesteps": learner.simulated_steps,
+        "wall_time_s": round(time.perf_counter() - started, 1),
+        "simulated_steps": learner.simulated_steps,
+    }
+    record.update(totals)
+    save_stats(learner.stats, stats_path(run_dir / FINAL_MODEL))
+    write_card(run_dir / FINAL_MODEL, card_of({**record, "validation": summary}, "of the run"))
+    save_model(learner.model, run_dir / FINAL_MODEL)
+    best_path = run_dir / BEST_MODEL
+    write_card(best_path, read_model_card(best_path).replace(**totals))
+    write_config(run_dir, card_of(record, "of the SHAC run"))
+    return record
+
+
+__all__ = ["CURVE_FIELDS", "SHACConfig", "train_shac"]
