@@ -33,8 +33,9 @@ a smooth stand-in for the fold (``- weight * (omega^2 + sum alpha_k^2)`` per ste
 default).
 
 Status: experimental. It trains and its losses fall, but it has not yet learnt to keep
-the convoy safe: from scratch on Reverse-v1 with one trailer, 200 windows of 64 x 16 or
-64 x 32 steps kept no validation start safe (with or without the fold's surrogate), and
+the convoy safe: from scratch on Reverse-v1 with one trailer, 200-300 windows of 64 x 4
+to 64 x 32 steps kept at most 6 % of the validation starts safe (the convoys fold; with
+or without the fold's surrogate), and
 started from ``dagger_reverse_v1_n4`` (after 30 windows fitting the critic alone) 120
 windows lowered its validation rate (0.92 to 0.64-0.83). The actor's gradient norm
 before clipping reaches 1e3-1e6 in those runs: the short windows still see the
