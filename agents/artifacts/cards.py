@@ -220,6 +220,41 @@ class Spaces(SparsePart):
 
 
 @dataclasses.dataclass(frozen=True)
+class HostSpeed(SparsePart):
+    """The speed of the machine a run trained on, measured by a short fixed benchmark
+    (:mod:`agents.training.host_speed`) when the run (or its last resume) started: wall
+    times of two runs compare only beside these."""
+
+    #: The benchmark's name: two records compare only when it is the same.
+    benchmark: str
+    #: Environment steps per second of the benchmark's batch.
+    env_steps_per_s: float
+    #: Seconds of the benchmark's one PPO update.
+    ppo_update_s: float
+    cpus: int
+    torch_threads: int
+    #: The 1-minute load average when it ran (what ``uptime`` shows).
+    load_average: float
+
+    def __post_init__(self) -> None:
+        for name in ("env_steps_per_s", "ppo_update_s"):
+            value = getattr(self, name)
+            if not files.is_number(value) or value <= 0:
+                raise DocumentError(f"'{name}' must be a positive number, got {value}")
+        if self.cpus < 1 or self.torch_threads < 1:
+            raise DocumentError("'cpus' and 'torch_threads' must be at least 1")
+        if not files.is_number(self.load_average) or self.load_average < 0:
+            raise DocumentError(f"'load_average' must be >= 0, got {self.load_average}")
+
+    def summary(self) -> str:
+        """One line: ``12,345 steps/s, PPO update 0.21 s (2 CPUs, load 1.5)``."""
+        return (
+            f"{self.env_steps_per_s:,.0f} steps/s, PPO update {self.ppo_update_s:.2f} s "
+            f"({self.cpus} CPUs, load {self.load_average:.1f})"
+        )
+
+
+@dataclasses.dataclass(frozen=True)
 class ModelCard(SparseRecord):
     """A model card or run record (see the module docstring)."""
 
@@ -254,6 +289,8 @@ class ModelCard(SparseRecord):
     # What the run reached.
     timesteps: int | None = None
     wall_time_s: float | None = None
+    #: The machine's speed when the run (or its last resume) started.
+    host: HostSpeed | None = None
     simulated_steps: int | None = None
     validation: Validation | None = None
     selected_at_timesteps: int | None = None

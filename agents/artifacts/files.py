@@ -37,7 +37,7 @@ import math
 import os
 import re
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from types import TracebackType
 from typing import Any
@@ -218,6 +218,20 @@ def read_json(
     except OSError as error:
         raise ValueError(f"cannot read {label}: {error.strerror or error}") from None
     return parse_json(raw, label, max_bytes=max_bytes, allow_nan=allow_nan)
+
+
+def outputs_problem(out: Path, names: Sequence[str], overwrite: bool) -> str | None:
+    """Why the files ``names`` could not be written into the folder ``out`` (None when
+    they could), found without writing: the folder must be writable, each file writable,
+    and an existing one is replaced only with ``overwrite``."""
+    problem = writable_problem(out, folder=True)
+    for name in names if problem is None else ():
+        path = out / name
+        if path.exists() or path.is_symlink():
+            problem = problem or writable_problem(path)
+            if problem is None and not overwrite:
+                problem = f"{path} exists; pass --overwrite to replace it"
+    return problem
 
 
 def writable_problem(path: Path, *, folder: bool = False) -> str | None:

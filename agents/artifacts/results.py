@@ -19,7 +19,7 @@ from typing import ClassVar, Literal
 
 from agents.algorithms.options import FineTune
 from agents.artifacts import files
-from agents.artifacts.cards import ModelCard
+from agents.artifacts.cards import HostSpeed, ModelCard
 from agents.artifacts.records import (
     DocumentError,
     JSONPart,
@@ -95,6 +95,8 @@ class TrainingFacts(SparsePart):
     timesteps: int | None = None
     wall_time_s: float | None = None
     n_envs: int | None = None
+    #: The machine's speed when the run started (None: not recorded on its card).
+    host: HostSpeed | None = None
 
     @classmethod
     def of(cls, card: ModelCard) -> TrainingFacts:

@@ -115,8 +115,15 @@ class SourceModel:
 
 
 #: Keys of a training run's record that its continuation may change: the command, the
-#: total budget (which only grows) and the totals of the run so far.
-RESUMABLE_KEYS = ("command", "budget", "timesteps", "wall_time_s", "stopped_on_plateau_at")
+#: total budget (which only grows), the totals of the run so far and the host's speed.
+RESUMABLE_KEYS = (
+    "command",
+    "budget",
+    "timesteps",
+    "wall_time_s",
+    "stopped_on_plateau_at",
+    "host",
+)
 #: The option that sets a key of the record (the hyperparameter file sets the others;
 #: the training options name their own flags).
 _FLAGS = {

@@ -555,14 +555,7 @@ def _chart_png(
 
 def write_problem(out: Path, overwrite: bool) -> str | None:
     """Why :func:`write_learning_curves` would refuse ``out``, or None."""
-    problem = files.writable_problem(out, folder=True)
-    for name in (CHART_FILE, TABLE_FILE) if problem is None else ():
-        path = out / name
-        if path.exists() or path.is_symlink():
-            problem = problem or files.writable_problem(path)
-            if problem is None and not overwrite:
-                problem = f"{path} exists; pass --overwrite to replace it"
-    return problem
+    return files.outputs_problem(out, (CHART_FILE, TABLE_FILE), overwrite)
 
 
 def write_learning_curves(

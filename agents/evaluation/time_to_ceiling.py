@@ -12,8 +12,9 @@ its validation evaluations). Beside it, the best agent learned from the scene's 
 alone (a card with neither an imitation ``recipe`` nor a fine-tuning start, ``init_from``),
 with its rate and time, so that imitation
 and reinforcement learning stand side by side. Choosing among training seeds is not in
-it. The machine's load during a run is not on its card: the figures are as recorded, on
-the 2-core machine of this project, usually beside other work.
+it. Beside each wall time, the speed of the machine that ran it, as its card records it
+(:class:`~agents.artifacts.cards.HostSpeed`: a short fixed benchmark measured when the run
+started, with the load then); cards written before that record show ``-`` there.
 
 ``python -m agents.time_to_ceiling RESULTS_JSON`` prints the table
 (:mod:`agents.commands.time_to_ceiling`).
@@ -24,6 +25,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from agents.artifacts.cards import HostSpeed
 from agents.artifacts.results import PolicyResult, ResultsDocument, TrainingFacts
 from agents.envs import headline_metric, scene_title
 from agents.evaluation.ceiling import ceiling_fraction
@@ -38,8 +40,10 @@ TIME_TO_CEILING_LEGEND = (
     "Per scenario, the committed learned agent with the highest headline rate on these "
     "test episodes against the certified ceiling, and the wall time its run recorded on its "
     "card (imitation: labels, training and selection of the iteration; reinforcement "
-    "learning: training with its validation evaluations; on this project's 2-core machine, "
-    "its load not recorded), and beside it the best agent learned from the reward alone "
+    "learning: training with its validation evaluations) and the speed of the machine that "
+    "ran it (`python -m agents.host_speed`'s benchmark when the run started: environment "
+    "steps per second, one PPO update, the load; - where the card predates it), and beside "
+    "it the best agent learned from the reward alone "
     "(no imitation). `python -m agents.time_to_ceiling results.json` "
     "prints it from a report's results."
 )
@@ -57,9 +61,11 @@ class CeilingGap:
     seeds_mean: float | None
     seeds: int
     wall_minutes: float | None
+    host: HostSpeed | None = None
     reward_agent: str | None = None
     reward_rate: float | None = None
     reward_minutes: float | None = None
+    reward_host: HostSpeed | None = None
 
     @property
     def gap_points(self) -> float | None:
@@ -103,15 +109,27 @@ def gap_of(document: ResultsDocument) -> CeilingGap:
         seeds_mean,
         len(seeds),
         _wall_minutes(best),
+        best.training.host,
         None if reward is None else reward.name,
         None if reward is None else reward.summary.rate(metric),
         None if reward is None else _wall_minutes(reward),
+        None if reward is None else reward.training.host,
     )
 
 
 def _wall_minutes(policy: PolicyResult) -> float | None:
     wall = policy.training.wall_time_s
     return None if wall is None else wall / 60.0
+
+
+def _host(host: HostSpeed | None) -> str:
+    """The host's speed in a cell: ``231k steps/s, update 0.81 s, load 0.6``."""
+    if host is None:
+        return "-"
+    return (
+        f"{host.env_steps_per_s / 1000:.0f}k steps/s, update {host.ppo_update_s:.2f} s, "
+        f"load {host.load_average:.1f}"
+    )
 
 
 def _percent(value: float | None) -> str:
@@ -129,10 +147,10 @@ def time_to_ceiling_table(documents: Sequence[ResultsDocument]) -> str:
     """The Markdown table: one row per document, in their order."""
     lines = [
         "| scene, n | ceiling (certified) | best learned agent | its rate | gap (points) "
-        "| mean over training seeds | wall time of its run | within "
+        "| mean over training seeds | wall time of its run | its host | within "
         f"{GAP_TARGET_POINTS:g} points | within {TIME_TARGET_MINUTES:g} min "
-        "| best from reward alone | its rate | its wall time |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| best from reward alone | its rate | its wall time | its host |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for document in documents:
         row = gap_of(document)
@@ -145,9 +163,10 @@ def time_to_ceiling_table(documents: Sequence[ResultsDocument]) -> str:
         lines.append(
             f"| {scene_title(row.env_id)}, {row.n_trailers} | {_percent(row.ceiling)} "
             f"| {row.agent or '-'} | {_percent(row.rate)} "
-            f"| {'-' if gap is None else f'{gap:.0f}'} | {seeds} | {wall} "
+            f"| {'-' if gap is None else f'{gap:.0f}'} | {seeds} | {wall} | {_host(row.host)} "
             f"| {_verdict(gap, GAP_TARGET_POINTS)} "
             f"| {_verdict(row.wall_minutes, TIME_TARGET_MINUTES)} "
-            f"| {row.reward_agent or '-'} | {_percent(row.reward_rate)} | {reward_wall} |"
+            f"| {row.reward_agent or '-'} | {_percent(row.reward_rate)} | {reward_wall} "
+            f"| {_host(row.reward_host)} |"
         )
     return "\n".join(lines) + "\n"

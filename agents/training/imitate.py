@@ -86,6 +86,7 @@ from agents.progress import Progress
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
 from agents.training.callbacks import score
 from agents.training.dagger import Driver, build_student, collect, fit, freeze_statistics
+from agents.training.host_speed import measure_host_speed
 from agents.training.imitation_checkpoint import (
     CURVE_FIELDS,
     RunState,
@@ -223,6 +224,7 @@ class _Dagger:
             "policy": "MlpPolicy" if self.stats is not None else "MultiInputPolicy",
             "training_seed": TRAINING_SEED,
             "budget": config.iterations * config.episodes * self.envs.max_episode_steps,
+            "host": measure_host_speed(config.seed).to_json(),
         }
 
     def resume(self) -> None:

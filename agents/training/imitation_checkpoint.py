@@ -56,12 +56,14 @@ CURVE_FIELDS = (*CURVE_COLUMNS, "iteration", "loss")
 ITERATION = CURVE_FIELDS[-2]
 
 #: Keys of the run's record that may differ when a run is resumed (the rest must match):
-#: the command, the budget and the iterations asked for, and the totals of the run so far.
+#: the command, the budget and the iterations asked for, the totals of the run so far and
+#: the host's speed (measured again at each start).
 RESUMABLE_KEYS = (
     "command",
     "budget",
     "imitation.iterations",
     "resumed_at",
+    "host",
     *RUN_TOTALS,
 )
 

@@ -76,6 +76,7 @@ from agents.artifacts.files import atomic_write_bytes, write_json
 from agents.artifacts.rllib_files import POLICY_CARD, POLICY_WEIGHTS
 from agents.artifacts.run_folder import PROGRESS_FILE, RLLIB_CHECKPOINT, write_config
 from agents.training.config import Hyperparams, TrainConfig
+from agents.training.host_speed import measure_host_speed
 
 if TYPE_CHECKING:
     from types import FrameType
@@ -464,6 +465,8 @@ def train_rllib(
             # batch, Ray node id).
             "runner_envs": runner_envs,
             "hyperparams": trained.settings(rllib_config),
+            # The driver's machine (the runners may be elsewhere: runner_envs names them).
+            "host": measure_host_speed(config.seed).to_json(),
         }
         write_config(run_dir, card_of(record, f"for {run_dir}"))
         rows, wall = _iterate(algorithm, config.budget, verbose)

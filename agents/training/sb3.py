@@ -79,6 +79,7 @@ def train(
     from stable_baselines3.common.logger import configure
 
     from agents.training.callbacks import PlateauStop, ProgressCallback, SafetyEvalCallback
+    from agents.training.host_speed import measure_host_speed
 
     action_dim = _flat_action_dim(config)
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -89,7 +90,9 @@ def train(
         _go_on_from(model, venv, config, run_dir, resume, trust_pickle)
     outputs = ("csv", "tensorboard") if importlib.util.find_spec("tensorboard") else ("csv",)
     model.set_logger(configure(str(run_dir / "logs" / f"from_{start_steps}"), list(outputs)))
-    record = ModelCard.from_json(config.document(), f"of {run_dir}")
+    record = ModelCard.from_json(config.document(), f"of {run_dir}").replace(
+        host=measure_host_speed(config.seed)
+    )
     write_config(run_dir, record)
     evaluator = SafetyEvalCallback(
         config.env_id,

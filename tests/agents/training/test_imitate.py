@@ -52,6 +52,7 @@ def test_imitation_run_writes_a_loadable_ppo_model(tmp_path: Path) -> None:
     card = json.loads((tmp_path / "run" / "best_model.json").read_text())
     assert card["env_id"] == V1 and card["env_kwargs"] == {"n_trailers": 1}
     assert 0.0 <= card["validation"]["safe_rate"] <= 1.0
+    assert card["host"]["ppo_update_s"] > 0 and card["host"]["cpus"] >= 1
     policy = load_policy(str(tmp_path / "run" / "best_model.zip"), V1, {"n_trailers": 1})
     actions = policy(np.zeros((5, 6), dtype=np.float32))
     assert actions.shape == (5, 1) and np.all(np.isfinite(actions))

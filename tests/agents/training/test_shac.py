@@ -43,6 +43,7 @@ def test_the_saved_model_evaluates_like_any_model(tmp_path: Path) -> None:
         path = tmp_path / "run" / f"{name}.zip"
         card = read_model_card(path)
         assert (card.algo, card.recipe, card.env_kwargs.n_trailers) == ("ppo", "shac", 1)
+        assert card.host is not None and card.host.env_steps_per_s > 0
         assert (tmp_path / "run" / f"{name}_vecnormalize.json").is_file()
     (evaluation,) = evaluate_policies(
         [str(tmp_path / "run" / "best_model.zip")],

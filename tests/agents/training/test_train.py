@@ -108,6 +108,9 @@ def test_smoke_training_beats_random(tmp_path: Path) -> None:
     card = json.loads((run / "best_model.json").read_text())
     assert card["algo"] == "ppo" and card["env_kwargs"] == {"n_trailers": 1}
     assert card["seed"] == 0 and card["timesteps"] == 40960 and card["wall_time_s"] > 0
+    # The host's speed, measured when the run started, stands beside its wall time.
+    assert card["host"]["benchmark"] == "reverse_v1_n3_batch8_ppo2048"
+    assert card["host"]["env_steps_per_s"] > 0 and card["host"]["torch_threads"] == 1
     assert (run / "best_model_vecnormalize.json").is_file()
 
 
