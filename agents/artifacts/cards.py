@@ -246,6 +246,13 @@ class HostSpeed(SparsePart):
         if not files.is_number(self.load_average) or self.load_average < 0:
             raise DocumentError(f"'load_average' must be >= 0, got {self.load_average}")
 
+    def cell(self) -> str:
+        """A table's cell: ``232k steps/s, update 0.81 s, load 1.6``."""
+        return (
+            f"{self.env_steps_per_s / 1000:.0f}k steps/s, update {self.ppo_update_s:.2f} s, "
+            f"load {self.load_average:.1f}"
+        )
+
     def summary(self) -> str:
         """One line: ``12,345 steps/s, PPO update 0.21 s (2 CPUs, load 1.5)``."""
         return (

@@ -207,13 +207,7 @@ def markdown(ladder: Ladder) -> str:
     ]
     for point in sorted(ladder.points, key=lambda p: (methods.index(p.method), p.n_trailers)):
         reached = "-" if point.reached_s is None else f"{_minutes(point.reached_s)} min"
-        host = point.host
-        speed = (
-            "-"
-            if host is None
-            else f"{host.env_steps_per_s / 1000:.0f}k steps/s, update "
-            f"{host.ppo_update_s:.2f} s, load {host.load_average:.1f}"
-        )
+        speed = "-" if point.host is None else point.host.cell()
         lines.append(
             f"| {point.method} | {point.n_trailers} | {point.seed} | {reached} "
             f"| {_best(point)} "

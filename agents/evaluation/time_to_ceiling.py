@@ -123,13 +123,8 @@ def _wall_minutes(policy: PolicyResult) -> float | None:
 
 
 def _host(host: HostSpeed | None) -> str:
-    """The host's speed in a cell: ``231k steps/s, update 0.81 s, load 0.6``."""
-    if host is None:
-        return "-"
-    return (
-        f"{host.env_steps_per_s / 1000:.0f}k steps/s, update {host.ppo_update_s:.2f} s, "
-        f"load {host.load_average:.1f}"
-    )
+    """The host's speed in a cell (``-`` when the card predates the record)."""
+    return "-" if host is None else host.cell()
 
 
 def _percent(value: float | None) -> str:
