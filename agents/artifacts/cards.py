@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import ClassVar, cast
 
@@ -37,6 +37,26 @@ from agents.artifacts.records import (
 
 #: The keys every run record (``config.json``) holds.
 RECORD_KEYS = ("algo", "env_id", "env_kwargs", "seed")
+#: The flags of a command that name where its run's files go, not what it trains: a
+#: committed card's recipe leaves them out (its reproduction sets them).
+RUN_FOLDER_FLAGS = ("--run-dir", "--export")
+
+
+def recipe_command(command: Sequence[str]) -> tuple[str, ...]:
+    """``command`` without its run-folder flags (:data:`RUN_FOLDER_FLAGS`, each with its
+    value) and ``--overwrite``: the same training, wherever its files go."""
+    kept: list[str] = []
+    skip = False
+    for item in command:
+        if skip:
+            skip = False
+        elif item in RUN_FOLDER_FLAGS:
+            skip = True
+        elif item != "--overwrite":
+            kept.append(item)
+    return tuple(kept)
+
+
 #: RLlib's keyword (in an RLlib run's ``hyperparams``) for its network's hidden layers.
 RLLIB_HIDDENS = "fcnet_hiddens"
 

@@ -13,12 +13,16 @@ MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
 
 def resolve_model(spec: str) -> str:
     """A shipped model's path from its stem (``ppo_reverse_n2`` ->
-    ``<package>/models/ppo_reverse_n2.zip``); other specs (paths, baseline names) are
-    returned unchanged."""
+    ``<package>/models/ppo_reverse_n2.zip``; a training seed's sibling in ``seeds/`` and a
+    teacher in ``teachers/`` by theirs); other specs (paths, baseline names) are returned
+    unchanged."""
     if "/" in spec or Path(spec).suffix:
         return spec
-    shipped = MODELS_DIR / f"{spec}.zip"
-    return str(shipped) if shipped.is_file() else spec
+    for folder in (MODELS_DIR, MODELS_DIR / "seeds", MODELS_DIR / "teachers"):
+        shipped = folder / f"{spec}.zip"
+        if shipped.is_file():
+            return str(shipped)
+    return spec
 
 
 def shipped_models() -> list[str]:

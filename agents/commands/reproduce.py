@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import NoReturn
 
 from agents.artifacts import files
-from agents.artifacts.cards import ModelCard
+from agents.artifacts.cards import RUN_FOLDER_FLAGS, ModelCard
 from agents.artifacts.run_folder import BEST_MODEL, comparable_hyperparams
 from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR
 from agents.commands import options as cli
@@ -70,7 +70,7 @@ POLICY_KWARGS = "policy_kwargs"
 NET_ARCH = "net_arch"
 
 #: What the card's command may name for the run folder: the reproduction sets it.
-_RUN_FLAGS = ("--run-dir", "--export")
+_RUN_FLAGS = RUN_FOLDER_FLAGS
 
 #: The keys of a train card that the recipe's files must give again (``agents.train``'s
 #: record, :meth:`agents.training.config.TrainConfig.document`).

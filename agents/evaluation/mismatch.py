@@ -45,6 +45,7 @@ POLICIES = (
     "dagger_reverse_v1_general",
     "dagger_reverse_v1_memory",
     "ppo_reverse_v1_memory_n{n}",
+    "dagger_reverse_v1_adapt_n{n}",
 )
 OUTPUTS = ("mismatch.md", "mismatch.json", *(f"mismatch_n{n}.png" for n in (1, 2, 3)))
 
@@ -168,7 +169,8 @@ def markdown(found: Sequence[CountSweep], episodes: int, seed: int, fresh_seed: 
             "|---|" + "---|" * len(sizes),
             "| ceiling | " + " | ".join(ceilings) + " |",
         ]
-        for label in sweep.policies:
+        # Sorted, as mismatch.json keeps them, so a redraw writes the table measured.
+        for label in sorted(sweep.policies):
             cells = [sweep.rates[size][label] for size in sizes]
             lines.append(
                 f"| {label} | "
@@ -185,14 +187,14 @@ def markdown(found: Sequence[CountSweep], episodes: int, seed: int, fresh_seed: 
             "",
         ]
         for sweep in with_alone:
-            names = list(sweep.alone)
+            names = sorted(sweep.alone)
             lines += [
                 f"**n = {sweep.n}**: {sweep.most_costly()}",
                 "",
                 "| policy | " + " | ".join(names) + " |",
                 "|---|" + "---|" * len(names),
             ]
-            for label in sweep.policies:
+            for label in sorted(sweep.policies):
                 alone = [_percent(sweep.alone[name][label]) for name in names]
                 lines.append(f"| {label} | " + " | ".join(alone) + " |")
             lines.append("")

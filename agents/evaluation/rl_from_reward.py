@@ -20,16 +20,15 @@ from pathlib import Path
 from typing import ClassVar
 
 from agents.artifacts import files
-from agents.artifacts.cards import ModelCard, Selection, read_model_card, write_card
+from agents.artifacts.cards import ModelCard, read_model_card
 from agents.artifacts.records import JSONPart, JSONRecord
 from agents.artifacts.run_folder import (
     BEST_MODEL,
     CONFIG_FILE,
     CURVE_FILE,
     FINAL_MODEL,
-    export_model,
 )
-from agents.artifacts.shipped import SEEDS_DIR
+from agents.evaluation import selection
 from agents.evaluation.learning_curves import (
     TREND_MIN_EVALUATIONS,
     final_plateau,
@@ -39,7 +38,7 @@ from agents.evaluation.learning_curves import (
 )
 from agents.evaluation.metrics import rollout, summarize
 from agents.policies.registry import load_policy
-from agents.seeds import SELECTION_SEED, TEST_SEED
+from agents.seeds import TEST_SEED
 
 TABLE = "rl_from_reward.md"
 DOCUMENT = "rl_from_reward.json"
@@ -48,7 +47,6 @@ CURVES = "rl_runs"
 #: The plateau rule of the table (evaluations, band).
 PLATEAU_WINDOW, PLATEAU_EPS = 5, 0.05
 TEST_EPISODES = 100
-SELECTION_EPISODES = 200
 
 
 @dataclass(frozen=True)
@@ -170,27 +168,10 @@ def score_run(run_dir: Path, fresh_seed: int, fresh_episodes: int) -> RunScore:
 
 def export_selected(scores: Sequence[RunScore], folders: Sequence[Path], destination: Path) -> int:
     """Export every run's kept model as a seed sibling and the best on the selection
-    episodes as ``destination``; returns the chosen training seed (see the module)."""
-    env_id, n, metric = scores[0].env_id, scores[0].n_trailers, scores[0].metric
-    rates = {
-        score.seed: _rate(
-            folder / BEST_MODEL, env_id, n, SELECTION_SEED, SELECTION_EPISODES, metric
-        )
-        for score, folder in zip(scores, folders, strict=True)
-    }
-    chosen = max(sorted(rates), key=lambda seed: rates[seed])
-    by_seed = {str(seed): rate for seed, rate in sorted(rates.items())}
-    selection = Selection(
-        chosen_seed=chosen,
-        seeds=(SELECTION_SEED, SELECTION_SEED + SELECTION_EPISODES - 1),
-        safe_rate_per_training_seed=by_seed if metric == "safe_rate" else None,
-        success_rate_per_training_seed=None if metric == "safe_rate" else by_seed,
-    )
-    seeds_dir = destination.parent / SEEDS_DIR.name
-    for score, folder in zip(scores, folders, strict=True):
-        export_model(folder, seeds_dir / f"{destination.stem}_s{score.seed}.zip", overwrite=True)
-    path = export_model(folders[[s.seed for s in scores].index(chosen)], destination, True)
-    write_card(path, replace(read_model_card(path), selection=selection))
+    episodes as ``destination`` (:func:`agents.evaluation.selection.export_selected`);
+    returns the chosen training seed."""
+    runs = {score.seed: folder for score, folder in zip(scores, folders, strict=True)}
+    chosen, _ = selection.export_selected(runs, destination, scores[0].metric)
     return chosen
 
 

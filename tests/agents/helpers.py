@@ -1,12 +1,15 @@
-"""Files for the agents tests: tiny models, shipped-model copies, damaged zips, hostile pickles."""
+"""Files for the agents tests: tiny models, shipped-model copies, damaged zips, hostile
+pickles; and a command's one-line refusal."""
 
 from __future__ import annotations
 
 import shutil
 import zipfile
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+import pytest
 from stable_baselines3 import PPO
 
 from agents.artifacts.certificates import Certified
@@ -14,6 +17,18 @@ from agents.artifacts.shipped import MODELS_DIR
 from agents.envs import make_sb3_env
 
 REVERSE = "trailer_env/Reverse-v0"
+
+
+def refusal(
+    main: Callable[[list[str]], int], argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> str:
+    """The one ``error:`` line of a command that refuses ``argv`` with exit status 2."""
+    with pytest.raises(SystemExit) as exit_info:
+        main(argv)
+    assert exit_info.value.code == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
+    assert len(errors) == 1
+    return errors[0]
 
 
 class Touch:

@@ -1,0 +1,88 @@
+"""Which training seed becomes the committed model (the program:
+:mod:`agents.commands.select`).
+
+Each training seed's kept model plays the selection episodes (200 from
+:data:`agents.seeds.SELECTION_SEED`, which no table uses) in the env its card records: its
+number of trailers, its physics (a model trained under ``randomize="mismatch20"`` is
+chosen under mismatch20) and its memory window. The seed with the best headline rate of
+the scene (safe on Reverse, success on the goal scenes) is committed, ties to the lower
+seed, and its card records every seed's rate (:class:`~agents.artifacts.cards.Selection`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import replace
+from pathlib import Path
+
+from agents.artifacts.cards import Selection, read_model_card, recipe_command, write_card
+from agents.artifacts.run_folder import BEST_MODEL, export_model
+from agents.artifacts.shipped import SEEDS_DIR
+from agents.envs import headline_metric
+from agents.evaluation.metrics import rollout, summarize
+from agents.policies.registry import load_policy
+from agents.seeds import SELECTION_SEED
+
+SELECTION_EPISODES = 200
+
+
+def card_env(model: Path) -> tuple[str, dict[str, object]]:
+    """The scene and env keywords ``model``'s card records (one n; its physics and window).
+
+    Raises:
+        ValueError: If the card names no scene, or a range of n (one policy for several
+            counts: select it per count with ``agents.evaluate``).
+    """
+    card = read_model_card(model)
+    if card.env_id is None:
+        raise ValueError(f"{model}: its card names no scene")
+    if card.env_kwargs.is_range:
+        raise ValueError(f"{model} is one policy for a range of n; selection scores one n")
+    return card.env_id, card.env_kwargs.as_kwargs()
+
+
+def selection_rate(model: Path, metric: str | None = None) -> float:
+    """``model``'s headline rate (or ``metric``) on the selection episodes, in its card's env."""
+    env_id, kwargs = card_env(model)
+    metric = metric or headline_metric(env_id)
+    policy = load_policy(str(model), env_id, kwargs, seed=SELECTION_SEED)
+    played = rollout(policy, env_id, SELECTION_EPISODES, SELECTION_SEED, kwargs)
+    return float(summarize(played)[metric])
+
+
+def export_selected(
+    runs: Mapping[int, Path], destination: Path, metric: str | None = None
+) -> tuple[int, dict[int, float]]:
+    """Export each run's kept model as ``<destination's folder>/seeds/<stem>_s<seed>.zip``
+    and the best on the selection episodes as ``destination`` (``runs``: training seed to
+    run folder, all of one scene, n, physics and window); returns the chosen seed and
+    every seed's rate. Existing files are replaced (the caller asks first)."""
+    envs = {seed: card_env(folder / BEST_MODEL) for seed, folder in runs.items()}
+    if len({(env_id, tuple(sorted(kwargs.items()))) for env_id, kwargs in envs.values()}) != 1:
+        raise ValueError("the runs' cards record different scenes, n, physics or windows")
+    env_id = next(iter(envs.values()))[0]
+    metric = metric or headline_metric(env_id)
+    rates = {seed: selection_rate(folder / BEST_MODEL, metric) for seed, folder in runs.items()}
+    chosen = max(sorted(rates), key=lambda seed: rates[seed])
+    by_seed = {str(seed): rate for seed, rate in sorted(rates.items())}
+    selection = Selection(
+        chosen_seed=chosen,
+        seeds=(SELECTION_SEED, SELECTION_SEED + SELECTION_EPISODES - 1),
+        safe_rate_per_training_seed=by_seed if metric == "safe_rate" else None,
+        success_rate_per_training_seed=None if metric == "safe_rate" else by_seed,
+    )
+    seeds_dir = destination.parent / SEEDS_DIR.name
+    for seed, folder in sorted(runs.items()):
+        _export(folder, seeds_dir / f"{destination.stem}_s{seed}.zip", None)
+    _export(runs[chosen], destination, selection)
+    return chosen, rates
+
+
+def _export(run_dir: Path, destination: Path, selection: Selection | None) -> None:
+    """Export ``run_dir``'s kept model to ``destination``, its card's command the recipe
+    alone (:func:`~agents.artifacts.cards.recipe_command`: where the run's files went is
+    not part of it) and its ``selection`` (when given)."""
+    path = export_model(run_dir, destination, True)
+    card = read_model_card(path)
+    recipe = replace(card, command=recipe_command(card.command))
+    write_card(path, recipe if selection is None else replace(recipe, selection=selection))
