@@ -15,6 +15,7 @@ from agents.commands import reproduce
 from agents.commands.reproduce import Recipe, RecipeError, main, recipes, recipes_page
 from agents.evaluation.metrics import rollout, summary_of
 from agents.policies.registry import load_policy
+from tests.agents.helpers import refusal
 
 ROOT = Path(__file__).resolve().parents[2]
 CARD_FILES = sorted(
@@ -27,12 +28,7 @@ CARD_FILES = sorted(
 
 def _refused(argv: list[str], capsys: pytest.CaptureFixture[str]) -> str:
     """The one-line message of a refusal (exit status 2)."""
-    with pytest.raises(SystemExit) as exit_info:
-        main(argv)
-    assert exit_info.value.code == 2
-    errors = [line for line in capsys.readouterr().err.splitlines() if "error:" in line]
-    assert len(errors) == 1
-    return errors[0]
+    return refusal(main, argv, capsys)
 
 
 def test_list_names_every_committed_model(capsys: pytest.CaptureFixture[str]) -> None:
