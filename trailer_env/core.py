@@ -108,11 +108,14 @@ MAX_TASK_MAGNITUDE = 1e6
 
 class StartRecord(NamedTuple):
     """Starts of some rows (:meth:`ConvoyCore.start_records`): their state rows ``z``,
-    mass rows ``act`` and task values (key of :attr:`ConvoyCore.task_keys` -> rows)."""
+    mass rows ``act``, task values (key of :attr:`ConvoyCore.task_keys` -> rows) and, in a
+    batch that draws its physics, the episodes' drawn ``factors`` (rows of
+    :attr:`ConvoyCore.factors`; None otherwise)."""
 
     z: np.ndarray
     act: np.ndarray
     task: dict[str, np.ndarray]
+    factors: np.ndarray | None = None
 
 
 class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
@@ -398,39 +401,38 @@ class ConvoyCore(PhysicsMixin, InfoMixin, RetryMixin):
         self._begin_episodes(rows)
 
     def start_records(self, rows: np.ndarray) -> StartRecord:
-        """Copies of ``rows``' state, mass and task values, taken just after their reset:
-        starts that :meth:`restart` puts back (:mod:`trailer_env.start_replay`).
-
-        Raises:
-            ValueError: If the batch draws its physics (``randomize``): the drawn
-                parameters belong to the start and are not recorded.
-        """
-        if self.randomization is not None:
-            raise ValueError(
-                "start records do not carry drawn physics; build the batch without randomize"
-            )
+        """Copies of ``rows``' state, mass and task values, and of their drawn physics where
+        the batch draws it (``randomize``), taken just after their reset: starts that
+        :meth:`restart` puts back (:mod:`trailer_env.start_replay`)."""
         task = {key: np.array(getattr(self, key)[rows], dtype=np.float64) for key in self.task_keys}
-        return StartRecord(self.z[rows].copy(), self.act[rows].copy(), task)
+        factors = None if self.randomization is None else self.factors[rows].copy()
+        return StartRecord(self.z[rows].copy(), self.act[rows].copy(), task, factors)
 
     def restart(self, rows: np.ndarray, record: StartRecord) -> None:
         """Start new episodes in ``rows`` from ``record`` (one entry per row, as
-        :meth:`start_records` returns them): each replays the recorded start to the bit.
+        :meth:`start_records` returns them): each replays the recorded start, its drawn
+        physics included, to the bit.
 
         Raises:
-            ValueError: If the record's shapes do not fit ``rows`` or this batch.
+            ValueError: If the record's shapes do not fit ``rows`` or this batch, or it
+                carries drawn physics where the batch draws none or the reverse.
         """
         size = len(rows)
         task_shapes = {key: (size, *getattr(self, key).shape[1:]) for key in self.task_keys}
+        factor_shape = None if self.randomization is None else (size, self.factors.shape[1])
         if (
             record.z.shape != (size, self.z.shape[1])
             or record.act.shape != (size, self.act.shape[1])
             or {key: value.shape for key, value in record.task.items()} != task_shapes
+            or (None if record.factors is None else record.factors.shape) != factor_shape
         ):
             raise ValueError(f"the start record does not fit {size} rows of this batch")
         self.z[rows] = record.z
         self.act[rows] = record.act
         for key, values in record.task.items():
             getattr(self, key)[rows] = values
+        if record.factors is not None:
+            self._restore_physics(np.asarray(rows, dtype=np.int64), record.factors)
         self._begin_episodes(rows)
 
     def render_markers(self, i: int) -> tuple[Any, ...]:

@@ -46,9 +46,33 @@ class PhysicsMixin(CoreBase):
             self.planar,
             self.z,
         )
+        self._observe_parameters(indices)
+
+    def _restore_physics(self, rows: np.ndarray, factors: np.ndarray) -> None:
+        """Give ``rows`` recorded episode ``factors`` (rows of :attr:`factors`) and what they
+        set, as :meth:`_draw_physics` did when they were drawn, except the speed: the
+        recorded state already holds the scaled one."""
+        self.factors[rows] = factors
+        self._apply_params(rows, self._packed * factors[:, : len(PARAMETERS)])
+        self._observe_parameters(rows)
+
+    def _apply_params(self, rows: np.ndarray, values: np.ndarray) -> None:
+        """``param_values`` of ``rows`` and the auto rule's settings they imply."""
+        apply_params(
+            rows,
+            values,
+            self.param_values,
+            self.kernel_args.nominal_auto,
+            self.kernel_args.row_auto,
+            float(self.params.b),
+            float(self.params.s_max),
+            self.planar,
+        )
+
+    def _observe_parameters(self, rows: np.ndarray) -> None:
+        """Write the parameter features of ``rows`` into the observation, where observed."""
         if self.n_param_features:
-            offset = self.param_offset
-            self.obs[indices, offset:] = self.parameter_features(indices)
+            self.obs[rows, self.param_offset :] = self.parameter_features(rows)
 
     def parameter_features(self, rows: np.ndarray | slice = slice(None)) -> np.ndarray:
         """The ``observe_params`` features of ``rows`` (len(rows), 7): ``log(value /
@@ -82,16 +106,7 @@ class PhysicsMixin(CoreBase):
             raise ValueError("parameter values must be finite and > 0")
         if indices.size and (indices.min() < 0 or indices.max() >= self.batch_size):
             raise ValueError(f"rows must be in 0..{self.batch_size - 1}")
-        apply_params(
-            indices,
-            values,
-            self.param_values,
-            self.kernel_args.nominal_auto,
-            self.kernel_args.row_auto,
-            float(self.params.b),
-            float(self.params.s_max),
-            self.planar,
-        )
+        self._apply_params(indices, values)
         nominal = np.broadcast_to(self._packed, values.shape)
         self.factors[indices, : len(PARAMETERS)] = np.divide(
             values, nominal, out=np.ones_like(values), where=nominal != 0.0

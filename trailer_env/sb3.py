@@ -175,9 +175,9 @@ class ConvoySB3VecEnv(VecEnv):
 
         Raises:
             TypeError: If ``replay`` is neither a StartReplay nor None.
-            ValueError: If the batch mixes counts of trailers or draws its physics, or
-                the replay serves another batch (one that still lives, or of another
-                scene, size or state); nothing changes.
+            ValueError: If the batch mixes counts of trailers, or the replay serves
+                another batch (one that still lives, or of another scene, size, state or
+                physics draw); nothing changes.
         """
         if replay is not None:
             if not isinstance(replay, StartReplay):

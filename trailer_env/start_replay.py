@@ -18,7 +18,9 @@ The scene draws every start as before (each row's generator advances exactly as 
 replay); a replayed row then has its drawn start replaced by a recorded one, taken out
 of the buffer, and put back if that episode fails again. Replayed starts are the
 scene's own (drawn earlier), so the training distribution leans towards the hard ones
-without leaving the scene's support; evaluation environments are not touched.
+without leaving the scene's support; evaluation environments are not touched. Under
+drawn physics (``randomize``) a start is the state with the episode's drawn parameters:
+a replay meets the same convoy that failed.
 """
 
 from __future__ import annotations
@@ -90,17 +92,15 @@ class StartReplay:
         return self._current_replays > 0
 
     def check_core(self, core: object) -> None:
-        """Refuse a batch whose starts cannot be recorded (mixed counts of trailers,
-        drawn physics) or that this replay cannot serve (it serves another batch that
-        still lives, or holds starts of another scene, size or state), changing nothing.
+        """Refuse a batch whose starts cannot be recorded (mixed counts of trailers) or
+        that this replay cannot serve (it serves another batch that still lives, or holds
+        starts of another scene, size, state or physics draw), changing nothing.
 
         Raises:
             ValueError: Naming the reason.
         """
         if not isinstance(core, BatchCore) or len(core.counts) > 1:
             raise ValueError("start replay needs one count of trailers, not a mix")
-        if core.randomization is not None:
-            raise ValueError("start replay does not record drawn physics (randomize)")
         served = self._served() if self._served is not None else None
         if served is not None and served is not core:
             raise ValueError(
@@ -189,6 +189,9 @@ class StartReplay:
                 np.zeros((self.capacity, *record.z.shape[1:])),
                 np.zeros((self.capacity, *record.act.shape[1:])),
                 {key: np.zeros((self.capacity, *v.shape[1:])) for key, v in record.task.items()},
+                None
+                if record.factors is None
+                else np.zeros((self.capacity, *record.factors.shape[1:])),
             )
         free = min(self.capacity - self.size, count)
         slots = np.concatenate(
@@ -209,24 +212,28 @@ class StartReplay:
         kept = np.flatnonzero(keep)
         self.size = kept.size
         stored = self._stored
-        for array in (stored.z, stored.act, self._stored_replays, *stored.task.values()):
+        factors = () if stored.factors is None else (stored.factors,)
+        for array in (stored.z, stored.act, self._stored_replays, *stored.task.values(), *factors):
             array[: self.size] = array[kept]
 
 
 def _layout(core: ConvoyCore) -> tuple[object, ...]:
-    """What a batch's start records depend on: scene, batch size, widths, task keys."""
+    """What a batch's start records depend on: scene, batch size, widths, task keys and
+    whether it draws its physics."""
     return (
         type(core).__name__,
         core.batch_size,
         core.z.shape[1],
         core.act.shape[1],
         core.task_keys,
+        core.randomization is not None,
     )
 
 
 def _describe(layout: tuple[object, ...]) -> str:
     scene, size, width = layout[:3]
-    return f"{scene} with {size} environments and {width} state columns"
+    physics = "drawn" if layout[5] else "fixed"
+    return f"{scene} with {size} environments, {width} state columns and {physics} physics"
 
 
 def _put(target: StartRecord, index: np.ndarray, record: StartRecord) -> None:
@@ -235,6 +242,8 @@ def _put(target: StartRecord, index: np.ndarray, record: StartRecord) -> None:
     target.act[index] = record.act
     for key, values in record.task.items():
         target.task[key][index] = values
+    if target.factors is not None and record.factors is not None:
+        target.factors[index] = record.factors
 
 
 def _take(record: StartRecord, index: np.ndarray) -> StartRecord:
@@ -242,4 +251,5 @@ def _take(record: StartRecord, index: np.ndarray) -> StartRecord:
         record.z[index],
         record.act[index],
         {key: values[index] for key, values in record.task.items()},
+        None if record.factors is None else record.factors[index],
     )

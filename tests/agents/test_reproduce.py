@@ -39,7 +39,7 @@ def test_list_names_every_committed_model(capsys: pytest.CaptureFixture[str]) ->
     models = [path.stem for path in sorted((ROOT / "agents" / "models").glob("*.zip"))]
     seeds = [path.stem for path in sorted((ROOT / "agents" / "models" / "seeds").glob("*.zip"))]
     assert listed == models + seeds
-    assert len(listed) == len(set(listed)) == len(models) + len(seeds) == 31 + 39
+    assert len(listed) == len(set(listed)) == len(models) + len(seeds) == 32 + 42
     by_model = {line.split()[0]: line for line in lines[1:]}
     assert by_model["ppo_reverse_v1_n2"].split()[1:7] == [
         "train",
@@ -198,7 +198,7 @@ def test_the_committed_page_is_what_the_cards_give() -> None:
     page = (ROOT / reproduce.DOCS_PAGE).read_text()
     assert page == recipes_page()
     rows = [line for line in page.splitlines() if line.startswith("| ") and "`" in line]
-    assert len(rows) == len(CARD_FILES) == 31 + 39
+    assert len(rows) == len(CARD_FILES) == 32 + 42
     assert sum("| no: " in row for row in rows) == 1
 
 

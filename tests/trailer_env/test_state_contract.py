@@ -149,7 +149,7 @@ def test_a_start_replay_serves_one_batch() -> None:
     bigger = ConvoySB3VecEnv("trailer_env/Dock-v0", num_envs=8, n_trailers=2)
     del first
     gc.collect()
-    with pytest.raises(ValueError, match=r"4 environments .* not of DockCore with 8"):
+    with pytest.raises(ValueError, match=r"4 environments, .* not of DockCore with 8"):
         bigger.set_start_replay(replay)
     assert bigger.start_replay is None
     other.set_start_replay(replay)  # the first batch is gone: one of its layout takes over

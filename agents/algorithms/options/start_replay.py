@@ -25,9 +25,9 @@ from agents.algorithms.options.base import (
 @dataclass(frozen=True)
 class StartReplay(TrainingOption):
     """Start replay: ``fraction`` in (0, 1) of the training episodes begin from starts that
-    failed before, seeded with the run's seed (sb3, one count of trailers, nominal
-    physics); the evaluations keep the scene's starts. Its buffer is not checkpointed: a
-    resumed run starts with an empty one.
+    failed before, with the physics drawn for them under ``--randomize``, seeded with the
+    run's seed (sb3, one count of trailers); the evaluations keep the scene's starts. Its
+    buffer is not checkpointed: a resumed run starts with an empty one.
 
     Attributes:
         fraction: The share of episodes begun from the buffer.
@@ -42,8 +42,9 @@ class StartReplay(TrainingOption):
             "share",
             "SHARE",
             "begin this share (in (0, 1)) of the training episodes from starts whose "
-            "episodes failed before (trailer_env.start_replay; sb3, one count of trailers, "
-            "no --randomize); evaluations use the scene's starts",
+            "episodes failed before, with their drawn physics under --randomize "
+            "(trailer_env.start_replay; sb3, one count of trailers); evaluations use the "
+            "scene's starts",
         ),
         Flag(
             "--start-replay-max",
@@ -94,11 +95,11 @@ class StartReplay(TrainingOption):
 
     def check(self, run: RunFacts) -> None:
         super().check(run)
-        if isinstance(run.n_trailers, tuple) or run.env_kwargs.get("randomize") is not None:
+        if isinstance(run.n_trailers, tuple):
             raise OptionError(
                 "--start-replay",
                 "start_replay must be a share in (0, 1), on the sb3 backend, with one count "
-                f"of trailers and no randomize; got {self.fraction} on {run.backend}",
+                f"of trailers; got {self.fraction} on {run.backend}",
             )
 
     def record(self) -> dict[str, object]:

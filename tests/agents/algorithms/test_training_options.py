@@ -166,12 +166,6 @@ def test_values_that_do_not_go_together_are_refused_naming_the_flag(
         (StartReplay(0.5), Run(backend="rllib"), "--start-replay", "not supported"),
         (StartReplay(0.5), Run(n_trailers=(1, 3)), "--start-replay", "one count of trailers"),
         (
-            StartReplay(0.5),
-            Run(randomize="mismatch20"),
-            "--start-replay",
-            "no randomize",
-        ),
-        (
             StartCurriculum(0.2, 10),
             Run(env_id="trailer_env/Dock-v0"),
             "--start-curriculum",
@@ -192,6 +186,10 @@ def test_an_option_refuses_a_run_it_cannot_be_part_of(
     with pytest.raises(OptionError, match=re.escape(words)) as refused:
         option.check(run)
     assert refused.value.flag == flag
+
+
+def test_start_replay_takes_a_run_of_drawn_physics() -> None:
+    StartReplay(0.5).check(Run(randomize="mismatch20"))  # the start keeps its drawn convoy
 
 
 @pytest.mark.parametrize(

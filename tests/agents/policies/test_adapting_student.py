@@ -1,6 +1,7 @@
-"""The committed student that adapts (``dagger_reverse_v1_adapt_n1``: DAgger from a
-privileged PPO teacher that reads the episode's parameters, through a 16-frame memory):
-its card and its teachers, its actions read the past, its rate under mismatch20."""
+"""The committed students that adapt (``dagger_reverse_v1_adapt_n<n>``, n = 1, 2: DAgger
+from a privileged PPO teacher that reads the episode's parameters, through a 16-frame
+memory): their cards and their teachers, their actions read the past, their rates under
+mismatch20."""
 
 from __future__ import annotations
 
@@ -18,47 +19,62 @@ from agents.policies.registry import load_policy
 from agents.seeds import TEST_SEED
 
 REVERSE = "trailer_env/Reverse-v1"
-STUDENT = "dagger_reverse_v1_adapt_n1"
 HISTORY = 16
-KWARGS: dict[str, object] = {"n_trailers": 1, "randomize": "mismatch20", "history": HISTORY}
 TEACHERS = MODELS_DIR / "teachers"
+COUNTS = (1, 2)
+#: Each count's floor on the test starts under mismatch20, a few starts under what
+#: docs/generated/adapt_n<n> records (97 at n = 1, 98 at n = 2): machines differ by a
+#: few starts, not more.
+FLOORS = {1: 0.92, 2: 0.94}
 
 
-def window_after(policy: object, seed: int, steps: int) -> np.ndarray:
+def student(n: int) -> str:
+    return f"dagger_reverse_v1_adapt_n{n}"
+
+
+def kwargs(n: int) -> dict[str, object]:
+    return {"n_trailers": n, "randomize": "mismatch20", "history": HISTORY}
+
+
+def window_after(policy: object, n: int, seed: int, steps: int) -> np.ndarray:
     """The window the policy sees after driving ``steps`` steps of the episode ``seed``."""
-    env = gym.make(REVERSE, **KWARGS)
+    env = gym.make(REVERSE, **kwargs(n))
     obs, _ = env.reset(seed=seed)
     for _ in range(steps):
         obs, *_ = env.step(policy(obs[None])[0])  # type: ignore[operator]
     return obs
 
 
-def test_each_seed_learned_from_its_own_committed_teacher() -> None:
-    card = read_model_card(Path(resolve_model(STUDENT)))
+@pytest.mark.parametrize("n", COUNTS)
+def test_each_seed_learned_from_its_own_committed_teacher(n: int) -> None:
+    card = read_model_card(Path(resolve_model(student(n))))
     assert card.env_kwargs.history == HISTORY and card.env_kwargs.randomize == "mismatch20"
-    assert card.n_trailers == 1 and card.expert == "specialists"
+    assert card.n_trailers == n and card.expert == "specialists"
     assert card.selection is not None
     assert sorted(card.selection.safe_rate_per_training_seed or {}) == ["0", "1", "2"]
     for seed in (0, 1, 2):
-        sibling = read_model_card(SEEDS_DIR / f"{STUDENT}_s{seed}.zip")
-        teacher = f"agents/models/teachers/ppo_privileged_reverse_v1_n1_s{seed}.zip"
+        sibling = read_model_card(SEEDS_DIR / f"{student(n)}_s{seed}.zip")
+        teacher = f"agents/models/teachers/ppo_privileged_reverse_v1_n{n}_s{seed}.zip"
         assert sibling.seed == seed and sibling.planner is not None
         assert sibling.planner.policy == teacher
         teacher_card = read_model_card(TEACHERS / Path(teacher).name)
         # The teacher reads the parameters the student must infer.
         assert teacher_card.env_kwargs.other.get("observe_params") is True
         assert teacher_card.env_kwargs.randomize == "mismatch20"
+        assert teacher_card.n_trailers == n
 
 
-def test_the_recipe_rebuilds_from_committed_files() -> None:
-    recipe = Recipe.from_card(MODELS_DIR / f"{STUDENT}.json")
+@pytest.mark.parametrize("n", COUNTS)
+def test_the_recipe_rebuilds_from_committed_files(n: int) -> None:
+    recipe = Recipe.from_card(MODELS_DIR / f"{student(n)}.json")
     assert recipe.kind == "distill" and recipe.problem is None
 
 
-def test_the_actions_read_the_past() -> None:
-    policy = load_policy(STUDENT, REVERSE, KWARGS)
-    window = window_after(policy, 1000, 30)
-    other = window_after(policy, 1001, 30)
+@pytest.mark.parametrize("n", COUNTS)
+def test_the_actions_read_the_past(n: int) -> None:
+    policy = load_policy(student(n), REVERSE, kwargs(n))
+    window = window_after(policy, n, 1000, 30)
+    other = window_after(policy, n, 1001, 30)
     d = (window.size - HISTORY) // (HISTORY + 1)
     swapped = np.concatenate([window[:d], other[d:]])  # the same present, another past
     actions = policy(np.stack([window, swapped]).astype(np.float32))
@@ -66,8 +82,8 @@ def test_the_actions_read_the_past() -> None:
 
 
 @pytest.mark.slow
-def test_it_keeps_its_measured_share_of_the_test_starts_under_mismatch20() -> None:
-    # 95 % on this machine (docs/generated/adapt_n1); within a few starts elsewhere.
-    policy = load_policy(STUDENT, REVERSE, KWARGS, seed=TEST_SEED)
-    rate = summarize(rollout(policy, REVERSE, 100, TEST_SEED, KWARGS))["safe_rate"]
-    assert rate >= 0.92
+@pytest.mark.parametrize("n", COUNTS)
+def test_it_keeps_its_measured_share_of_the_test_starts_under_mismatch20(n: int) -> None:
+    policy = load_policy(student(n), REVERSE, kwargs(n), seed=TEST_SEED)
+    rate = summarize(rollout(policy, REVERSE, 100, TEST_SEED, kwargs(n)))["safe_rate"]
+    assert rate >= FLOORS[n]

@@ -52,7 +52,7 @@ def test_a_run_with_start_replay_replays_and_records_it(tmp_path: Path) -> None:
         (["--start-replay", "1"], "expected a number in (0, 1)"),
         (["--start-replay", "half"], "expected a number in (0, 1)"),
         (["--start-replay", "0.5", "--backend", "rllib"], "not supported"),
-        (["--start-replay", "0.5", "--randomize", "mismatch20"], "start_replay must be"),
+        (["--start-replay", "0.5", "--n-trailers", "1-2"], "one count of trailers"),
         (["--start-replay-max", "2"], "needs start_replay"),
         (["--start-replay", "0.5", "--start-replay-max", "0"], "must be >= 1"),
     ],
