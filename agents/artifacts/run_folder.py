@@ -20,12 +20,19 @@ value, and leaves the folder as it was.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import shutil
 from collections.abc import Iterator
 from pathlib import Path
 
 from agents.artifacts import files
-from agents.artifacts.cards import RECORD_KEYS, ModelCard, read_model_card
+from agents.artifacts.cards import (
+    RECORD_KEYS,
+    ModelCard,
+    read_model_card,
+    recipe_command,
+    write_card,
+)
 from agents.artifacts.curves import CURVE_COLUMNS, read_curve
 from agents.artifacts.files import write_json
 from agents.artifacts.paths import card_path, curve_path, export_files, stats_path
@@ -273,7 +280,10 @@ def export_problem(destination: Path, overwrite: bool = False) -> str | None:
 
 def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> Path:
     """Copy the run's best model, its card, statistics and learning curve to ``destination``
-    (each file atomically; the model last, so that it appears with its sidecars).
+    (each file atomically; the model last, so that it appears with its sidecars). The
+    exported card's command is the recipe alone
+    (:func:`~agents.artifacts.cards.recipe_command`): where the run's files went is not
+    part of it.
 
     Raises:
         FileNotFoundError: If the run has no best model.
@@ -290,9 +300,11 @@ def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> P
         files.refuse_symlink(path)
     destination = destination.with_suffix(".zip")
     destination.parent.mkdir(parents=True, exist_ok=True)
-    for sidecar in (card_path, stats_path):
-        if sidecar(source).is_file():
-            files.atomic_write_bytes(sidecar(destination), sidecar(source).read_bytes())
+    if card_path(source).is_file():
+        card = read_model_card(source)
+        write_card(destination, dataclasses.replace(card, command=recipe_command(card.command)))
+    if stats_path(source).is_file():
+        files.atomic_write_bytes(stats_path(destination), stats_path(source).read_bytes())
     curve = run_dir / CURVE_FILE
     if curve.is_file():
         files.atomic_write_bytes(curve_path(destination), curve.read_bytes())

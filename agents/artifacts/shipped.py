@@ -18,7 +18,7 @@ def resolve_model(spec: str) -> str:
     unchanged."""
     if "/" in spec or Path(spec).suffix:
         return spec
-    for folder in (MODELS_DIR, MODELS_DIR / "seeds", MODELS_DIR / "teachers"):
+    for folder in (MODELS_DIR, SEEDS_DIR, TEACHERS_DIR):
         shipped = folder / f"{spec}.zip"
         if shipped.is_file():
             return str(shipped)
@@ -32,6 +32,10 @@ def shipped_models() -> list[str]:
 
 #: The models of every training seed of the committed models (see :func:`seed_models`).
 SEEDS_DIR = MODELS_DIR / "seeds"
+
+#: The privileged teachers (they read the convoy's parameters) the students that adapt
+#: learned from: committed so that those students' recipes run from committed files.
+TEACHERS_DIR = MODELS_DIR / "teachers"
 
 
 def committed_models(

@@ -7,8 +7,9 @@ Usage::
     python -m agents.reproduce dagger_reverse_v1_n2 --out smoke --budget 1 --episodes 4
     python -m agents.reproduce ppo_reverse_v1_n2 --out rebuilt --dry-run
 
-Every committed model (``agents/models/*.zip`` and its training seeds'
-``agents/models/seeds/*.zip``) has a card whose ``command`` is the recipe that trained
+Every committed model (``agents/models/*.zip``, its training seeds'
+``agents/models/seeds/*.zip`` and the privileged teachers ``agents/models/teachers/*.zip``
+the students that adapt learned from) has a card whose ``command`` is the recipe that trained
 it. :class:`Recipe` reads that card into a typed record: its kind (``train``: an SB3
 algorithm from the scene's reward, ``agents.train``; ``imitate``: DAgger from a planner,
 ``agents.imitate``; ``distill``: DAgger from trained specialists), algorithm, scene,
@@ -50,7 +51,7 @@ from typing import NoReturn
 from agents.artifacts import files
 from agents.artifacts.cards import RUN_FOLDER_FLAGS, ModelCard
 from agents.artifacts.run_folder import BEST_MODEL, comparable_hyperparams
-from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR
+from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR, TEACHERS_DIR
 from agents.commands import options as cli
 
 #: The recipe kinds, in the order ``--list`` and the docs name them.
@@ -469,22 +470,28 @@ def _imitation_recipe(
     )
 
 
-def model_cards(models_dir: Path = MODELS_DIR, seeds_dir: Path = SEEDS_DIR) -> dict[str, Path]:
-    """Every committed model's card by model name: the models, then their seeds'."""
+def model_cards(
+    models_dir: Path = MODELS_DIR, seeds_dir: Path = SEEDS_DIR, teachers_dir: Path = TEACHERS_DIR
+) -> dict[str, Path]:
+    """Every committed model's card by model name: the models, their seeds', then the
+    teachers'."""
     cards: dict[str, Path] = {}
-    for folder in (models_dir, seeds_dir):
+    for folder in (models_dir, seeds_dir, teachers_dir):
         for model in sorted(folder.glob("*.zip")):
             cards.setdefault(model.stem, model.with_suffix(".json"))
     return cards
 
 
-def recipes(models_dir: Path = MODELS_DIR, seeds_dir: Path = SEEDS_DIR) -> list[Recipe]:
+def recipes(
+    models_dir: Path = MODELS_DIR, seeds_dir: Path = SEEDS_DIR, teachers_dir: Path = TEACHERS_DIR
+) -> list[Recipe]:
     """The recipe of every committed model (:func:`model_cards`' order).
 
     Raises:
         RecipeError: A card whose recipe cannot be read.
     """
-    return [Recipe.from_card(card) for card in model_cards(models_dir, seeds_dir).values()]
+    cards = model_cards(models_dir, seeds_dir, teachers_dir)
+    return [Recipe.from_card(card) for card in cards.values()]
 
 
 def _budget_text(recipe: Recipe) -> str:
@@ -525,11 +532,15 @@ def _markdown_rows(all_recipes: Sequence[Recipe]) -> Iterator[str]:
         yield f"| {recipe.model} | {recipe.kind} | `{command}` | {rebuilt} |"
 
 
-def recipes_page(models_dir: Path = MODELS_DIR, seeds_dir: Path = SEEDS_DIR) -> str:
+def recipes_page(
+    models_dir: Path = MODELS_DIR, seeds_dir: Path = SEEDS_DIR, teachers_dir: Path = TEACHERS_DIR
+) -> str:
     """The Markdown page of every committed model's recipe (:data:`DOCS_PAGE`)."""
-    all_recipes = recipes(models_dir, seeds_dir)
-    committed = [recipe for recipe in all_recipes if recipe.card.parent == models_dir]
-    seeds = [recipe for recipe in all_recipes if recipe.card.parent != models_dir]
+    all_recipes = recipes(models_dir, seeds_dir, teachers_dir)
+    committed, seeds, teachers = (
+        [recipe for recipe in all_recipes if recipe.card.parent == folder]
+        for folder in (models_dir, seeds_dir, teachers_dir)
+    )
     header = (
         "| Model | Kind | Command (OUT: the folder given to --out) | From committed files |\n"
         "|---|---|---|---|\n"
@@ -546,6 +557,9 @@ def recipes_page(models_dir: Path = MODELS_DIR, seeds_dir: Path = SEEDS_DIR) -> 
         + "\n\n## Their training seeds (agents/models/seeds)\n\n"
         + header
         + "\n".join(_markdown_rows(seeds))
+        + "\n\n## The teachers of the students that adapt (agents/models/teachers)\n\n"
+        + header
+        + "\n".join(_markdown_rows(teachers))
         + "\n"
     )
 

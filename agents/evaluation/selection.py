@@ -15,7 +15,7 @@ from collections.abc import Mapping
 from dataclasses import replace
 from pathlib import Path
 
-from agents.artifacts.cards import Selection, read_model_card, recipe_command, write_card
+from agents.artifacts.cards import Selection, read_model_card, write_card
 from agents.artifacts.run_folder import BEST_MODEL, export_model
 from agents.artifacts.shipped import SEEDS_DIR
 from agents.envs import headline_metric
@@ -79,10 +79,8 @@ def export_selected(
 
 
 def _export(run_dir: Path, destination: Path, selection: Selection | None) -> None:
-    """Export ``run_dir``'s kept model to ``destination``, its card's command the recipe
-    alone (:func:`~agents.artifacts.cards.recipe_command`: where the run's files went is
-    not part of it) and its ``selection`` (when given)."""
+    """Export ``run_dir``'s kept model to ``destination`` (:func:`export_model`: its card's
+    command the recipe alone), its card recording ``selection`` when given."""
     path = export_model(run_dir, destination, True)
-    card = read_model_card(path)
-    recipe = replace(card, command=recipe_command(card.command))
-    write_card(path, recipe if selection is None else replace(recipe, selection=selection))
+    if selection is not None:
+        write_card(path, replace(read_model_card(path), selection=selection))

@@ -10,7 +10,7 @@ import pytest
 
 from agents.algorithms.options import StartReplay
 from agents.artifacts.cards import ModelCard, Planner, read_model_card
-from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR
+from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR, TEACHERS_DIR
 from agents.commands import reproduce
 from agents.commands.reproduce import Recipe, RecipeError, main, recipes, recipes_page
 from agents.evaluation.metrics import rollout, summary_of
@@ -20,7 +20,7 @@ from tests.agents.helpers import refusal
 ROOT = Path(__file__).resolve().parents[2]
 CARD_FILES = sorted(
     path
-    for folder in (ROOT / "agents" / "models", ROOT / "agents" / "models" / "seeds")
+    for folder in (MODELS_DIR, SEEDS_DIR, TEACHERS_DIR)
     for path in folder.glob("*.json")
     if not path.name.endswith("_vecnormalize.json")
 )
@@ -38,9 +38,12 @@ def test_list_names_every_committed_model(capsys: pytest.CaptureFixture[str]) ->
     listed = [line.split()[0] for line in lines[1:]]
     models = [path.stem for path in sorted((ROOT / "agents" / "models").glob("*.zip"))]
     seeds = [path.stem for path in sorted((ROOT / "agents" / "models" / "seeds").glob("*.zip"))]
-    assert listed == models + seeds
-    assert len(listed) == len(set(listed)) == len(models) + len(seeds) == 32 + 42
+    teachers = [path.stem for path in sorted(TEACHERS_DIR.glob("*.zip"))]
+    assert listed == models + seeds + teachers
+    assert len(listed) == len(set(listed)) == 32 + 42 + 6
     by_model = {line.split()[0]: line for line in lines[1:]}
+    teacher = by_model["ppo_privileged_reverse_v1_n2_s1"].split()[1:]
+    assert teacher[:7] == ["train", "ppo", "Reverse-v1", "2", "6,000,000", "steps", "1"]
     assert by_model["ppo_reverse_v1_n2"].split()[1:7] == [
         "train",
         "ppo",
@@ -198,7 +201,7 @@ def test_the_committed_page_is_what_the_cards_give() -> None:
     page = (ROOT / reproduce.DOCS_PAGE).read_text()
     assert page == recipes_page()
     rows = [line for line in page.splitlines() if line.startswith("| ") and "`" in line]
-    assert len(rows) == len(CARD_FILES) == 32 + 42
+    assert len(rows) == len(CARD_FILES) == 32 + 42 + 6
     assert sum("| no: " in row for row in rows) == 1
 
 
@@ -321,3 +324,23 @@ def test_seed_models_are_listed_from_their_folder() -> None:
     cards = reproduce.model_cards()
     assert cards["ppo_reverse_v1_n2_s0"] == SEEDS_DIR / "ppo_reverse_v1_n2_s0.json"
     assert cards["ppo_reverse_v1_n2"] == MODELS_DIR / "ppo_reverse_v1_n2.json"
+    teacher = "ppo_privileged_reverse_v1_n1_s0"
+    assert cards[teacher] == TEACHERS_DIR / f"{teacher}.json"
+
+
+def test_a_student_that_adapts_and_its_teacher_rebuild_from_committed_files() -> None:
+    by_model = {recipe.model: recipe for recipe in recipes()}
+    for n in (1, 2):
+        for seed in range(3):
+            teacher = by_model[f"ppo_privileged_reverse_v1_n{n}_s{seed}"]
+            assert (teacher.kind, teacher.n_trailers, teacher.seed, teacher.problem) == (
+                "train",
+                n,
+                seed,
+                None,
+            )
+            assert teacher.source == "agents/hyperparams/privileged"
+            assert teacher.arguments[teacher.arguments.index("--randomize") + 1] == "mismatch20"
+            student = by_model[f"dagger_reverse_v1_adapt_n{n}_s{seed}"]
+            assert (student.kind, student.problem) == ("distill", None)
+            assert student.source == (f"expert policies agents/models/teachers/{teacher.model}.zip")

@@ -197,7 +197,7 @@ def test_off_policy_resume_restores_the_replay_buffer(
     checkpoint = run / "checkpoints" / "sac_300_steps.zip"
     assert (run / "checkpoints" / "sac_replay_buffer_300_steps.pkl").is_file()
     # SB3 pickles the replay buffer: resuming with it is an explicit opt-in.
-    resume = ["--timesteps", "400", "--resume", str(checkpoint)]
+    resume = ["--timesteps", "400", "--resume", str(checkpoint), "--run-dir", str(run)]
     with pytest.raises(SystemExit) as refused:
         _train(tmp_path, *resume, algo="sac")
     assert refused.value.code == 2
@@ -208,6 +208,11 @@ def test_off_policy_resume_restores_the_replay_buffer(
     export = tmp_path / "models" / "sac_reverse_n1.zip"
     export_model(run, export)
     assert export.is_file() and export.with_suffix(".json").is_file()
+    # The exported card's command is the recipe, not where the run's files went.
+    exported = json.loads(export.with_suffix(".json").read_text())["command"]
+    recorded = json.loads((run / "best_model.json").read_text())["command"]
+    assert recorded[recorded.index("--run-dir") + 1] == str(run)
+    assert exported == [item for item in recorded if item not in ("--run-dir", str(run))]
     assert export.with_suffix(".csv").is_file()
 
 
