@@ -68,17 +68,19 @@ def test_the_best_model_is_set_against_the_committed_ceiling(tmp_path: Path, cap
     assert row.gap_points == pytest.approx(2.0) and row.wall_minutes == pytest.approx(10.0)
     assert row.seeds == 0 and row.seeds_mean is None
     table = time_to_ceiling_table([document])
-    assert "| Reverse-v1, 3 | 100 % | fast | 98 % | 2 | - | 10.0 min | - | yes | yes |" in table
-    assert table.rstrip().endswith("| fast | 98 % | 10.0 min | - |")
+    assert "| Reverse-v1, 3 | 100 % | fast | 98 % (2) | - | 10.0 min | yes / yes |" in table
+    assert table.rstrip().endswith("| fast | 98 % | 10.0 min |")
     slow = gap_of(
         _document("trailer_env/Reverse-v1", 3, [_model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89])])
     )
     assert slow.seeds == 3 and slow.seeds_mean == pytest.approx(0.91)
-    assert "| 9 | 91 % (3) | 25.0 min | - | no | no | slow | 91 % |" in time_to_ceiling_table(
+    assert "| 91 % (9) | 91 % (3) | 25.0 min | no / no | slow | 91 % |" in time_to_ceiling_table(
         [_document("trailer_env/Reverse-v1", 3, [_model("slow", 0.91, 1500.0, [0.91, 0.93, 0.89])])]
     )
     at_target = _document("trailer_env/Reverse-v1", 1, [_model("edge", 0.98, 60.0)])
-    assert "| 2 | - | 1.0 min | - | yes | yes | edge | 98 % |" in time_to_ceiling_table([at_target])
+    assert "| 98 % (2) | - | 1.0 min | yes / yes | edge | 98 % |" in time_to_ceiling_table(
+        [at_target]
+    )
     path = tmp_path / "results.json"
     path.write_text(json.dumps([document.to_json()]))
     assert main([str(path)]) == 0
@@ -98,7 +100,7 @@ def test_the_best_agent_from_reward_alone_stands_beside_imitation() -> None:
     row = gap_of(document)
     assert (row.agent, row.reward_agent) == ("dagger", "ppo_shaped")
     assert row.reward_rate == 0.76 and row.reward_minutes == pytest.approx(30.0)
-    assert "| no | no | ppo_shaped | 76 % | 30.0 min | - |" in time_to_ceiling_table([document])
+    assert "| no / no | ppo_shaped | 76 % | 30.0 min |" in time_to_ceiling_table([document])
     dagger = _model("d", 0.9, 60.0, recipe="dagger")
     only_imitation = _document("trailer_env/Reverse-v1", 3, [dagger])
     assert gap_of(only_imitation).reward_agent is None
@@ -106,13 +108,13 @@ def test_the_best_agent_from_reward_alone_stands_beside_imitation() -> None:
     tuned["training"]["init_from"] = "agents/models/dagger_reverse_v1_n3.zip"
     with_tuned = _document("trailer_env/Reverse-v1", 3, [dagger, tuned])
     assert (gap_of(with_tuned).agent, gap_of(with_tuned).reward_agent) == ("ppo_from_dagger", None)
-    assert time_to_ceiling_table([only_imitation]).rstrip().endswith("| - | - | - | - |")
+    assert time_to_ceiling_table([only_imitation]).rstrip().endswith("| no / yes | - | - | - |")
 
 
 def test_a_scenario_without_agents_or_certificate_shows_dashes(tmp_path: Path, capsys) -> None:
     # Heading-v0 has no certificate; no model was evaluated.
     document = _document("trailer_env/Heading-v0", 2, [])
-    dashes = "| Heading-v0, 2 |" + " - |" * 13
+    dashes = "| Heading-v0, 2 |" + " - |" * 5 + " - / - |" + " - |" * 3
     assert dashes in time_to_ceiling_table([document])
     path = tmp_path / "broken.json"
     path.write_text('[{"env_id": "trailer_env/Heading-v0"}]')
@@ -136,6 +138,6 @@ def test_each_wall_time_stands_beside_the_speed_of_the_host_that_ran_it() -> Non
     assert row.host is not None and row.host.env_steps_per_s == 231_531.8
     assert row.reward_host == row.host  # learned from the reward alone: the same run
     assert (
-        "| 15.0 min | 232k steps/s, update 0.81 s, load 1.6 | no | yes | timed | 97 % | 15.0 min "
-        "| 232k steps/s, update 0.81 s, load 1.6 |"
+        "| 15.0 min (232k steps/s, update 0.81 s, load 1.6) | no / yes | timed | 97 % "
+        "| 15.0 min (232k steps/s, update 0.81 s, load 1.6) |"
     ) in time_to_ceiling_table([_document("trailer_env/Reverse-v1", 3, [timed])])
