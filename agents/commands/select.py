@@ -8,14 +8,15 @@ Usage::
 Each RUN is a finished run folder of ``agents.train`` or ``agents.imitate`` (its
 ``best_model.zip`` with its card), one per training seed, all of one scene, n, physics
 and memory window. Every run's kept model plays the selection episodes (200 from seed
-60,000, which no table uses) in the env its card records; each is exported as
+60,000, which no table uses) in the env its card records (one policy for a range of n at
+each of its counts, its rate their mean); each is exported as
 ``<folder of NAME>/seeds/NAME_s<seed>.zip`` and the best as ``NAME.zip`` (ties to the lower
 seed), its card recording every seed's rate. ``agents.rl_from_reward --export`` does the
 same for runs it scores.
 
 Refusals exit with status 2 and one line before anything is written: a RUN without a kept
 model or a card, two runs of one training seed, runs of different scenes, n, physics or
-windows, a range of n, an export that is not a ``.zip`` or whose files exist without
+windows, an export that is not a ``.zip`` or whose files exist without
 ``--overwrite``.
 """
 
@@ -46,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _runs(parser: argparse.ArgumentParser, folders: list[Path]) -> dict[int, Path]:
     """Training seed to run folder; exit 2 on a run without a kept model or card, or two
     runs of one seed, or runs of different envs."""
-    from agents.evaluation.selection import card_env
+    from agents.evaluation.selection import card_env, env_key
 
     runs: dict[int, Path] = {}
     envs = set()
@@ -64,7 +65,7 @@ def _runs(parser: argparse.ArgumentParser, folders: list[Path]) -> dict[int, Pat
         if card.seed in runs:
             parser.error(f"RUN: {runs[card.seed]} and {folder} are both training seed {card.seed}")
         runs[card.seed] = folder
-        envs.add((env_id, tuple(sorted((key, str(value)) for key, value in kwargs.items()))))
+        envs.add(env_key(env_id, kwargs))
     if len(envs) != 1:
         parser.error("RUN: the runs' cards record different scenes, n, physics or windows")
     return runs

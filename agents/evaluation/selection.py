@@ -4,9 +4,11 @@
 Each training seed's kept model plays the selection episodes (200 from
 :data:`agents.seeds.SELECTION_SEED`, which no table uses) in the env its card records: its
 number of trailers, its physics (a model trained under ``randomize="mismatch20"`` is
-chosen under mismatch20) and its memory window. The seed with the best headline rate of
-the scene (safe on Reverse, success on the goal scenes) is committed, ties to the lower
-seed, and its card records every seed's rate (:class:`~agents.artifacts.cards.Selection`).
+chosen under mismatch20) and its memory window; one policy for a range of counts plays
+them at each count of its range, its rate the mean over the counts. The seed with the
+best headline rate of the scene (safe on Reverse, success on the goal scenes) is
+committed, ties to the lower seed, and its card records every seed's rate
+(:class:`~agents.artifacts.cards.Selection`).
 """
 
 from __future__ import annotations
@@ -27,27 +29,44 @@ SELECTION_EPISODES = 200
 
 
 def card_env(model: Path) -> tuple[str, dict[str, object]]:
-    """The scene and env keywords ``model``'s card records (one n; its physics and window).
+    """The scene and env keywords ``model``'s card records (its n or range of n, physics
+    and window).
 
     Raises:
-        ValueError: If the card names no scene, or a range of n (one policy for several
-            counts: select it per count with ``agents.evaluate``).
+        ValueError: If the card names no scene.
     """
     card = read_model_card(model)
     if card.env_id is None:
         raise ValueError(f"{model}: its card names no scene")
-    if card.env_kwargs.is_range:
-        raise ValueError(f"{model} is one policy for a range of n; selection scores one n")
     return card.env_id, card.env_kwargs.as_kwargs()
 
 
+def env_key(env_id: str, kwargs: Mapping[str, object]) -> tuple[object, ...]:
+    """What runs of one recipe share (:func:`card_env`'s scene and keywords), hashable."""
+    return (env_id, *sorted((key, str(value)) for key, value in kwargs.items()))
+
+
+def counts_of(kwargs: Mapping[str, object]) -> list[int]:
+    """The counts a card's env keywords cover: its one n, or each n of its range."""
+    n = kwargs["n_trailers"]
+    if isinstance(n, (list, tuple)):
+        low, high = n
+        return list(range(int(low), int(high) + 1))
+    return [int(n)]  # type: ignore[call-overload]
+
+
 def selection_rate(model: Path, metric: str | None = None) -> float:
-    """``model``'s headline rate (or ``metric``) on the selection episodes, in its card's env."""
+    """``model``'s headline rate (or ``metric``) on the selection episodes, in its card's
+    env; for one policy over a range of counts, the mean of its rates at each count."""
     env_id, kwargs = card_env(model)
     metric = metric or headline_metric(env_id)
-    policy = load_policy(str(model), env_id, kwargs, seed=SELECTION_SEED)
-    played = rollout(policy, env_id, SELECTION_EPISODES, SELECTION_SEED, kwargs)
-    return float(summarize(played)[metric])
+    rates = []
+    for n in counts_of(kwargs):
+        at_n = {**kwargs, "n_trailers": n}
+        policy = load_policy(str(model), env_id, at_n, seed=SELECTION_SEED)
+        played = rollout(policy, env_id, SELECTION_EPISODES, SELECTION_SEED, at_n)
+        rates.append(float(summarize(played)[metric]))
+    return sum(rates) / len(rates)
 
 
 def export_selected(
@@ -58,7 +77,7 @@ def export_selected(
     run folder, all of one scene, n, physics and window); returns the chosen seed and
     every seed's rate. Existing files are replaced (the caller asks first)."""
     envs = {seed: card_env(folder / BEST_MODEL) for seed, folder in runs.items()}
-    if len({(env_id, tuple(sorted(kwargs.items()))) for env_id, kwargs in envs.values()}) != 1:
+    if len({env_key(*env) for env in envs.values()}) != 1:
         raise ValueError("the runs' cards record different scenes, n, physics or windows")
     env_id = next(iter(envs.values()))[0]
     metric = metric or headline_metric(env_id)

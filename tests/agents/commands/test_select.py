@@ -23,7 +23,7 @@ KWARGS: dict[str, object] = {"n_trailers": 1, "randomize": "mismatch20", "histor
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """Two tiny PPO runs (training seeds 0 and 1) under mismatch20 with a 2-frame window,
-    and one (seed 2) under nominal physics."""
+    one (seed 3) over n = 1-2 likewise, and one (seed 2) under nominal physics."""
     root = tmp_path_factory.mktemp("select")
     hp = tiny_ppo_hyperparams(root / "hp", REVERSE)
     hp.write_text(hp.read_text() + "  env_kwargs:\n    history: 2\n")
@@ -33,6 +33,10 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> Path:
         argv += ["--run-dir", str(root / f"runs/s{seed}"), "--timesteps", "1024"]
         argv += ["--eval-freq", "512", "--eval-episodes", "2", "--seed", str(seed)]
         assert train.main([*argv, "--no-progress", "--quiet"]) == 0
+    both = ["--env", REVERSE, "--algo", "ppo", "--n-trailers", "1-2", "--randomize"]
+    both += ["mismatch20", "--hyperparams", str(root / "hp"), "--run-dir", str(root / "both")]
+    both += ["--timesteps", "512", "--eval-freq", "512", "--eval-episodes", "2", "--seed", "3"]
+    assert train.main([*both, "--no-progress", "--quiet"]) == 0
     nominal = ["--env", REVERSE, "--algo", "ppo", "--n-trailers", "1", "--hyperparams"]
     nominal += [str(root / "hp"), "--run-dir", str(root / "nominal"), "--timesteps", "512"]
     nominal += ["--eval-freq", "512", "--eval-episodes", "2", "--seed", "2"]
@@ -40,9 +44,10 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return root
 
 
-def _selection_rate(model: Path) -> float:
-    policy = load_policy(str(model), REVERSE, KWARGS, seed=SELECTION_SEED)
-    played = rollout(policy, REVERSE, SELECTION_EPISODES, SELECTION_SEED, KWARGS)
+def _selection_rate(model: Path, n: int = 1) -> float:
+    kwargs = {**KWARGS, "n_trailers": n}
+    policy = load_policy(str(model), REVERSE, kwargs, seed=SELECTION_SEED)
+    played = rollout(policy, REVERSE, SELECTION_EPISODES, SELECTION_SEED, kwargs)
     return float(summarize(played)["safe_rate"])
 
 
@@ -67,6 +72,19 @@ def test_the_best_seed_under_the_cards_physics_is_exported(runs: Path, tmp_path:
     assert siblings == ["tiny_s0.zip", "tiny_s1.zip"]
     chosen = (runs / f"runs/s{best}/best_model.zip").read_bytes()
     assert model.read_bytes() == chosen
+
+
+def test_one_policy_for_a_range_of_n_is_chosen_on_its_mean_over_the_counts(
+    runs: Path, tmp_path: Path
+) -> None:
+    model = tmp_path / "models" / "both.zip"
+    assert select.main([str(runs / "both"), "--export", str(model)]) == 0
+    card = json.loads(model.with_suffix(".json").read_text())
+    assert card["env_kwargs"]["n_trailers"] == [1, 2]
+    kept = runs / "both" / "best_model.zip"
+    mean = (_selection_rate(kept, 1) + _selection_rate(kept, 2)) / 2
+    assert card["selection"]["safe_rate_per_training_seed"] == {"3": pytest.approx(mean)}
+    assert card["selection"]["chosen_seed"] == card["seed"] == 3
 
 
 def test_refusals_write_nothing(
