@@ -40,7 +40,7 @@ def test_list_names_every_committed_model(capsys: pytest.CaptureFixture[str]) ->
     seeds = [path.stem for path in sorted((ROOT / "agents" / "models" / "seeds").glob("*.zip"))]
     teachers = [path.stem for path in sorted(TEACHERS_DIR.glob("*.zip"))]
     assert listed == models + seeds + teachers
-    assert len(listed) == len(set(listed)) == 33 + 45 + 6
+    assert len(listed) == len(set(listed)) == 34 + 48 + 9
     by_model = {line.split()[0]: line for line in lines[1:]}
     teacher = by_model["ppo_privileged_reverse_v1_n2_s1"].split()[1:]
     assert teacher[:7] == ["train", "ppo", "Reverse-v1", "2", "6,000,000", "steps", "1"]
@@ -201,7 +201,7 @@ def test_the_committed_page_is_what_the_cards_give() -> None:
     page = (ROOT / reproduce.DOCS_PAGE).read_text()
     assert page == recipes_page()
     rows = [line for line in page.splitlines() if line.startswith("| ") and "`" in line]
-    assert len(rows) == len(CARD_FILES) == 33 + 45 + 6
+    assert len(rows) == len(CARD_FILES) == 34 + 48 + 9
     assert sum("| no: " in row for row in rows) == 1
 
 

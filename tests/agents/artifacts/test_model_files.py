@@ -84,13 +84,13 @@ def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     # With the generalist, the three sequence generalists from the planner (ConvoyEncoder:
     # n = 1-3, n = 1-6 and n = 1-6 trained with the mirror) and the two distilled from the
     # specialists (n = 1-3, n = 1-6).
-    # With the students that adapt (n = 1, 2 and one policy for n = 1-2, mismatch20) and
-    # their six privileged teachers.
+    # With the students that adapt (n = 1, 2, 3 and one policy for n = 1-2, mismatch20)
+    # and their nine privileged teachers.
     teachers = sorted((MODELS_DIR / "teachers").glob("*.zip"))
-    assert len(zips) == 33 and len(teachers) == 6 and not list(MODELS_DIR.glob("**/*.pkl"))
+    assert len(zips) == 34 and len(teachers) == 9 and not list(MODELS_DIR.glob("**/*.pkl"))
     # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model, of the
     # distilled n = 1-6 policy and of the students that adapt.
-    assert len(seeds) == 45
+    assert len(seeds) == 48
     for model in zips + seeds + teachers:
         card = read_model_card(model)
         sequence = card.env_kwargs.observation == "trailers"

@@ -1,11 +1,10 @@
-"""The committed students that adapt (``dagger_reverse_v1_adapt_n<n>``, n = 1, 2, and
-``dagger_reverse_v1_adapt``, one policy for both counts: DAgger from a privileged PPO
+"""The committed students that adapt (``dagger_reverse_v1_adapt_n<n>``, n = 1-3, and
+``dagger_reverse_v1_adapt``, one policy for n = 1-2: DAgger from a privileged PPO
 teacher that reads the episode's parameters, through a 16-frame memory): their cards and
 their teachers, their actions read the past, their rates under mismatch20."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 
 import gymnasium as gym
@@ -22,15 +21,18 @@ from agents.seeds import TEST_SEED
 REVERSE = "trailer_env/Reverse-v1"
 HISTORY = 16
 TEACHERS = MODELS_DIR / "teachers"
-COUNTS = (1, 2)
+COUNTS = (1, 2, 3)
 #: Each count's floor on the test starts under mismatch20, a few starts under what
-#: docs/generated/adapt_n<n> records (97 at n = 1, 98 at n = 2): machines differ by a
-#: few starts, not more.
-FLOORS = {1: 0.92, 2: 0.94}
+#: docs/generated/adapt_n<n> records (97 at n = 1, 98 at n = 2, 92 at n = 3): machines
+#: differ by a few starts, not more.
+FLOORS = {1: 0.92, 2: 0.94, 3: 0.88}
 #: One policy for both counts, and its floors likewise (measured 95 and 98:
 #: docs/generated/adapt_n<n>).
 ONE_POLICY = "dagger_reverse_v1_adapt"
 ONE_POLICY_FLOORS = {1: 0.90, 2: 0.94}
+#: (n, whether the policy is the one for both counts) of each rate and memory test.
+CASES = [(n, False) for n in COUNTS] + [(n, True) for n in ONE_POLICY_FLOORS]
+CASE_IDS = [f"{'one_policy' if one_policy else 'own_n'}-{n}" for n, one_policy in CASES]
 
 
 def student(n: int) -> str:
@@ -90,10 +92,9 @@ def test_the_recipe_rebuilds_from_committed_files(n: int) -> None:
     assert recipe.kind == "distill" and recipe.problem is None
 
 
-@pytest.mark.parametrize("name", [student, lambda n: ONE_POLICY], ids=["own_n", "one_policy"])
-@pytest.mark.parametrize("n", COUNTS)
-def test_the_actions_read_the_past(n: int, name: Callable[[int], str]) -> None:
-    policy = load_policy(name(n), REVERSE, kwargs(n))
+@pytest.mark.parametrize(("n", "one_policy"), CASES, ids=CASE_IDS)
+def test_the_actions_read_the_past(n: int, one_policy: bool) -> None:
+    policy = load_policy(ONE_POLICY if one_policy else student(n), REVERSE, kwargs(n))
     window = window_after(policy, n, 1000, 30)
     other = window_after(policy, n, 1001, 30)
     d = (window.size - HISTORY) // (HISTORY + 1)
@@ -103,8 +104,7 @@ def test_the_actions_read_the_past(n: int, name: Callable[[int], str]) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("one_policy", [False, True], ids=["own_n", "one_policy"])
-@pytest.mark.parametrize("n", COUNTS)
+@pytest.mark.parametrize(("n", "one_policy"), CASES, ids=CASE_IDS)
 def test_it_keeps_its_measured_share_of_the_test_starts_under_mismatch20(
     n: int, one_policy: bool
 ) -> None:
