@@ -138,7 +138,7 @@ class PolicyResult(JSONPart):
     """One policy's results: what it is, how it was trained, its summary."""
 
     name: str
-    kind: Literal["model", "callable", "baseline"]
+    kind: Literal["model", "callable", "ensemble", "baseline"]
     summary: Summary
     training: TrainingFacts = TrainingFacts()
     #: A committed model's training seeds on the same episodes (None: not evaluated).
@@ -191,7 +191,7 @@ class ResultsDocument(SparseRecord):
             )
 
     def by_kind(self, kind: str) -> tuple[PolicyResult, ...]:
-        """The policies of ``kind`` ("model", "callable" or "baseline")."""
+        """The policies of ``kind`` ("model", "callable", "ensemble" or "baseline")."""
         return tuple(policy for policy in self.policies if policy.kind == kind)
 
     @property

@@ -102,6 +102,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"baselines ({', '.join(BASELINES)}), shipped models by stem "
         "(e.g. dagger_reverse_v1_n2), model paths (.zip), RLlib checkpoint folders and/or "
         "module:name, a batched callable of your own (imported from the working folder); "
+        "median(A,B,...) for the middle action of those, +mirror after any to make it odd; "
         "default: the scene's baselines and its committed models",
     )
     cli.add_episodes(parser, 100, "episodes (default 100)")

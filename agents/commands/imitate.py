@@ -146,7 +146,8 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SPEC",
         help="the expert policies of --expert specialists (also --teacher): a spec with {n} "
         "where the count goes (default dagger_reverse_v1_n{n}), or several, comma-separated, "
-        "each but one after its counts: 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}",
+        "each but one after its counts: 1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}; "
+        "median(A,B,...) labels with the middle action of those policies",
     )
     parser.add_argument(
         "--observation",

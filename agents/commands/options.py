@@ -15,6 +15,7 @@ import hashlib
 import json
 import math
 import re
+import shlex
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -471,3 +472,13 @@ def check_out_options(
     existing = [name for name in outputs if (args.out / name).exists()]
     if existing and not args.overwrite:
         parser.error(f"argument --out: {args.out} holds {', '.join(existing)}; pass --overwrite")
+
+
+#: Characters a shell would read in a word: such a word is quoted (``{n}`` is not one).
+_SHELL_SPECIAL = frozenset("()[]*?;&|<>$`'\"\\ \t!#~")
+
+
+def shell_line(words: Sequence[str]) -> str:
+    """``words`` as a line a shell runs as they are: a word with a character the shell
+    would read (``median(A,B)``'s parentheses) is quoted, every other one left bare."""
+    return " ".join(shlex.quote(word) if _SHELL_SPECIAL & set(word) else word for word in words)

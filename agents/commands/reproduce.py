@@ -320,6 +320,17 @@ def _committed_path(text: str) -> Path | None:
     return path if path.exists() else None
 
 
+def _committed_expert(spec: str) -> bool:
+    """Whether ``spec`` (each member of a ``median(...)``) is committed."""
+    from agents.policies.ensemble import ensemble_members, is_ensemble_spec
+
+    if is_ensemble_spec(spec):
+        return all(_committed_expert(member) for member in ensemble_members(spec))
+    if "/" not in spec and not Path(spec).suffix:
+        return (MODELS_DIR / f"{spec}.zip").is_file()
+    return _committed_path(spec) is not None
+
+
 def _train_recipe(
     model: str, card_path: Path, card: ModelCard, arguments: tuple[str, ...]
 ) -> Recipe:
@@ -448,12 +459,7 @@ def _imitation_recipe(
         )
         for n in range(low, high + 1):
             spec = experts.spec(n)
-            committed = (
-                (MODELS_DIR / f"{spec}.zip").is_file()
-                if "/" not in spec and not Path(spec).suffix
-                else _committed_path(spec) is not None
-            )
-            if problem is None and not committed:
+            if problem is None and not _committed_expert(spec):
                 problem = f"expert policy {spec} not committed"
     return Recipe(
         model=model,
@@ -527,7 +533,7 @@ def list_lines(all_recipes: Sequence[Recipe]) -> list[str]:
 
 def _markdown_rows(all_recipes: Sequence[Recipe]) -> Iterator[str]:
     for recipe in all_recipes:
-        command = " ".join(recipe.command("OUT"))
+        command = cli.shell_line(recipe.command("OUT"))
         rebuilt = "yes" if recipe.problem is None else f"no: {recipe.problem}"
         yield f"| {recipe.model} | {recipe.kind} | `{command}` | {rebuilt} |"
 
@@ -678,9 +684,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument {flag}: {error}")
     _check_out(parser, args.out, args.overwrite)
     if args.dry_run:
-        print(" ".join(command))
+        print(cli.shell_line(command))
         return 0
-    print(" ".join(command), flush=True)
+    print(cli.shell_line(command), flush=True)
     status = _runner(recipe.module)(command[3:])
     if status == 0:
         print(

@@ -20,6 +20,8 @@ from agents.artifacts.shipped import resolve_model, seed_models
 from agents.envs import MakeKwargs, headline_metric, scene_baselines
 from agents.evaluation.metrics import EpisodeResults, rollout, summary_of
 from agents.policies.baselines import Policy
+from agents.policies.ensemble import is_ensemble_spec
+from agents.policies.mirror import split_mirror
 from agents.policies.registry import (
     is_callable_spec,
     is_model_spec,
@@ -184,8 +186,11 @@ def results_document(
     )
 
 
-def spec_kind(spec: str) -> Literal["model", "callable", "baseline"]:
-    """ "model", "callable" (``module:name``) or "baseline", for the results' JSON."""
+def spec_kind(spec: str) -> Literal["model", "callable", "ensemble", "baseline"]:
+    """ "model", "callable" (``module:name``), "ensemble" (``median(...)``) or
+    "baseline", for the results' JSON."""
     if is_model_spec(spec):
         return "model"
+    if is_ensemble_spec(split_mirror(spec)[0]):
+        return "ensemble"
     return "callable" if is_callable_spec(spec) else "baseline"

@@ -54,6 +54,8 @@ from agents.oracles.labellers import (
 from agents.oracles.planner import PlannerConfig
 from agents.oracles.scenes import scene_oracle
 from agents.policies.baselines import Policy
+from agents.policies.ensemble import ensemble_members, is_ensemble_spec, split_members
+from agents.policies.mirror import split_mirror
 from agents.policies.registry import is_model_spec, load_policy
 from dynamics.params import MAX_TRAILERS
 from trailer_env.core import ConvoyCore
@@ -72,7 +74,9 @@ class PolicyExpertConfig:
     ``dagger_reverse_v1_n{n}`` (a spec without ``{n}`` names one policy for every count),
     or several, comma-separated, each but one after the counts it serves:
     ``1-3=ppo_reverse_v1_n{n},dagger_reverse_v1_n{n}`` takes the PPO policies for n = 1-3
-    and the DAgger ones for the other counts."""
+    and the DAgger ones for the other counts. A spec may be ``median(A,B,...)``
+    (:mod:`agents.policies.ensemble`): its commas stay inside it, and each label is the
+    middle of its members' actions."""
 
     policy: str = "dagger_reverse_v1_n{n}"
 
@@ -89,7 +93,7 @@ class PolicyExpertConfig:
                 1..MAX_TRAILERS, two defaults, or a field other than ``{n}``.
         """
         items: list[tuple[tuple[int, int] | None, str]] = []
-        for item in self.policy.split(","):
+        for item in split_members(self.policy):
             counts_text, sep, spec = item.partition("=")
             counts = _counts(counts_text.strip(), self.policy) if sep else None
             spec = (spec if sep else item).strip()
@@ -148,12 +152,31 @@ def load_expert_policy(spec: str, env_id: str, n: int) -> tuple[Policy, bool]:
     Raises:
         ValueError, FileNotFoundError: As :func:`load_policy`.
     """
-    card = read_model_card(Path(resolve_model(spec))) if is_model_spec(spec) else ModelCard()
-    privileged = card.env_kwargs.other.get("observe_params") is True
+    privileged = _reads_parameters(spec)
     kwargs: dict[str, object] = {"n_trailers": n}
     if privileged:
         kwargs.update(observe_params=True)
     return load_policy(spec, env_id, kwargs), privileged
+
+
+def _reads_parameters(spec: str) -> bool:
+    """Whether the policy ``spec`` reads the parameter features (its card's ``env_kwargs``
+    hold ``observe_params=True``; a median's members all do).
+
+    Raises:
+        ValueError: A median whose members differ in this.
+    """
+    base, _ = split_mirror(spec)
+    if is_ensemble_spec(base):
+        members = {member: _reads_parameters(member) for member in ensemble_members(base)}
+        if len(set(members.values())) > 1:
+            readers = ", ".join(member for member, reads in members.items() if reads)
+            raise ValueError(
+                f"expert policy {spec!r}: only some members read the parameters ({readers})"
+            )
+        return next(iter(members.values()))
+    card = read_model_card(Path(resolve_model(base))) if is_model_spec(base) else ModelCard()
+    return card.env_kwargs.other.get("observe_params") is True
 
 
 def _counts(text: str, policy: str) -> tuple[int, int]:

@@ -30,6 +30,12 @@ from agents.envs import (
     make_vector_env,
 )
 from agents.policies.baselines import BASELINES, Policy, make_baseline
+from agents.policies.ensemble import (
+    MedianPolicy,
+    ensemble_label,
+    ensemble_members,
+    is_ensemble_spec,
+)
 from agents.policies.mirror import MIRROR_SUFFIX, MirroredPolicy, mirror_signs_of, split_mirror
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy, load_model, load_stats
 from dynamics.params import MAX_TRAILERS, bounded_integer
@@ -117,7 +123,7 @@ def is_model_spec(spec: str) -> bool:
     """Whether ``spec`` names a model (file, shipped stem or RLlib folder), not a baseline
     (``<spec>+mirror``: whether ``<spec>`` does)."""
     spec, _ = split_mirror(spec)
-    if spec in BASELINES or is_callable_spec(spec):
+    if spec in BASELINES or is_callable_spec(spec) or is_ensemble_spec(spec):
         return False
     return (
         spec.endswith(".zip")
@@ -134,6 +140,8 @@ def policy_label(spec: str) -> str:
     base, mirrored = split_mirror(spec)
     if mirrored:
         return policy_label(base) + MIRROR_SUFFIX
+    if is_ensemble_spec(spec):
+        return ensemble_label([policy_label(member) for member in ensemble_members(spec)])
     if not is_model_spec(spec):
         return spec
     path = Path(resolve_model(spec))
@@ -229,6 +237,18 @@ def window_kwargs(spec: str, env_kwargs: Mapping[str, object]) -> dict[str, obje
     what the policy reads, not the dynamics or the episodes, so policies played with and
     without one are compared on the same starts."""
     played = dict(env_kwargs)
+    base, _ = split_mirror(spec)
+    if is_ensemble_spec(base):
+        windows = {
+            repr(window_kwargs(member, env_kwargs).get("history"))
+            for member in ensemble_members(base)
+        }
+        if len(windows) > 1:
+            raise ValueError(
+                f"policy {spec!r}: its members read different windows of past frames "
+                f"(history {', '.join(sorted(windows))}); a median calls them on one observation"
+            )
+        return window_kwargs(ensemble_members(base)[0], env_kwargs)
     if "history" not in played and is_model_spec(spec):
         history = model_card(spec).env_kwargs.history
         if history:
@@ -322,9 +342,10 @@ def load_policy(
         spec: A baseline name (:data:`agents.policies.baselines.BASELINES`), a ``.zip`` model
             path, the stem of a shipped model (:func:`resolve_model`), an RLlib
             checkpoint folder (:mod:`agents.training.rllib`), or ``module:name``, a
-            batched callable of your own (:func:`load_callable`); any of them followed
-            by ``+mirror``, made odd under the convoy's mirror image
-            (:mod:`agents.policies.mirror`).
+            batched callable of your own (:func:`load_callable`), or
+            ``median(A,B,...)``, the middle action of those specs
+            (:mod:`agents.policies.ensemble`); any of them followed by ``+mirror``, made
+            odd under the convoy's mirror image (:mod:`agents.policies.mirror`).
         env_id: The environment it will act in.
         env_kwargs: The environment's keyword arguments (``n_trailers`` ...).
         seed: Seed of the random baseline.
@@ -348,6 +369,13 @@ def load_policy(
         policy = load_callable(spec)
         check_callable(policy, spec, env_id, kwargs)
         return policy
+    if is_ensemble_spec(spec):
+        return MedianPolicy(
+            [
+                load_policy(member, env_id, kwargs, seed, trust_pickle=trust_pickle, force=force)
+                for member in ensemble_members(spec)
+            ]
+        )
     spec = resolve_model(spec)
     if not is_model_spec(spec):
         if spec not in BASELINES:

@@ -4,6 +4,7 @@ the folder the user names, refused before anything is written."""
 from __future__ import annotations
 
 import json
+import shlex
 from pathlib import Path
 
 import pytest
@@ -11,6 +12,7 @@ import pytest
 from agents.algorithms.options import StartReplay
 from agents.artifacts.cards import ModelCard, Planner, read_model_card
 from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR, TEACHERS_DIR
+from agents.commands import options as cli
 from agents.commands import reproduce
 from agents.commands.reproduce import Recipe, RecipeError, main, recipes, recipes_page
 from agents.evaluation.metrics import rollout, summary_of
@@ -344,3 +346,27 @@ def test_a_student_that_adapts_and_its_teacher_rebuild_from_committed_files() ->
             student = by_model[f"dagger_reverse_v1_adapt_n{n}_s{seed}"]
             assert (student.kind, student.problem) == ("distill", None)
             assert student.source == (f"expert policies agents/models/teachers/{teacher.model}.zip")
+
+
+def test_a_median_of_teachers_is_committed_only_when_every_member_is(tmp_path: Path) -> None:
+    recipe = Recipe.from_card(MODELS_DIR / "dagger_reverse_v1_adapt_n3.json")
+    assert (recipe.kind, recipe.problem) == ("distill", None)
+    assert recipe.source.startswith("expert policies median(agents/models/teachers/")
+    card = json.loads((MODELS_DIR / "dagger_reverse_v1_adapt_n3.json").read_text())
+    command = list(card["command"])
+    at = command.index("--teacher" if "--teacher" in command else "--expert-policy") + 1
+    command[at] = command[at].replace("_s2.zip", "_s9.zip")
+    path = _card_with(tmp_path, "dagger_reverse_v1_adapt_n3.json", command=command)
+    assert Recipe.from_card(path).problem == (
+        "expert policy " + command[at].replace("{n}", "3") + " not committed"
+    )
+
+
+def test_a_printed_command_splits_back_into_its_words() -> None:
+    words = ["python", "--expert-policy", "median(a_n{n}.zip,b.zip)", "--x", "n{n}", "a b"]
+    line = cli.shell_line(words)
+    assert line == "python --expert-policy 'median(a_n{n}.zip,b.zip)' --x n{n} 'a b'"
+    assert shlex.split(line) == words
+    for recipe in recipes():
+        command = recipe.command("OUT")
+        assert shlex.split(cli.shell_line(command)) == command

@@ -67,10 +67,14 @@ class Command:
 
 def _expand_loops(lines: list[str]) -> Iterator[str]:
     """The lines of a block with ``for VAR in A B ...; do`` ... ``done`` removed and
-    ``$VAR`` / ``${VAR}`` replaced by the loop's first value."""
+    ``$VAR`` / ``${VAR}`` replaced by the loop's first value; a line ``VAR=VALUE`` sets
+    ``VAR`` for the lines after it."""
     values: dict[str, str] = {}
     for line in lines:
         rest = line
+        if assignment := re.fullmatch(r"(\w+)=(\S+)", rest.strip()):
+            values[assignment.group(1)] = assignment.group(2)
+            continue
         while match := re.match(r"for (\w+) in (\S+)[^;]*; do\s*", rest):
             values[match.group(1)] = match.group(2)
             rest = rest[match.end() :]
