@@ -239,16 +239,14 @@ def window_kwargs(spec: str, env_kwargs: Mapping[str, object]) -> dict[str, obje
     played = dict(env_kwargs)
     base, _ = split_mirror(spec)
     if is_ensemble_spec(base):
-        windows = {
-            repr(window_kwargs(member, env_kwargs).get("history"))
-            for member in ensemble_members(base)
-        }
+        played_by = [window_kwargs(member, env_kwargs) for member in ensemble_members(base)]
+        windows = {repr(member_kwargs.get("history")) for member_kwargs in played_by}
         if len(windows) > 1:
             raise ValueError(
                 f"policy {spec!r}: its members read different windows of past frames "
                 f"(history {', '.join(sorted(windows))}); a median calls them on one observation"
             )
-        return window_kwargs(ensemble_members(base)[0], env_kwargs)
+        return played_by[0]
     if "history" not in played and is_model_spec(spec):
         history = model_card(spec).env_kwargs.history
         if history:

@@ -42,7 +42,7 @@ def test_list_names_every_committed_model(capsys: pytest.CaptureFixture[str]) ->
     seeds = [path.stem for path in sorted((ROOT / "agents" / "models" / "seeds").glob("*.zip"))]
     teachers = [path.stem for path in sorted(TEACHERS_DIR.glob("*.zip"))]
     assert listed == models + seeds + teachers
-    assert len(listed) == len(set(listed)) == 34 + 48 + 9
+    assert len(listed) == len(set(listed)) == 34 + 48 + 12
     by_model = {line.split()[0]: line for line in lines[1:]}
     teacher = by_model["ppo_privileged_reverse_v1_n2_s1"].split()[1:]
     assert teacher[:7] == ["train", "ppo", "Reverse-v1", "2", "6,000,000", "steps", "1"]
@@ -203,7 +203,7 @@ def test_the_committed_page_is_what_the_cards_give() -> None:
     page = (ROOT / reproduce.DOCS_PAGE).read_text()
     assert page == recipes_page()
     rows = [line for line in page.splitlines() if line.startswith("| ") and "`" in line]
-    assert len(rows) == len(CARD_FILES) == 34 + 48 + 9
+    assert len(rows) == len(CARD_FILES) == 34 + 48 + 12
     assert sum("| no: " in row for row in rows) == 1
 
 
@@ -351,6 +351,25 @@ def test_a_student_that_adapts_and_its_teacher_rebuild_from_committed_files() ->
                 teachers = "agents/models/teachers/ppo_privileged_reverse_v1_n{n}"
                 source = f"expert policies median({teachers}_s0.zip,"
             assert student.source.startswith(source)
+
+
+def test_the_three_trailer_teachers_fine_tune_committed_teachers() -> None:
+    by_model = {recipe.model: recipe for recipe in recipes()}
+    for seed in range(3):
+        teacher = by_model[f"ppo_privileged_replay_reverse_v1_n3_s{seed}"]
+        assert (teacher.kind, teacher.n_trailers, teacher.seed, teacher.problem) == (
+            "train",
+            3,
+            seed,
+            None,
+        )
+        assert teacher.source == "agents/hyperparams/privileged_finetune"
+        start = teacher.arguments[teacher.arguments.index("--init-from") + 1]
+        assert start == f"agents/models/teachers/ppo_privileged_reverse_v1_n3_s{seed}.zip"
+        assert teacher.arguments[teacher.arguments.index("--start-replay") + 1] == "0.5"
+    student = by_model["dagger_reverse_v1_adapt_n3"]
+    teachers = "agents/models/teachers/ppo_privileged_replay_reverse_v1_n{n}"
+    assert student.source.startswith(f"expert policies median({teachers}_s0.zip,")
 
 
 def test_a_median_of_teachers_is_committed_only_when_every_member_is(tmp_path: Path) -> None:
