@@ -330,19 +330,25 @@ def test_seed_models_are_listed_from_their_folder() -> None:
     assert cards[teacher] == TEACHERS_DIR / f"{teacher}.json"
 
 
+def _check_teacher(teacher: Recipe, n: int, seed: int, source: str) -> None:
+    """A privileged teacher's recipe: trained under mismatch20 at ``n`` from committed
+    files, with the hyperparameters of ``source``."""
+    assert (teacher.kind, teacher.n_trailers, teacher.seed, teacher.problem) == (
+        "train",
+        n,
+        seed,
+        None,
+    )
+    assert teacher.source == source
+    assert teacher.arguments[teacher.arguments.index("--randomize") + 1] == "mismatch20"
+
+
 def test_a_student_that_adapts_and_its_teacher_rebuild_from_committed_files() -> None:
     by_model = {recipe.model: recipe for recipe in recipes()}
     for n in (1, 2):
         for seed in range(3):
             teacher = by_model[f"ppo_privileged_reverse_v1_n{n}_s{seed}"]
-            assert (teacher.kind, teacher.n_trailers, teacher.seed, teacher.problem) == (
-                "train",
-                n,
-                seed,
-                None,
-            )
-            assert teacher.source == "agents/hyperparams/privileged"
-            assert teacher.arguments[teacher.arguments.index("--randomize") + 1] == "mismatch20"
+            _check_teacher(teacher, n, seed, "agents/hyperparams/privileged")
             student = by_model[f"dagger_reverse_v1_adapt_n{n}_s{seed}"]
             assert (student.kind, student.problem) == ("distill", None)
             if n == 2:  # each seed's own teacher; n = 1 learns from the three's median
@@ -357,13 +363,7 @@ def test_the_three_trailer_teachers_fine_tune_committed_teachers() -> None:
     by_model = {recipe.model: recipe for recipe in recipes()}
     for seed in range(3):
         teacher = by_model[f"ppo_privileged_replay_reverse_v1_n3_s{seed}"]
-        assert (teacher.kind, teacher.n_trailers, teacher.seed, teacher.problem) == (
-            "train",
-            3,
-            seed,
-            None,
-        )
-        assert teacher.source == "agents/hyperparams/privileged_finetune"
+        _check_teacher(teacher, 3, seed, "agents/hyperparams/privileged_finetune")
         start = teacher.arguments[teacher.arguments.index("--init-from") + 1]
         assert start == f"agents/models/teachers/ppo_privileged_reverse_v1_n3_s{seed}.zip"
         assert teacher.arguments[teacher.arguments.index("--start-replay") + 1] == "0.5"
