@@ -22,7 +22,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import shutil
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from agents.artifacts import files
@@ -278,21 +278,40 @@ def export_problem(destination: Path, overwrite: bool = False) -> str | None:
     return None
 
 
-def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> Path:
-    """Copy the run's best model, its card, statistics and learning curve to ``destination``
-    (each file atomically; the model last, so that it appears with its sidecars). The
-    exported card's command is the recipe alone
+#: The models a run folder offers to ``export_model``, by the name ``--export-model`` takes.
+EXPORTABLE_MODELS = {"best": BEST_MODEL, "final": FINAL_MODEL}
+
+
+def kept_model(arguments: Sequence[str]) -> str:
+    """The file of a run folder that a training command's ``arguments`` keep as the run's
+    result: ``final_model.zip`` after ``--export-model final``, else ``best_model.zip``."""
+    arguments = list(arguments)
+    if "--export-model" in arguments[:-1]:
+        return EXPORTABLE_MODELS.get(arguments[arguments.index("--export-model") + 1], BEST_MODEL)
+    return BEST_MODEL
+
+
+def export_model(
+    run_dir: Path, destination: Path, overwrite: bool = False, model: str = "best"
+) -> Path:
+    """Copy the run's ``model`` (``best``: the best by validation, the default; ``final``:
+    the model at the end of the budget), its card, statistics and learning curve to
+    ``destination`` (each file atomically; the model last, so that it appears with its
+    sidecars). The exported card's command is the recipe alone
     (:func:`~agents.artifacts.cards.recipe_command`): where the run's files went is not
     part of it.
 
     Raises:
-        FileNotFoundError: If the run has no best model.
+        ValueError: If ``model`` is not one of :data:`EXPORTABLE_MODELS`.
+        FileNotFoundError: If the run has no such model.
         FileExistsError: If one of the destination files exists and ``overwrite`` is false.
         UnsafeFileError: If one of them is a symbolic link.
     """
-    source = run_dir / BEST_MODEL
+    if model not in EXPORTABLE_MODELS:
+        raise ValueError(f"model must be one of {sorted(EXPORTABLE_MODELS)}, got {model!r}")
+    source = run_dir / EXPORTABLE_MODELS[model]
     if not source.is_file():
-        raise FileNotFoundError(f"{run_dir} has no {BEST_MODEL} to export")
+        raise FileNotFoundError(f"{run_dir} has no {source.name} to export")
     existing = [path for path in export_files(destination) if path.exists()]
     if existing and not overwrite:
         raise FileExistsError(f"{existing[0]} exists; pass --overwrite to replace it")
@@ -302,7 +321,8 @@ def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> P
     destination.parent.mkdir(parents=True, exist_ok=True)
     if card_path(source).is_file():
         card = read_model_card(source)
-        write_card(destination, dataclasses.replace(card, command=recipe_command(card.command)))
+        card = dataclasses.replace(card, command=recipe_command(card.command))
+        write_card(destination, _with_final_validation(card, run_dir / CURVE_FILE))
     if stats_path(source).is_file():
         files.atomic_write_bytes(stats_path(destination), stats_path(source).read_bytes())
     curve = run_dir / CURVE_FILE
@@ -310,6 +330,18 @@ def export_model(run_dir: Path, destination: Path, overwrite: bool = False) -> P
         files.atomic_write_bytes(curve_path(destination), curve.read_bytes())
     files.atomic_write_bytes(destination, source.read_bytes())
     return destination
+
+
+def _with_final_validation(card: ModelCard, curve: Path) -> ModelCard:
+    """``card``, with the learning curve's row at its last step as its validation where it
+    has none (the final model's card: it was evaluated there, not kept there)."""
+    if card.validation is not None or card.timesteps is None:
+        return card
+    rows = [row for row in read_curve(curve) if int(row["timesteps"]) == card.timesteps]
+    if not rows:
+        return card
+    row = {key: (int(value) if key == "timesteps" else value) for key, value in rows[-1].items()}
+    return ModelCard.from_json({**card.to_json(), "validation": row}, str(curve))
 
 
 @contextlib.contextmanager

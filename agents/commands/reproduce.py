@@ -16,7 +16,7 @@ algorithm from the scene's reward, ``agents.train``; ``imitate``: DAgger from a 
 number of trailers, budget (steps for ``train``, iterations for the others), seed, and
 what it learns from (the hyperparameter folder, the planner, the expert policies). The command
 runs the recipe in-process into the folder ``--out`` names (the run's ``--run-dir``): the
-rebuilt model is ``<out>/best_model.zip``, beside its card and learning curve.
+rebuilt model is ``<out>/best_model.zip`` (``final_model.zip`` after ``--export-model final``).
 
 A recipe is rebuilt from committed files only. One that needs anything else (an expert policy,
 a checkpoint or a hyperparameter folder that is not in the package) or whose files no
@@ -50,7 +50,7 @@ from typing import NoReturn
 
 from agents.artifacts import files
 from agents.artifacts.cards import RUN_FOLDER_FLAGS, ModelCard
-from agents.artifacts.run_folder import BEST_MODEL, comparable_hyperparams
+from agents.artifacts.run_folder import comparable_hyperparams, kept_model
 from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR, TEACHERS_DIR
 from agents.commands import options as cli
 
@@ -690,7 +690,7 @@ def main(argv: list[str] | None = None) -> int:
     status = _runner(recipe.module)(command[3:])
     if status == 0:
         print(
-            f"rebuilt {recipe.model} in {args.out}: {args.out / BEST_MODEL} "
+            f"rebuilt {recipe.model} in {args.out}: {args.out / kept_model(recipe.arguments)} "
             f"(committed: {recipe.card.with_suffix('.zip')})"
         )
     return status

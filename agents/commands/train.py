@@ -57,7 +57,10 @@ line through the last third of the steps); the cards record the step
 
 ``--export PATH`` copies the best model, its card, statistics and learning curve to
 PATH (e.g. ``agents/models/``); existing files there are refused unless ``--overwrite``
-(:func:`agents.artifacts.run_folder.export_model`).
+(:func:`agents.artifacts.run_folder.export_model`). ``--export-model final`` makes the
+model at the end of the budget the run's result (what ``--export`` copies and
+``agents.reproduce`` names): for a fine-tuning run whose validation rate stays within an
+episode or two of its start, where the best by validation is a coin toss.
 
 Nothing is unpickled from ``--resume``'s files unless ``--trust-pickle``
 (:mod:`agents.artifacts`): observation statistics are JSON, the model's pickled
@@ -91,6 +94,7 @@ from agents.algorithms.options import TRAINING_OPTIONS, OptionError, TrainingOpt
 from agents.algorithms.options.base import Flag
 from agents.artifacts import limits
 from agents.artifacts.run_folder import (
+    EXPORTABLE_MODELS,
     RLLIB_CHECKPOINT,
     RunFolderError,
     claimed_run_dir,
@@ -227,6 +231,13 @@ def _add_folder_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--export", type=Path, default=None, help="copy the best model (+ card, curve) to this .zip"
+    )
+    parser.add_argument(
+        "--export-model",
+        choices=sorted(EXPORTABLE_MODELS),
+        default=None,
+        help="the run's result, which --export copies and agents.reproduce names: the best "
+        "by validation (default) or the final model",
     )
 
 
@@ -444,7 +455,10 @@ def _run(
         f"steps in {time.perf_counter() - started:.0f} s; run folder {run_dir}"
     )
     if args.export is not None:
-        print(f"exported {export_model(run_dir, args.export, overwrite=args.overwrite)}")
+        exported = export_model(
+            run_dir, args.export, overwrite=args.overwrite, model=args.export_model or "best"
+        )
+        print(f"exported {exported}")
     return 0
 
 

@@ -11,6 +11,7 @@ import pytest
 
 from agents.algorithms.options import StartReplay
 from agents.artifacts.cards import ModelCard, Planner, read_model_card
+from agents.artifacts.run_folder import kept_model
 from agents.artifacts.shipped import MODELS_DIR, SEEDS_DIR, TEACHERS_DIR
 from agents.commands import options as cli
 from agents.commands import reproduce
@@ -42,7 +43,7 @@ def test_list_names_every_committed_model(capsys: pytest.CaptureFixture[str]) ->
     seeds = [path.stem for path in sorted((ROOT / "agents" / "models" / "seeds").glob("*.zip"))]
     teachers = [path.stem for path in sorted(TEACHERS_DIR.glob("*.zip"))]
     assert listed == models + seeds + teachers
-    assert len(listed) == len(set(listed)) == 34 + 48 + 12
+    assert len(listed) == len(set(listed)) == 34 + 48 + 15
     by_model = {line.split()[0]: line for line in lines[1:]}
     teacher = by_model["ppo_privileged_reverse_v1_n2_s1"].split()[1:]
     assert teacher[:7] == ["train", "ppo", "Reverse-v1", "2", "6,000,000", "steps", "1"]
@@ -203,7 +204,7 @@ def test_the_committed_page_is_what_the_cards_give() -> None:
     page = (ROOT / reproduce.DOCS_PAGE).read_text()
     assert page == recipes_page()
     rows = [line for line in page.splitlines() if line.startswith("| ") and "`" in line]
-    assert len(rows) == len(CARD_FILES) == 34 + 48 + 12
+    assert len(rows) == len(CARD_FILES) == 34 + 48 + 15
     assert sum("| no: " in row for row in rows) == 1
 
 
@@ -345,29 +346,30 @@ def _check_teacher(teacher: Recipe, n: int, seed: int, source: str) -> None:
 
 def test_a_student_that_adapts_and_its_teacher_rebuild_from_committed_files() -> None:
     by_model = {recipe.model: recipe for recipe in recipes()}
-    for n in (1, 2):
+    for n in (1, 2, 3):
         for seed in range(3):
             teacher = by_model[f"ppo_privileged_reverse_v1_n{n}_s{seed}"]
             _check_teacher(teacher, n, seed, "agents/hyperparams/privileged")
             student = by_model[f"dagger_reverse_v1_adapt_n{n}_s{seed}"]
             assert (student.kind, student.problem) == ("distill", None)
-            if n == 2:  # each seed's own teacher; n = 1 learns from the three's median
-                source = f"expert policies agents/models/teachers/{teacher.model}.zip"
-            else:
-                teachers = "agents/models/teachers/ppo_privileged_reverse_v1_n{n}"
-                source = f"expert policies median({teachers}_s0.zip,"
-            assert student.source.startswith(source)
+    teachers = "agents/models/teachers/ppo_privileged_reverse_v1_n{n}"
+    source = by_model["dagger_reverse_v1_adapt_n1"].source
+    assert source.startswith(f"expert policies median({teachers}_s0.zip,")
 
 
-def test_the_three_trailer_teachers_fine_tune_committed_teachers() -> None:
+@pytest.mark.parametrize(("n", "kept"), [(2, "final"), (3, None)])
+def test_the_fine_tuned_teachers_start_from_committed_teachers(n: int, kept: str | None) -> None:
     by_model = {recipe.model: recipe for recipe in recipes()}
     for seed in range(3):
-        teacher = by_model[f"ppo_privileged_replay_reverse_v1_n3_s{seed}"]
-        _check_teacher(teacher, 3, seed, "agents/hyperparams/privileged_finetune")
+        teacher = by_model[f"ppo_privileged_replay_reverse_v1_n{n}_s{seed}"]
+        _check_teacher(teacher, n, seed, "agents/hyperparams/privileged_finetune")
         start = teacher.arguments[teacher.arguments.index("--init-from") + 1]
-        assert start == f"agents/models/teachers/ppo_privileged_reverse_v1_n3_s{seed}.zip"
+        assert start == f"agents/models/teachers/ppo_privileged_reverse_v1_n{n}_s{seed}.zip"
         assert teacher.arguments[teacher.arguments.index("--start-replay") + 1] == "0.5"
-    student = by_model["dagger_reverse_v1_adapt_n3"]
+        # n = 2 keeps the model at the end of its budget (its validation rate stayed flat).
+        arguments = list(teacher.arguments)
+        assert kept_model(arguments) == ("final_model.zip" if kept else "best_model.zip")
+    student = by_model[f"dagger_reverse_v1_adapt_n{n}"]
     teachers = "agents/models/teachers/ppo_privileged_replay_reverse_v1_n{n}"
     assert student.source.startswith(f"expert policies median({teachers}_s0.zip,")
 

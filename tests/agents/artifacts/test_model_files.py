@@ -87,7 +87,7 @@ def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     # With the students that adapt (n = 1, 2, 3 and one policy for n = 1-2, mismatch20)
     # and their nine privileged teachers.
     teachers = sorted((MODELS_DIR / "teachers").glob("*.zip"))
-    assert len(zips) == 34 and len(teachers) == 12 and not list(MODELS_DIR.glob("**/*.pkl"))
+    assert len(zips) == 34 and len(teachers) == 15 and not list(MODELS_DIR.glob("**/*.pkl"))
     # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model, of the
     # distilled n = 1-6 policy and of the students that adapt.
     assert len(seeds) == 48

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from agents.artifacts.curves import read_curve
-from agents.artifacts.run_folder import export_model
+from agents.artifacts.run_folder import export_model, kept_model
 from agents.commands import train
 from agents.envs import env_settings
 from agents.evaluation.metrics import rollout, summarize
@@ -184,7 +184,18 @@ def test_resume_and_init_from_read_the_files_env_kwargs(tmp_path: Path) -> None:
     assert _train(tmp_path, "--timesteps", "4096", *resumed) == 0
     assert load_model(run / "final_model.zip").num_timesteps == 4096
     tuned = ["--init-from", str(run / "final_model.zip"), "--run-dir", str(tmp_path / "tuned")]
-    assert _train(tmp_path, "--timesteps", "2048", *tuned) == 0
+    export = ["--export", str(tmp_path / "tuned.zip"), "--export-model", "final"]
+    assert _train(tmp_path, "--timesteps", "2048", *tuned, *export) == 0
+    # The exported model is the run's final one, and its recipe says so.
+    assert (tmp_path / "tuned.zip").read_bytes() == (
+        tmp_path / "tuned/final_model.zip"
+    ).read_bytes()
+    card = json.loads((tmp_path / "tuned.json").read_text())
+    command = card["command"]
+    # It was evaluated at its last step, not kept there: that row is its validation.
+    assert card["validation"]["timesteps"] == card["timesteps"] == 2048
+    assert "selected_at_timesteps" not in card
+    assert command[command.index("--export-model") :][:2] == ["--export-model", "final"]
 
 
 def test_off_policy_resume_restores_the_replay_buffer(
@@ -214,6 +225,21 @@ def test_off_policy_resume_restores_the_replay_buffer(
     assert recorded[recorded.index("--run-dir") + 1] == str(run)
     assert exported == [item for item in recorded if item not in ("--run-dir", str(run))]
     assert export.with_suffix(".csv").is_file()
+    # --export-model final copies the model at the end of the budget, the card it had.
+    final = tmp_path / "models" / "sac_reverse_n1_final.zip"
+    export_model(run, final, model="final")
+    assert final.read_bytes() == (run / "final_model.zip").read_bytes()
+    assert json.loads(final.with_suffix(".json").read_text())["timesteps"] == 400
+    with pytest.raises(ValueError, match="model must be one of \\['best', 'final'\\]"):
+        export_model(run, tmp_path / "models" / "other.zip", model="last")
+    assert not (tmp_path / "models" / "other.zip").exists()
+
+
+def test_the_kept_model_is_the_best_unless_the_command_keeps_the_final() -> None:
+    assert kept_model(["--timesteps", "400"]) == "best_model.zip"
+    assert kept_model(["--export-model", "final", "--seed", "0"]) == "final_model.zip"
+    assert kept_model(["--export-model", "best"]) == "best_model.zip"
+    assert kept_model(["--seed", "0", "--export-model"]) == "best_model.zip"
 
 
 def test_a_generalist_trains_on_a_range_of_counts_and_randomised_physics(
