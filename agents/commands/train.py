@@ -294,6 +294,7 @@ def _check_backend(parser: argparse.ArgumentParser, args: argparse.Namespace) ->
     for name, unsupported in (
         ("--resume", args.resume is not None),
         ("--export", args.export is not None),
+        ("--export-model", args.export_model is not None),
         ("--stop-on-plateau", args.stop_on_plateau is not None),
         *(
             (kind.flag(), kind.given(args))

@@ -134,6 +134,10 @@ def test_shaped_training_records_its_potential_and_reports_unshaped_returns(
         _train(tmp_path, "--backend", "rllib", "--shaping", "lqr")
     assert refused.value.code == 2
     assert "--shaping: not supported with --backend rllib" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as refused:
+        _train(tmp_path, "--backend", "rllib", "--export-model", "final")
+    assert refused.value.code == 2
+    assert "--export-model: not supported with --backend rllib" in capsys.readouterr().err
 
 
 def test_resume_continues_the_timestep_count(
