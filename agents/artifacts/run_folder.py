@@ -321,8 +321,7 @@ def export_model(
     destination.parent.mkdir(parents=True, exist_ok=True)
     if card_path(source).is_file():
         card = read_model_card(source)
-        card = dataclasses.replace(card, command=recipe_command(card.command))
-        write_card(destination, _with_final_validation(card, run_dir / CURVE_FILE))
+        write_card(destination, dataclasses.replace(card, command=recipe_command(card.command)))
     if stats_path(source).is_file():
         files.atomic_write_bytes(stats_path(destination), stats_path(source).read_bytes())
     curve = run_dir / CURVE_FILE
@@ -332,7 +331,7 @@ def export_model(
     return destination
 
 
-def _with_final_validation(card: ModelCard, curve: Path) -> ModelCard:
+def with_curve_validation(card: ModelCard, curve: Path) -> ModelCard:
     """``card``, with the learning curve's row at its last step as its validation where it
     has none (the final model's card: it was evaluated there, not kept there)."""
     if card.validation is not None or card.timesteps is None:

@@ -16,8 +16,10 @@ from agents.artifacts.paths import pickled_stats_path, replay_buffer_path, stats
 from agents.artifacts.run_folder import (
     BEST_MODEL,
     CHECKPOINTS,
+    CURVE_FILE,
     FINAL_MODEL,
     resume_problem,
+    with_curve_validation,
     write_config,
 )
 from agents.artifacts.sb3_zip import UnsafeFileError, algo_class, load_sb3, save_model
@@ -268,14 +270,15 @@ def _checkpoints(
 
 
 def _save_final(model: BaseAlgorithm, run_dir: Path, card: ModelCard) -> None:
-    """Save the final model with its statistics and ``card``, and complete the best
+    """Save the final model with its statistics and ``card`` (its validation the curve's
+    row at its last step, where it was evaluated), and complete the best
     model's card with the run's totals (what it holds of its own, such as when it was
     selected, stays)."""
     final = run_dir / FINAL_MODEL
     stats = model.get_vec_normalize_env()
     if stats is not None:
         save_stats(stats, stats_path(final))
-    write_card(final, card)
+    write_card(final, with_curve_validation(card, run_dir / CURVE_FILE))
     save_model(model, final)
     best = run_dir / BEST_MODEL
     if best.is_file():
