@@ -28,12 +28,15 @@ PRIVILEGED = "agents/models/teachers/ppo_privileged_reverse_v1"
 REPLAYED = "agents/models/teachers/ppo_privileged_replay_reverse_v1"
 COUNTS = (1, 2, 3)
 #: Each count's floor on the test starts under mismatch20, a few starts under what
-#: docs/generated/adapt_n<n> records (98 at n = 1, 98 at n = 2, 94 at n = 3): machines
+#: docs/generated/adapt_n<n> records (98 at n = 1, 98 at n = 2, 96 at n = 3): machines
 #: differ by a few starts, not more.
-FLOORS = {1: 0.92, 2: 0.94, 3: 0.90}
+FLOORS = {1: 0.92, 2: 0.94, 3: 0.92}
 #: The teachers whose median each count's students learned from (None: each seed its own
 #: seed's privileged teacher).
 MEDIAN_OF = {1: PRIVILEGED, 2: REPLAYED, 3: REPLAYED}
+#: Convoys labelled per DAgger iteration: three trailers take twice as many (with 256 the
+#: students stood 1-3 points under their teachers' median under mismatch20).
+CONVOYS = {1: 256, 2: 256, 3: 512}
 #: One policy for the three counts, and its floors likewise (measured 97, 98 and 94:
 #: docs/generated/adapt_n<n>).
 ONE_POLICY = "dagger_reverse_v1_adapt"
@@ -67,6 +70,8 @@ def test_each_seed_learned_from_its_own_committed_teacher(n: int) -> None:
     assert card.n_trailers == n and card.expert == "specialists"
     assert card.selection is not None
     assert sorted(card.selection.safe_rate_per_training_seed or {}) == ["0", "1", "2"]
+    assert card.imitation is not None
+    assert (card.imitation.episodes, card.imitation.iterations) == (CONVOYS[n], 8)
     family = MEDIAN_OF[n]
     teachers = [f"{family or PRIVILEGED}_n{n}_s{s}.zip" for s in range(3)]
     for seed in (0, 1, 2):
