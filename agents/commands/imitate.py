@@ -9,6 +9,7 @@ argument                   bound
 ``--episodes``             1 .. 4,096 convoys (one batch)
 ``--iterations``           1 .. 1,000
 ``--epochs``               1 .. 10,000
+``--validation-episodes``  1 .. 10,000 (seeds from 50,000, short of the selection seeds)
 ``--expert``               an expert of :data:`agents.policies.experts.EXPERTS`
                            that fits the scene (and the n, and ``--randomize``)
 ``--planner-samples``      2 .. 1,024 (``mpc`` only)
@@ -78,7 +79,7 @@ from agents.policies.experts import EXPERTS, default_expert
 from agents.policies.sb3 import limit_torch_threads
 from agents.training.imitate import imitate
 from agents.training.imitation_checkpoint import CHECKPOINT_FILE, CheckpointError, read_saved_run
-from agents.training.imitation_config import ImitationConfig
+from agents.training.imitation_config import MAX_VALIDATION_EPISODES, ImitationConfig
 from dynamics.params import MAX_TRAILERS
 from trailer_env.observation import OBSERVATIONS
 
@@ -109,6 +110,13 @@ def build_parser() -> argparse.ArgumentParser:
         type=cli.at_least(1, 10_000),
         default=10,
         help="passes over the data per iteration (<= 10,000)",
+    )
+    parser.add_argument(
+        "--validation-episodes",
+        type=cli.at_least(1, MAX_VALIDATION_EPISODES),
+        default=ImitationConfig.validation_episodes,
+        help="episodes of each iteration's validation, which picks the kept iteration "
+        f"(seeds from 50,000; <= {MAX_VALIDATION_EPISODES:,})",
     )
     parser.add_argument(
         "--net-arch", type=cli.at_least(1), nargs="+", default=None, help="hidden layer sizes"
@@ -228,6 +236,7 @@ def main(argv: list[str] | None = None) -> int:
             iterations=args.iterations,
             episodes=args.episodes,
             epochs=args.epochs,
+            validation_episodes=args.validation_episodes,
             net_arch=tuple(args.net_arch) if args.net_arch else None,
             planner=planner,
             expert=expert.name,

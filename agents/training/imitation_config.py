@@ -12,12 +12,15 @@ from agents.envs import check_env_id, settings_by_count
 from agents.policies.convoy_order import CONVOY_DIRECTIONS, check_direction
 from agents.policies.experts import EXPERTS, ExpertConfig, PolicyExpertConfig, default_expert
 from agents.policies.sb3 import ModelPolicy, TrailersPolicy
-from agents.seeds import TRAINING_SEED
+from agents.seeds import SELECTION_SEED, TRAINING_SEED, VALIDATION_SEED
 from dynamics.params import bounded_integer
 from trailer_env.mixed import is_trailer_range, trailer_range
 from trailer_env.observation import checked_observation, trailers_observation
 from trailer_env.randomize import PRESETS, Randomization
 from trailer_env.settings import MAX_HISTORY
+
+#: Validation episodes take seeds from VALIDATION_SEED up to the selection seeds.
+MAX_VALIDATION_EPISODES = SELECTION_SEED - VALIDATION_SEED
 
 if TYPE_CHECKING:
     from stable_baselines3.common.base_class import BaseAlgorithm
@@ -45,7 +48,10 @@ class ImitationConfig:
         batch_size: Minibatch of the regression.
         learning_rate: Adam's step size.
         net_arch: Hidden layers of the policy (None: the hyperparameter file's).
-        validation_episodes: Episodes of each validation.
+        validation_episodes: Episodes of each validation (seeds from VALIDATION_SEED, at
+            most MAX_VALIDATION_EPISODES so that they stay clear of the selection seeds);
+            the iteration kept ranks first on them (safe rate, then success rate, then
+            mean return).
         expert: The expert's name in :data:`agents.policies.experts.EXPERTS`; None: the
             scene's default (:func:`agents.policies.experts.default_expert`: ``mpc`` on
             Reverse, ``ilqr`` on Dock and Coast).
@@ -116,6 +122,11 @@ class ImitationConfig:
                 raise TypeError(f"{name} must be an int, got {type(value).__name__}")
             if value < 1:
                 raise ValueError(f"{name} must be >= 1, got {value}")
+        if self.validation_episodes > MAX_VALIDATION_EPISODES:
+            raise ValueError(
+                f"validation_episodes must be <= {MAX_VALIDATION_EPISODES} (the validation "
+                f"seeds end where the selection seeds begin), got {self.validation_episodes}"
+            )
         if self.episodes > limits.MAX_IMITATION_EPISODES:
             raise ValueError(
                 f"episodes must be <= {limits.MAX_IMITATION_EPISODES} (one batch), "

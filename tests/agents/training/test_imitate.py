@@ -15,7 +15,7 @@ from agents.oracles.planner import PlannerConfig, SamplingPlanner
 from agents.policies.registry import load_policy
 from agents.training.dagger import collect
 from agents.training.imitate import imitate
-from agents.training.imitation_config import ImitationConfig
+from agents.training.imitation_config import MAX_VALIDATION_EPISODES, ImitationConfig
 from trailer_env.scenes.reverse_v1 import ReverseV1Core
 from trailer_env.vector import ConvoyVectorEnv
 
@@ -74,6 +74,27 @@ def test_bad_configurations_are_refused(tmp_path: Path, capsys: pytest.CaptureFi
         main(["--n-trailers", "1", "--run-dir", str(run)])
     assert error.value.code == 2
     assert "--overwrite" in capsys.readouterr().err
+
+
+def test_the_validation_that_picks_the_kept_iteration_is_sized_by_the_user(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    run = tmp_path / "run"
+    tiny = ["--n-trailers", "1", "--iterations", "1", "--episodes", "2", "--epochs", "1"]
+    main([*tiny, "--net-arch", "8", "--validation-episodes", "3", "--run-dir", str(run)])
+    card = json.loads((run / "best_model.json").read_text())
+    assert card["imitation"]["validation_episodes"] == 3
+    assert card["validation"]["episodes"] == 3
+    # The validation seeds (from 50,000) must not reach the selection seeds (60,000).
+    assert MAX_VALIDATION_EPISODES == 10_000
+    with pytest.raises(ValueError, match="validation_episodes must be <= 10000"):
+        ImitationConfig(V1, 1, validation_episodes=10_001)
+    refused = tmp_path / "refused"
+    with pytest.raises(SystemExit) as error:
+        main([*tiny, "--validation-episodes", "10001", "--run-dir", str(refused)])
+    assert error.value.code == 2
+    assert "--validation-episodes: must be <= 10,000" in capsys.readouterr().err
+    assert not refused.exists()
 
 
 @pytest.mark.slow
