@@ -77,6 +77,7 @@ from agents.envs import HEADLINE_ENV_ID
 from agents.policies.convoy_order import CONVOY_DIRECTIONS
 from agents.policies.experts import EXPERTS, default_expert
 from agents.policies.sb3 import limit_torch_threads
+from agents.seeds import VALIDATION_SEED
 from agents.training.imitate import imitate
 from agents.training.imitation_checkpoint import CHECKPOINT_FILE, CheckpointError, read_saved_run
 from agents.training.imitation_config import MAX_VALIDATION_EPISODES, ImitationConfig
@@ -116,7 +117,7 @@ def build_parser() -> argparse.ArgumentParser:
         type=cli.at_least(1, MAX_VALIDATION_EPISODES),
         default=ImitationConfig.validation_episodes,
         help="episodes of each iteration's validation, which picks the kept iteration "
-        f"(seeds from 50,000; <= {MAX_VALIDATION_EPISODES:,})",
+        f"(seeds from {VALIDATION_SEED:,}; <= {MAX_VALIDATION_EPISODES:,})",
     )
     parser.add_argument(
         "--net-arch", type=cli.at_least(1), nargs="+", default=None, help="hidden layer sizes"

@@ -84,8 +84,8 @@ def test_shipped_models_have_json_statistics_and_no_pickles() -> None:
     # With the generalist, the three sequence generalists from the planner (ConvoyEncoder:
     # n = 1-3, n = 1-6 and n = 1-6 trained with the mirror) and the two distilled from the
     # specialists (n = 1-3, n = 1-6).
-    # With the students that adapt (n = 1, 2, 3 and one policy for n = 1-2, mismatch20)
-    # and their nine privileged teachers.
+    # With the students that adapt (n = 1, 2, 3 and one policy for n = 1-3, mismatch20)
+    # and their fifteen privileged teachers (nine first ones, six fine-tuned at n = 2, 3).
     teachers = sorted((MODELS_DIR / "teachers").glob("*.zip"))
     assert len(zips) == 34 and len(teachers) == 15 and not list(MODELS_DIR.glob("**/*.pkl"))
     # 3 training seeds of each Reverse-v1 (DAgger, PPO), Dock, Coast model, of the

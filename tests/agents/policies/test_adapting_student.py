@@ -31,8 +31,7 @@ COUNTS = (1, 2, 3)
 #: docs/generated/adapt_n<n> records (98 at n = 1, 98 at n = 2, 96 at n = 3): machines
 #: differ by a few starts, not more.
 FLOORS = {1: 0.92, 2: 0.94, 3: 0.92}
-#: The teachers whose median each count's students learned from (None: each seed its own
-#: seed's privileged teacher).
+#: The teachers whose median each count's students learned from.
 MEDIAN_OF = {1: PRIVILEGED, 2: REPLAYED, 3: REPLAYED}
 #: Convoys labelled per DAgger iteration: three trailers take twice as many (with 256 the
 #: students stood 1-3 points under their teachers' median under mismatch20).
@@ -73,14 +72,11 @@ def test_each_seed_learned_from_its_own_committed_teacher(n: int) -> None:
     assert card.imitation is not None
     assert (card.imitation.episodes, card.imitation.iterations) == (CONVOYS[n], 8)
     family = MEDIAN_OF[n]
-    teachers = [f"{family or PRIVILEGED}_n{n}_s{s}.zip" for s in range(3)]
+    teachers = [f"{family}_n{n}_s{s}.zip" for s in range(3)]
     for seed in (0, 1, 2):
         sibling = read_model_card(SEEDS_DIR / f"{student(n)}_s{seed}.zip")
         assert sibling.seed == seed and sibling.planner is not None
-        if family is None:
-            assert sibling.planner.policy == teachers[seed]
-        else:
-            assert sibling.planner.policy == median_of(family, "{n}")
+        assert sibling.planner.policy == median_of(family, "{n}")
     for teacher in teachers:
         teacher_card = read_model_card(TEACHERS / Path(teacher).name)
         # The teacher reads the parameters the student must infer.
