@@ -11,6 +11,8 @@ Each RUN is a run folder (``config.json`` and ``evaluations.csv``) or a committe
 written. Writes ``ladder.json``, ``ladder.md`` and ``ladder.png`` into ``--out``,
 atomically; existing files are replaced only with ``--overwrite``. ``--redraw`` writes the
 table and the chart again from ``--out``'s ``ladder.json`` (checked whole first).
+``--update --overwrite`` replaces only the points of the methods given (a method's runs
+retrained), keeping every other point of ``--out``'s ``ladder.json``.
 """
 
 from __future__ import annotations
@@ -55,6 +57,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, default=cli.OUT_ROOT / "ladder")
     cli.add_overwrite(parser, "replace an earlier ladder's files")
     parser.add_argument(
+        "--update",
+        action="store_true",
+        help="replace only the points of the methods given, keeping the others of --out's "
+        "ladder.json (with --overwrite; the budget must be that ladder's)",
+    )
+    parser.add_argument(
         "--redraw",
         action="store_true",
         help="write the table and the chart again from --out's ladder.json (no reading runs)",
@@ -67,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.redraw:
-        if args.method:
+        if args.method or args.update:
             parser.error("argument --redraw: it reads ladder.json, not --method's runs")
         try:
             ladder = read_ladder(args.out)
@@ -96,6 +104,23 @@ def main(argv: list[str] | None = None) -> int:
     problem = write_problem(args.out, args.overwrite)
     if problem is not None:
         parser.error(f"argument --out: {problem}")
+    if args.update:
+        if not args.overwrite:
+            parser.error("argument --update: it rewrites --out's ladder: add --overwrite")
+        try:
+            earlier = read_ladder(args.out)
+        except ValueError as error:
+            parser.error(f"argument --update: {error}")
+        if earlier.budget_minutes != args.budget_minutes:
+            parser.error(
+                f"argument --update: --out's ladder reads its runs within "
+                f"{earlier.budget_minutes:g} minutes, not {args.budget_minutes:g}"
+            )
+        replaced = set(names)
+        kept = [point for point in earlier.points if point.method not in replaced]
+        # The methods keep their order: a replaced one where it was, a new one last.
+        order = list(dict.fromkeys([*earlier.methods, *names]))
+        points = sorted([*kept, *points], key=lambda point: order.index(point.method))
     ladder = Ladder(budget_minutes=args.budget_minutes, gap_points=GAP_POINTS, points=tuple(points))
     write_ladder(ladder, args.out, overwrite=args.overwrite)
     print(markdown(ladder), end="")

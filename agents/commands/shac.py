@@ -5,6 +5,7 @@ Usage::
 
     python -m agents.shac --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \\
         --iterations 200 [--horizon 32] [--num-envs 64] [--init-from MODEL --critic-warmup 20] \\
+        [--actor-lr 3e-4] [--gamma 0.999] [--log-std-init -1.5] [--state-gradient-clip 1] \\
         [--run-dir DIR] [--overwrite]
 
 Writes the run folder (default ``runs/<scene>_n<n>_shac_s<seed>``): ``config.json``,
@@ -43,6 +44,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--eval-every", type=cli.at_least(1, 1_000_000), default=SHACConfig.eval_every
     )
     parser.add_argument(
+        "--validation-episodes",
+        type=cli.at_least(1, 10_000),
+        default=SHACConfig.validation_episodes,
+        help="episodes of each validation (seeds from the validation seed)",
+    )
+    parser.add_argument(
         "--init-from",
         type=Path,
         default=None,
@@ -55,6 +62,25 @@ def build_parser() -> argparse.ArgumentParser:
         type=cli.at_least(0, 1_000_000),
         default=SHACConfig.critic_warmup,
         help="iterations that fit the critic only, first",
+    )
+    parser.add_argument(
+        "--actor-lr", type=float, default=SHACConfig.actor_lr, help="the actor's Adam step size"
+    )
+    parser.add_argument(
+        "--gamma", type=float, default=SHACConfig.gamma, help="discount of the window's return"
+    )
+    parser.add_argument(
+        "--log-std-init",
+        type=float,
+        default=SHACConfig.log_std_init,
+        help="the actor's log standard deviation at the start (also after --init-from)",
+    )
+    parser.add_argument(
+        "--state-gradient-clip",
+        type=float,
+        default=SHACConfig.state_gradient_clip,
+        help="each convoy's backward gradient is scaled to at most this norm at every step "
+        "(0: not clipped)",
     )
     parser.add_argument("--run-dir", type=Path, default=None, help="run folder")
     cli.add_overwrite(parser, "replace an existing run folder")
@@ -74,8 +100,13 @@ def main(argv: list[str] | None = None) -> int:
             horizon=args.horizon,
             num_envs=args.num_envs,
             eval_every=args.eval_every,
+            validation_episodes=args.validation_episodes,
             init_from=None if args.init_from is None else str(args.init_from),
             critic_warmup=args.critic_warmup,
+            actor_lr=args.actor_lr,
+            gamma=args.gamma,
+            log_std_init=args.log_std_init,
+            state_gradient_clip=args.state_gradient_clip,
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))

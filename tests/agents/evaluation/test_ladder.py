@@ -107,3 +107,47 @@ def test_the_command_writes_the_ladder_refuses_before_writing_and_redraws(
     (out / "ladder.json").write_text('{"budget_minutes": 15}')
     with pytest.raises(SystemExit):
         main(["--redraw", "--out", str(out)])
+
+
+def test_update_replaces_one_methods_points_and_keeps_the_others(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    ppo = _run(tmp_path / "ppo_n3", 3, [(60.0, 0.5), (420.0, 0.99)])
+    sac = _run(tmp_path / "sac_n3", 3, [(60.0, 0.1), (700.0, 0.4)])
+    out = tmp_path / "ladder"
+    assert main(["--method", "PPO", str(ppo), "--method", "SAC", str(sac), "--out", str(out)]) == 0
+    written = {name: (out / name).read_bytes() for name in OUTPUTS}
+    retrained = _run(tmp_path / "sac_n3_again", 3, [(60.0, 0.3), (500.0, 0.9)])
+    refusals = [
+        ["--update", "--method", "SAC", str(retrained), "--out", str(out)],  # no --overwrite
+        ["--update", "--overwrite", "--method", "SAC", str(retrained), "--out", str(tmp_path)],
+        [
+            "--update",
+            "--overwrite",
+            "--budget-minutes",
+            "20",
+            "--method",
+            "SAC",
+            str(retrained),
+            "--out",
+            str(out),
+        ],
+        ["--update", "--redraw", "--out", str(out)],
+    ]
+    for argv in refusals:
+        with pytest.raises(SystemExit) as refused:
+            main(argv)
+        assert refused.value.code == 2
+    capsys.readouterr()
+    assert {name: (out / name).read_bytes() for name in OUTPUTS} == written
+    argv = ["--update", "--overwrite", "--method", "SAC", str(retrained), "--out", str(out)]
+    assert main(argv) == 0
+    ladder = read_ladder(out)
+    assert ladder.methods == ["PPO", "SAC"]
+    assert [(point.method, point.best_rate) for point in ladder.points] == [
+        ("PPO", 0.99),
+        ("SAC", 0.9),
+    ]
+    argv = ["--update", "--overwrite", "--method", "SHAC", str(retrained), "--out", str(out)]
+    assert main(argv) == 0
+    assert read_ladder(out).methods == ["PPO", "SAC", "SHAC"]
