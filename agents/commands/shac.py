@@ -6,7 +6,7 @@ Usage::
     python -m agents.shac --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \\
         --iterations 200 [--horizon 32] [--num-envs 64] [--init-from MODEL --critic-warmup 20] \\
         [--actor-lr 3e-4] [--gamma 0.999] [--log-std-init -1.5] [--state-gradient-clip 1] \\
-        [--run-dir DIR] [--overwrite]
+        [--target-critic 0.2] [--anneal] [--run-dir DIR] [--overwrite]
 
 Writes the run folder (default ``runs/<scene>_n<n>_shac_s<seed>``): ``config.json``,
 ``evaluations.csv``, ``best_model.zip`` and ``final_model.zip`` with their cards and
@@ -82,6 +82,16 @@ def build_parser() -> argparse.ArgumentParser:
         help="each convoy's backward gradient is scaled to at most this norm at every step "
         "(0: not clipped)",
     )
+    parser.add_argument(
+        "--target-critic",
+        type=float,
+        default=SHACConfig.target_critic,
+        help="bootstrap from a target critic that keeps this share of itself per window "
+        "(0: the critic; SHAC's is 0.2)",
+    )
+    parser.add_argument(
+        "--anneal", action="store_true", help="step sizes fall linearly to 0 over the run"
+    )
     parser.add_argument("--run-dir", type=Path, default=None, help="run folder")
     cli.add_overwrite(parser, "replace an existing run folder")
     return parser
@@ -107,6 +117,8 @@ def main(argv: list[str] | None = None) -> int:
             gamma=args.gamma,
             log_std_init=args.log_std_init,
             state_gradient_clip=args.state_gradient_clip,
+            target_critic=args.target_critic,
+            anneal=args.anneal,
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))

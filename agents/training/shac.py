@@ -74,8 +74,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.envs import HEADLINE_ENV_ID
 from agents.seeds import TRAINING_SEED, VALIDATION_SEED
+from agents.training.shac_config import SHACConfig
 
 #: Columns of ``evaluations.csv``.
 CURVE_FIELDS = (
@@ -90,112 +90,6 @@ CURVE_FIELDS = (
     "gradient_norm",
     "dropped_rows",
 )
-
-
-@dataclass(frozen=True)
-class SHACConfig:
-    """Settings of a SHAC run.
-
-    Attributes:
-        env_id: The scene (one the twin restates, rail actuator).
-        n_trailers: Trailers (one count).
-        seed: The run's seed (network initialisation, starts, noise).
-        iterations: Actor updates (each one window of ``num_envs * horizon`` steps).
-        num_envs: Convoys rolled per window.
-        horizon: Control steps per window (SHAC's short horizon).
-        gamma, lam: Discount and TD(lambda) parameter of the critic's targets.
-        actor_lr, critic_lr: Adam step sizes.
-        critic_iterations: Critic passes over each window's targets (minibatches of a
-            quarter of the window each).
-        max_grad_norm: The actor's gradient is clipped to this norm.
-        net_arch: Hidden layers of the actor and of the critic.
-        log_std_init: The actor's initial log standard deviation (exploration noise).
-        eval_every: Iterations between validations (and at the last one).
-        validation_episodes: Validation episodes (seeds from VALIDATION_SEED).
-        init_from: A PPO ``MlpPolicy`` model (a zip with its JSON statistics, of the
-            same hidden layers) whose actor, critic and observation statistics the run
-            starts from (a stabilising start, e.g. an imitated policy); None: from scratch.
-        critic_warmup: Iterations at the start that fit the critic only (the actor
-            waits for values worth bootstrapping from).
-        surrogate_weight: Weight of the smooth surrogate of the fold in the learner's
-            reward, ``- weight * (omega^2 + sum_k alpha_k^2)`` per step (0: the scene's
-            reward alone).
-        state_gradient_clip: Each convoy's gradient with respect to its state (and to its
-            action) is scaled to at most this norm at every step of the backward pass
-            (0: not clipped). A row whose gradient is not finite is dropped (zero) in
-            either case.
-    """
-
-    env_id: str = HEADLINE_ENV_ID
-    n_trailers: int = 2
-    seed: int = 0
-    iterations: int = 200
-    num_envs: int = 64
-    horizon: int = 32
-    gamma: float = 0.999
-    lam: float = 0.95
-    actor_lr: float = 3e-4
-    critic_lr: float = 1e-3
-    critic_iterations: int = 16
-    max_grad_norm: float = 1.0
-    net_arch: tuple[int, ...] = (64, 64)
-    log_std_init: float = -1.5
-    eval_every: int = 20
-    validation_episodes: int = 64
-    init_from: str | None = None
-    critic_warmup: int = 0
-    surrogate_weight: float = 0.0
-    state_gradient_clip: float = 1.0
-
-    def __post_init__(self) -> None:
-        integers = {
-            "n_trailers": (1, 64),
-            "seed": (0, 2**31 - 1),
-            "iterations": (1, 1_000_000),
-            "num_envs": (2, 4096),
-            "horizon": (1, 1024),
-            "critic_iterations": (1, 1000),
-            "eval_every": (1, 1_000_000),
-            "validation_episodes": (1, 10_000),
-            "critic_warmup": (0, 1_000_000),
-        }
-        for name, (low, high) in integers.items():
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int):
-                raise TypeError(f"{name} must be an int, got {type(value).__name__}")
-            if not low <= value <= high:
-                raise ValueError(f"{name} must be in [{low}, {high}], got {value}")
-        for name in ("surrogate_weight", "state_gradient_clip"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise TypeError(f"{name} must be a real number")
-            if not (np.isfinite(value) and value >= 0.0):
-                raise ValueError(f"{name} must be >= 0, got {value}")
-        for name in ("gamma", "lam", "actor_lr", "critic_lr", "max_grad_norm", "log_std_init"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-            if not np.isfinite(value):
-                raise ValueError(f"{name} must be finite, got {value}")
-        for name in ("gamma", "lam"):
-            if not 0.0 <= getattr(self, name) <= 1.0:
-                raise ValueError(f"{name} must be in [0, 1], got {getattr(self, name)}")
-        for name in ("actor_lr", "critic_lr", "max_grad_norm"):
-            if getattr(self, name) <= 0.0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
-        if not self.net_arch or not all(
-            isinstance(width, int) and not isinstance(width, bool) and 1 <= width <= 4096
-            for width in self.net_arch
-        ):
-            raise ValueError(f"net_arch must be widths in [1, 4096], got {self.net_arch!r}")
-        if self.init_from is not None and not isinstance(self.init_from, str):
-            raise TypeError(f"init_from must be a path, got {type(self.init_from).__name__}")
-        from trailer_env.registry import core_class_of
-        from trailer_env.twin import SCENES
-
-        core_class = core_class_of(self.env_id)  # ValueError on an unknown id
-        if core_class.scene not in SCENES:
-            raise ValueError(f"SHAC needs a scene the twin restates {SCENES}, not {self.env_id}")
 
 
 class _Learner:
@@ -264,6 +158,12 @@ class _Learner:
             self._freeze_statistics()
         else:
             self._start_from(Path(config.init_from))
+        import copy
+
+        self.target = copy.deepcopy(
+            torch.nn.ModuleList([policy.mlp_extractor.value_net, policy.value_net])
+        )
+        self.target.requires_grad_(False)
 
     # ----------------------------------------------------------------- convoys
     def _reset(self, rows: np.ndarray) -> None:
@@ -354,6 +254,13 @@ class _Learner:
         latent = policy.mlp_extractor.forward_critic(self._features(obs))
         return policy.value_net(latent)[:, 0]
 
+    def bootstrap_value(self, obs: Any) -> Any:
+        """The value the window bootstraps from: the target critic's (``target_critic`` >
+        0) or the critic's."""
+        if self.config.target_critic <= 0.0:
+            return self.value(obs)
+        return self.target[1](self.target[0](self._features(obs)))[:, 0]
+
     def window_return(self, horizon: int) -> Any:
         """The mean discounted return of the actor's mean action over ``horizon`` steps from
         the current convoys (no noise, no critic), counted while each episode runs; a
@@ -410,7 +317,7 @@ class _Learner:
             ended = terminated | truncated
             after = outcome.state
             next_obs = self.normalized(after)
-            next_value = self.value(next_obs).to(torch.float64)
+            next_value = self.bootstrap_value(next_obs).to(torch.float64)
             last = t == horizon - 1
             bootstrap = torch.from_numpy(truncated | (last & ~terminated))
             objective = objective + torch.where(bootstrap, discount * next_value, 0.0)
@@ -438,6 +345,14 @@ class _Learner:
         loss.backward()
         norm = torch.nn.utils.clip_grad_norm_(self.actor_parameters, config.max_grad_norm)
         finite = bool(torch.isfinite(norm))
+        if config.anneal:
+            left = max(0.0, 1.0 - self.iterations / config.iterations)
+            for optimizer, rate in (
+                (self.actor_optimizer, config.actor_lr),
+                (self.critic_optimizer, config.critic_lr),
+            ):
+                for group in optimizer.param_groups:
+                    group["lr"] = rate * left
         if finite and self.iterations >= config.critic_warmup:
             self.actor_optimizer.step()
         self.iterations += 1
@@ -446,6 +361,16 @@ class _Learner:
         self.state = type(state)(*(part.detach() for part in state))
         self.simulated_steps += count * horizon
         critic_loss = self._fit_critic(observations, rewards, ends, folds, next_values)
+        if config.target_critic > 0.0:
+            keep = config.target_critic
+            policy = self.model.policy
+            with torch.no_grad():
+                online = [
+                    *policy.mlp_extractor.value_net.parameters(),
+                    *policy.value_net.parameters(),
+                ]
+                for target, weight in zip(self.target.parameters(), online, strict=True):
+                    target.mul_(keep).add_((1.0 - keep) * weight)
         return {
             "actor_loss": float(loss.detach()),
             "critic_loss": critic_loss,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -58,6 +59,22 @@ def test_at_the_imitated_four_trailer_policy_the_gradient_is_not_the_slope() -> 
     # a step of 1e-3 along either moves the return by under 1e-3 (predicted 5.1e4, 7.1).
     assert learned.gradient_norm > 1e6 and exact.gradient_norm > 1e3
     assert abs(learned.ratio) < 1e-4 and abs(exact.ratio) < 0.01
+
+
+def test_the_target_critic_trails_the_critic_and_the_steps_anneal() -> None:
+    config = SHACConfig(n_trailers=1, num_envs=8, horizon=8, iterations=4, target_critic=0.2)
+    learner = _Learner(dataclasses.replace(config, anneal=True))
+    policy = learner.model.policy
+    critic = [*policy.mlp_extractor.value_net.parameters(), *policy.value_net.parameters()]
+    before = [weight.detach().clone() for weight in learner.target.parameters()]
+    learner.iterate()
+    for target, old, new in zip(learner.target.parameters(), before, critic, strict=True):
+        np.testing.assert_allclose(
+            target.detach().numpy(), (0.2 * old + 0.8 * new.detach()).numpy(), rtol=1e-5, atol=1e-7
+        )
+    learner.iterate()  # the second window's steps: 3/4 of each rate
+    assert learner.actor_optimizer.param_groups[0]["lr"] == pytest.approx(0.75 * config.actor_lr)
+    assert learner.critic_optimizer.param_groups[0]["lr"] == pytest.approx(0.75 * config.critic_lr)
 
 
 def test_a_row_whose_gradient_is_not_finite_is_dropped_and_the_others_clipped() -> None:
@@ -127,6 +144,7 @@ def test_bad_settings_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[
         ("--gamma", "2", "gamma"),
         ("--state-gradient-clip", "-1", "state_gradient_clip"),
         ("--actor-lr", "0", "actor_lr"),
+        ("--target-critic", "1", "target_critic"),
     ):
         with pytest.raises(SystemExit) as refused:
             main(["--n-trailers", "1", flag, value, "--run-dir", str(fresh)])
