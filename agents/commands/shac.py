@@ -5,7 +5,7 @@ Usage::
 
     python -m agents.shac --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \\
         --iterations 200 [--horizon 32] [--num-envs 64] [--init-from MODEL --critic-warmup 20] \\
-        [--actor-lr 3e-4] [--gamma 0.999] [--log-std-init -1.5] [--state-gradient-clip 1] \\
+        [--actor-lr 1e-4] [--gamma 0.999] [--log-std-init -1.5] [--state-gradient-clip 1] \\
         [--target-critic 0.2] [--anneal] [--run-dir DIR] [--overwrite]
 
 Writes the run folder (default ``runs/<scene>_n<n>_shac_s<seed>``): ``config.json``,

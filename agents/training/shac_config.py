@@ -55,7 +55,7 @@ class SHACConfig:
     horizon: int = 32
     gamma: float = 0.999
     lam: float = 0.95
-    actor_lr: float = 3e-4
+    actor_lr: float = 1e-4
     critic_lr: float = 1e-3
     critic_iterations: int = 16
     max_grad_norm: float = 1.0
