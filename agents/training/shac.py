@@ -64,6 +64,7 @@ run is sized to minutes (a cut run is started again).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import sys
 import time
@@ -147,7 +148,8 @@ class _Learner:
         self.state = self._states(rows)
         self.steps = np.zeros(config.num_envs, dtype=np.int64)
         self.simulated_steps = 0
-        # Rows of the last backward pass whose gradient was not finite (dropped).
+        # Gradients of the last backward pass dropped for not being finite: one per row
+        # and step at each of the action, the state and the servo's state.
         self.dropped_rows = 0
         self.iterations = 0
         # The observation statistics as tensors (set from the starts or the model).
@@ -158,12 +160,13 @@ class _Learner:
             self._freeze_statistics()
         else:
             self._start_from(Path(config.init_from))
-        import copy
-
-        self.target = copy.deepcopy(
-            torch.nn.ModuleList([policy.mlp_extractor.value_net, policy.value_net])
-        )
-        self.target.requires_grad_(False)
+        # SHAC's target critic, made from the (possibly loaded) critic when asked for.
+        self.target: Any = None
+        if config.target_critic > 0.0:
+            self.target = copy.deepcopy(
+                torch.nn.ModuleList([policy.mlp_extractor.value_net, policy.value_net])
+            )
+            self.target.requires_grad_(False)
 
     # ----------------------------------------------------------------- convoys
     def _reset(self, rows: np.ndarray) -> None:
@@ -242,12 +245,14 @@ class _Learner:
         """The policy's features of ``obs`` (a flat MlpPolicy: one tensor, shared)."""
         return self.model.policy.extract_features(obs)
 
-    def act(self, obs: Any) -> Any:
+    def mean_action(self, obs: Any) -> Any:
         policy = self.model.policy
-        latent = policy.mlp_extractor.forward_actor(self._features(obs))
-        mean = policy.action_net(latent)
+        return policy.action_net(policy.mlp_extractor.forward_actor(self._features(obs)))
+
+    def act(self, obs: Any) -> Any:
+        mean = self.mean_action(obs)
         noise = self.torch.randn(mean.shape, generator=self.noise, dtype=mean.dtype)
-        return mean + policy.log_std.exp() * noise
+        return mean + self.model.policy.log_std.exp() * noise
 
     def value(self, obs: Any) -> Any:
         policy = self.model.policy
@@ -257,7 +262,7 @@ class _Learner:
     def bootstrap_value(self, obs: Any) -> Any:
         """The value the window bootstraps from: the target critic's (``target_critic`` >
         0) or the critic's."""
-        if self.config.target_critic <= 0.0:
+        if self.target is None:
             return self.value(obs)
         return self.target[1](self.target[0](self._features(obs)))[:, 0]
 
@@ -268,13 +273,12 @@ class _Learner:
         from trailer_env.twin.scenes import step_outcome
 
         torch = self.torch
-        policy = self.model.policy
         state = self.state
         total = torch.zeros(self.config.num_envs, dtype=torch.float64)
         alive = torch.ones(self.config.num_envs, dtype=torch.float64)
         for t in range(horizon):
-            latent = policy.mlp_extractor.forward_actor(self._features(self.normalized(state)))
-            outcome = step_outcome(state, policy.action_net(latent).to(torch.float64), self.params)
+            action = self.mean_action(self.normalized(state)).to(torch.float64)
+            outcome = step_outcome(state, action, self.params)
             total = total + alive * self.config.gamma**t * outcome.reward
             alive = alive * (~outcome.terminated).to(torch.float64)
             state = outcome.state
@@ -361,15 +365,11 @@ class _Learner:
         self.state = type(state)(*(part.detach() for part in state))
         self.simulated_steps += count * horizon
         critic_loss = self._fit_critic(observations, rewards, ends, folds, next_values)
-        if config.target_critic > 0.0:
+        if self.target is not None:
             keep = config.target_critic
-            policy = self.model.policy
             with torch.no_grad():
-                online = [
-                    *policy.mlp_extractor.value_net.parameters(),
-                    *policy.value_net.parameters(),
-                ]
-                for target, weight in zip(self.target.parameters(), online, strict=True):
+                pairs = zip(self.target.parameters(), self.critic_parameters, strict=True)
+                for target, weight in pairs:
                     target.mul_(keep).add_((1.0 - keep) * weight)
         return {
             "actor_loss": float(loss.detach()),

@@ -64,8 +64,7 @@ def test_at_the_imitated_four_trailer_policy_the_gradient_is_not_the_slope() -> 
 def test_the_target_critic_trails_the_critic_and_the_steps_anneal() -> None:
     config = SHACConfig(n_trailers=1, num_envs=8, horizon=8, iterations=4, target_critic=0.2)
     learner = _Learner(dataclasses.replace(config, anneal=True))
-    policy = learner.model.policy
-    critic = [*policy.mlp_extractor.value_net.parameters(), *policy.value_net.parameters()]
+    critic = learner.critic_parameters
     before = [weight.detach().clone() for weight in learner.target.parameters()]
     learner.iterate()
     for target, old, new in zip(learner.target.parameters(), before, critic, strict=True):
