@@ -35,7 +35,7 @@ from the keyboard (needs a display and pygame).
 
 from __future__ import annotations
 
-__version__ = "0.16.0"
+__version__ = "0.17.0"
 
 from trailer_env.fidelity import Fidelity
 from trailer_env.registry import ENVIRONMENTS, register_scenes

@@ -6,7 +6,7 @@ Usage::
     python -m agents.shac --env trailer_env/Reverse-v1 --n-trailers 2 --seed 0 \\
         --iterations 200 [--horizon 32] [--num-envs 64] [--init-from MODEL --critic-warmup 20] \\
         [--actor-lr 1e-4] [--gamma 0.999] [--log-std-init -1.5] [--state-gradient-clip 1] \\
-        [--target-critic 0.2] [--anneal] [--run-dir DIR] [--overwrite]
+        [--action-bound-weight 10] [--target-critic 0.2] [--anneal] [--run-dir DIR] [--overwrite]
 
 Writes the run folder (default ``runs/<scene>_n<n>_shac_s<seed>``): ``config.json``,
 ``evaluations.csv``, ``best_model.zip`` and ``final_model.zip`` with their cards and
@@ -83,6 +83,12 @@ def build_parser() -> argparse.ArgumentParser:
         "(0: not clipped)",
     )
     parser.add_argument(
+        "--action-bound-weight",
+        type=float,
+        default=SHACConfig.action_bound_weight,
+        help="weight of the pull keeping the mean action within its bounds (0: none)",
+    )
+    parser.add_argument(
         "--target-critic",
         type=float,
         default=SHACConfig.target_critic,
@@ -117,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
             gamma=args.gamma,
             log_std_init=args.log_std_init,
             state_gradient_clip=args.state_gradient_clip,
+            action_bound_weight=args.action_bound_weight,
             target_critic=args.target_critic,
             anneal=args.anneal,
         )

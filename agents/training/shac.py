@@ -30,7 +30,9 @@ the kernel's: the twin's ``straight_through`` (always on here: the servo saturat
 8 % of the rail of its target, where the exact gradient with respect to the action is
 zero, so the clips pass the gradient as if they did not clip), and ``surrogate_weight``,
 a smooth stand-in for the fold (``- weight * (omega^2 + sum alpha_k^2)`` per step, off by
-default).
+default). A third is an actor regulariser, not a model surrogate: ``action_bound_weight``
+pulls the mean action back within its bounds (off by default), where the straight-through
+clip passes the return's gradient as if the mass moved.
 
 Two guards keep a step finite. Each convoy's gradient with respect to its state and its
 action is scaled to at most ``state_gradient_clip`` at every step of the backward pass,
@@ -43,9 +45,13 @@ slope (:func:`gradient_agreement`: a step of 1e-3 along it moves a 32-step windo
 by what it predicts, to 2 %) and it learns to hold convoys, then loses them: its three
 seeds peak at 95, 88 and 80 % of the validation starts after about 1,200 windows and
 collapse to 0 % within 350 more (the kept peaks keep 96, 82 and 73 % of the test
-starts). Started from ``dagger_reverse_v1_n4`` (validation 92 %) it lowers that
-policy whatever the step size, discount, window and fold surrogate tried, and there the
-gradient is not the return's slope: it is 5e7 (7e3 without the straight-through clips)
+starts). ``evaluations.csv`` shows why: the same actor acting with its noise, as in the
+windows it learns from (``sampled_safe_rate``), holds 0-8 % at the peak, so the return
+it climbs and the values its critic fits are those of a policy that folds every convoy;
+the mean action's success is a by-product nothing protects. Started from
+``dagger_reverse_v1_n4`` (validation 92 %) it lowers that policy whatever the step
+size, discount, window and fold surrogate tried, and there the gradient is not the
+return's slope: it is 5e7 (7e3 without the straight-through clips)
 where a step of 1e-3 along it moves the return by under 1e-3.
 ``tests/agents/training/test_shac.py`` measures both.
 
@@ -86,10 +92,13 @@ CURVE_FIELDS = (
     "safe_rate",
     "mean_return",
     "jackknife_rate",
+    "sampled_safe_rate",
     "actor_loss",
     "critic_loss",
     "gradient_norm",
     "dropped_rows",
+    "saturated_share",
+    "log_std",
 )
 
 
@@ -249,11 +258,6 @@ class _Learner:
         policy = self.model.policy
         return policy.action_net(policy.mlp_extractor.forward_actor(self._features(obs)))
 
-    def act(self, obs: Any) -> Any:
-        mean = self.mean_action(obs)
-        noise = self.torch.randn(mean.shape, generator=self.noise, dtype=mean.dtype)
-        return mean + self.model.policy.log_std.exp() * noise
-
     def value(self, obs: Any) -> Any:
         policy = self.model.policy
         latent = policy.mlp_extractor.forward_critic(self._features(obs))
@@ -292,8 +296,7 @@ class _Learner:
         from trailer_env.twin.scenes import step_outcome
 
         torch, config = self.torch, self.config
-        count, horizon = config.num_envs, config.horizon
-        gamma = config.gamma
+        count, horizon, gamma = config.num_envs, config.horizon, config.gamma
         for parameter in self.critic_parameters:
             parameter.requires_grad_(False)
         self.dropped_rows = 0
@@ -301,9 +304,12 @@ class _Learner:
         objective = torch.zeros(count, dtype=torch.float64)
         discount = torch.ones(count, dtype=torch.float64)
         observations, rewards, ends, folds, next_values = [], [], [], [], []
+        saturated, actions = 0, 0
         for t in range(horizon):
             obs = self.normalized(state)
-            action = self.act(obs).to(torch.float64)  # the twin clips it (straight through)
+            mean = self.mean_action(obs)
+            noise = torch.randn(mean.shape, generator=self.noise, dtype=mean.dtype)
+            action = (mean + self.model.policy.log_std.exp() * noise).double()  # twin-clipped
             if action.requires_grad:
                 action.register_hook(self._clip_rows)
             outcome = step_outcome(state, action, self.params)
@@ -313,7 +319,10 @@ class _Learner:
             z = outcome.state.z
             bend = z[:, OMEGA] ** 2 + (z[:, ALPHA : ALPHA + config.n_trailers] ** 2).sum(dim=1)
             reward = outcome.reward - config.surrogate_weight * bend
-            objective = objective + discount * reward
+            excess = torch.relu(mean.abs() - 1.0).to(torch.float64)
+            saturated, actions = saturated + int((excess > 0.0).sum()), actions + excess.numel()
+            pull = config.action_bound_weight * (excess**2).sum(dim=1)
+            objective = objective + discount * (reward - pull)
             discount = discount * gamma
             self.steps += 1
             terminated = outcome.terminated.numpy().copy()
@@ -376,6 +385,8 @@ class _Learner:
             "critic_loss": critic_loss,
             "gradient_norm": float(norm) if finite else float("nan"),
             "dropped_rows": float(self.dropped_rows),
+            "saturated_share": saturated / actions,
+            "log_std": float(self.model.policy.log_std.detach().mean()),
             "window_return": float(torch.stack(rewards).sum(0).mean()),
         }
 
@@ -497,7 +508,7 @@ def train_shac(
     from agents.artifacts.sb3_zip import save_model
     from agents.artifacts.stats import save_stats
     from agents.evaluation.metrics import Summary, rollout, summarize
-    from agents.policies.sb3 import ModelPolicy
+    from agents.policies.sb3 import ModelPolicy, SampledPolicy
     from agents.progress import Progress
     from agents.training.callbacks import score
     from agents.training.host_speed import measure_host_speed
@@ -542,6 +553,15 @@ def train_shac(
             )
             summary = summarize(results)
             figures_of = Summary.from_json(summary, "of the validation")
+            # The same actor acting with its noise, as it does in the windows it learns from.
+            sampled = rollout(
+                SampledPolicy(policy, config.seed),
+                config.env_id,
+                config.validation_episodes,
+                VALIDATION_SEED,
+                env_kwargs,
+            )
+            sampled_of = Summary.from_json(summarize(sampled), "of the sampled validation")
             row = {
                 "iteration": iteration + 1,
                 "timesteps": learner.simulated_steps,
@@ -549,7 +569,8 @@ def train_shac(
                 "safe_rate": float(figures_of.safe_rate),
                 "mean_return": float(figures_of.mean_return),
                 "jackknife_rate": float(figures_of.jackknife_rate),
-                **{key: round(figures[key], 6) for key in CURVE_FIELDS[6:]},
+                "sampled_safe_rate": float(sampled_of.safe_rate),
+                **{key: round(figures[key], 6) for key in CURVE_FIELDS[7:]},
             }
             if first:
                 write_curve(run_dir / CURVE_FILE, [row], CURVE_FIELDS)

@@ -37,6 +37,11 @@ class SHACConfig:
         surrogate_weight: Weight of the smooth surrogate of the fold in the learner's
             reward, ``- weight * (omega^2 + sum_k alpha_k^2)`` per step (0: the scene's
             reward alone).
+        action_bound_weight: Weight of the pull that keeps the actor's mean action within
+            the action's bounds, ``- weight * sum (|mean| - 1)_+^2`` per step in the actor's
+            objective (0: none). The twin's straight-through clip passes the gradient of an
+            action beyond the bounds as if it moved the mass, so without it the mean
+            drifts outward, the policy turns bang-bang and its convoys fold.
         state_gradient_clip: Each convoy's gradient with respect to its state (and to its
             action) is scaled to at most this norm at every step of the backward pass
             (0: not clipped). A row whose gradient is not finite is dropped (zero) in
@@ -66,6 +71,7 @@ class SHACConfig:
     init_from: str | None = None
     critic_warmup: int = 0
     surrogate_weight: float = 0.0
+    action_bound_weight: float = 0.0
     state_gradient_clip: float = 1.0
     target_critic: float = 0.0
     anneal: bool = False
@@ -94,7 +100,7 @@ class SHACConfig:
             raise TypeError("target_critic must be a real number")
         if not 0.0 <= self.target_critic < 1.0:
             raise ValueError(f"target_critic must be in [0, 1), got {self.target_critic}")
-        for name in ("surrogate_weight", "state_gradient_clip"):
+        for name in ("surrogate_weight", "action_bound_weight", "state_gradient_clip"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise TypeError(f"{name} must be a real number")

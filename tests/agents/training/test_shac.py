@@ -76,6 +76,29 @@ def test_the_target_critic_trails_the_critic_and_the_steps_anneal() -> None:
     assert learner.critic_optimizer.param_groups[0]["lr"] == pytest.approx(0.75 * config.critic_lr)
 
 
+def test_the_bound_pull_is_the_gradient_of_its_penalty() -> None:
+    # Past the bounds the straight-through clip passes the window's gradient as if the
+    # mass moved, so nothing in the return stops the mean drifting outward; the pull
+    # -w (|mean| - 1)^2 per step does. With every mean action near 3 its gradient on the
+    # output bias is 2 w (|mean| - 1) times the window's mean discount.
+    def bias_gradient(weight: float) -> float:
+        config = SHACConfig(
+            n_trailers=1, num_envs=16, horizon=8, action_bound_weight=weight, max_grad_norm=1e9
+        )
+        learner = _Learner(config)
+        with torch.no_grad():
+            learner.model.policy.action_net.bias.fill_(3.0)
+        learner.iterate()
+        gradient = learner.model.policy.action_net.bias.grad
+        assert gradient is not None
+        return float(gradient[0])
+
+    discount = np.mean(0.999 ** np.arange(8))
+    pull = bias_gradient(10.0) - bias_gradient(0.0)
+    # Measured: 39.80 (the return's own gradient there 0.055).
+    assert pull == pytest.approx(2.0 * 10.0 * 2.0 * discount, rel=5e-3)
+
+
 def test_a_row_whose_gradient_is_not_finite_is_dropped_and_the_others_clipped() -> None:
     learner = _Learner(SHACConfig(n_trailers=1, num_envs=4, state_gradient_clip=2.0))
     gradient = torch.tensor(
@@ -115,7 +138,14 @@ def test_the_saved_model_evaluates_like_any_model(tmp_path: Path) -> None:
         progress=False,
     )
     assert evaluation.summary.episodes == 2
-    assert (tmp_path / "run" / "evaluations.csv").read_text().count("\n") == 3
+    header, *rows = (tmp_path / "run" / "evaluations.csv").read_text().splitlines()
+    assert len(rows) == 2
+    columns = dict(zip(header.split(","), rows[-1].split(","), strict=True))
+    # The noisy actor's rate beside the mean action's, the share of mean actions past the
+    # rail's bounds and the exploration noise: what tells a collapse's cause.
+    assert 0.0 <= float(columns["sampled_safe_rate"]) <= 1.0
+    assert 0.0 <= float(columns["saturated_share"]) <= 1.0
+    assert float(columns["log_std"]) == pytest.approx(config.log_std_init, abs=0.01)
 
 
 def test_bad_settings_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -131,6 +161,8 @@ def test_bad_settings_are_refused(tmp_path: Path, capsys: pytest.CaptureFixture[
         SHACConfig(state_gradient_clip=-1.0)
     with pytest.raises(TypeError, match="state_gradient_clip"):
         SHACConfig(state_gradient_clip="1")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="action_bound_weight"):
+        SHACConfig(action_bound_weight=-1.0)
     run = tmp_path / "run"
     run.mkdir()
     (run / "config.json").write_text("{}")
