@@ -46,9 +46,10 @@ by what it predicts, to 2 %) and it learns to hold convoys, then loses them: its
 seeds peak at 95, 88 and 80 % of the validation starts after about 1,200 windows and
 collapse to 0 % within 350 more (the kept peaks keep 96, 82 and 73 % of the test
 starts). ``evaluations.csv`` shows why: the same actor acting with its noise, as in the
-windows it learns from (``sampled_safe_rate``), holds 0-8 % at the peak, so the return
-it climbs and the values its critic fits are those of a policy that folds every convoy;
-the mean action's success is a by-product nothing protects. Started from
+windows it learns from (``sampled_safe_rate``), holds 2-45 % at the peaks, so the return
+it climbs and the values its critic fits are mostly a folding policy's, and each fall
+comes with the mean action drifting past the bounds (``saturated_share`` 0.47-0.85
+after it), where the straight-through clip lets nothing hold it back. Started from
 ``dagger_reverse_v1_n4`` (validation 92 %) it lowers that policy whatever the step
 size, discount, window and fold surrogate tried, and there the gradient is not the
 return's slope: it is 5e7 (7e3 without the straight-through clips)
