@@ -25,6 +25,28 @@ from agents.commands import options as cli
 from agents.envs import HEADLINE_ENV_ID
 from agents.training.shac import SHACConfig, train_shac
 
+#: The real-valued settings, one option each (``--actor-lr`` sets ``actor_lr``), checked
+#: by :class:`SHACConfig`.
+REAL_OPTIONS = (
+    ("actor_lr", "the actor's Adam step size"),
+    ("gamma", "discount of the window's return"),
+    ("log_std_init", "the actor's log standard deviation at the start (also after --init-from)"),
+    (
+        "state_gradient_clip",
+        "each convoy's backward gradient is scaled to at most this norm at every step "
+        "(0: not clipped)",
+    ),
+    (
+        "action_bound_weight",
+        "weight of the pull keeping the mean action within its bounds (0: none)",
+    ),
+    (
+        "target_critic",
+        "bootstrap from a target critic that keeps this share of itself per window "
+        "(0: the critic; SHAC's is 0.2)",
+    ),
+)
+
 
 def build_parser() -> argparse.ArgumentParser:
     """The command-line interface."""
@@ -63,38 +85,13 @@ def build_parser() -> argparse.ArgumentParser:
         default=SHACConfig.critic_warmup,
         help="iterations that fit the critic only, first",
     )
-    parser.add_argument(
-        "--actor-lr", type=float, default=SHACConfig.actor_lr, help="the actor's Adam step size"
-    )
-    parser.add_argument(
-        "--gamma", type=float, default=SHACConfig.gamma, help="discount of the window's return"
-    )
-    parser.add_argument(
-        "--log-std-init",
-        type=float,
-        default=SHACConfig.log_std_init,
-        help="the actor's log standard deviation at the start (also after --init-from)",
-    )
-    parser.add_argument(
-        "--state-gradient-clip",
-        type=float,
-        default=SHACConfig.state_gradient_clip,
-        help="each convoy's backward gradient is scaled to at most this norm at every step "
-        "(0: not clipped)",
-    )
-    parser.add_argument(
-        "--action-bound-weight",
-        type=float,
-        default=SHACConfig.action_bound_weight,
-        help="weight of the pull keeping the mean action within its bounds (0: none)",
-    )
-    parser.add_argument(
-        "--target-critic",
-        type=float,
-        default=SHACConfig.target_critic,
-        help="bootstrap from a target critic that keeps this share of itself per window "
-        "(0: the critic; SHAC's is 0.2)",
-    )
+    for name, help_text in REAL_OPTIONS:
+        parser.add_argument(
+            f"--{name.replace('_', '-')}",
+            type=float,
+            default=getattr(SHACConfig, name),
+            help=help_text,
+        )
     parser.add_argument(
         "--anneal", action="store_true", help="step sizes fall linearly to 0 over the run"
     )
@@ -119,13 +116,8 @@ def main(argv: list[str] | None = None) -> int:
             validation_episodes=args.validation_episodes,
             init_from=None if args.init_from is None else str(args.init_from),
             critic_warmup=args.critic_warmup,
-            actor_lr=args.actor_lr,
-            gamma=args.gamma,
-            log_std_init=args.log_std_init,
-            state_gradient_clip=args.state_gradient_clip,
-            action_bound_weight=args.action_bound_weight,
-            target_critic=args.target_critic,
             anneal=args.anneal,
+            **{name: getattr(args, name) for name, _ in REAL_OPTIONS},
         )
     except (TypeError, ValueError) as error:
         parser.error(str(error))

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from agents.artifacts import files
 from agents.commands import options as cli
 from agents.evaluation.shac_chart import read_shac_curve, write_shac_chart
 
@@ -42,9 +43,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"argument RUN: {error}")
     if args.out.suffix != ".png":
         parser.error(f"argument --out: {args.out} is not a .png file")
-    cli.check_out_file(parser, args.out, "--out")
-    if args.out.exists() and not args.overwrite:
-        parser.error(f"argument --out: {args.out} exists (pass --overwrite to replace it)")
+    problem = files.outputs_problem(args.out.parent, (args.out.name,), args.overwrite)
+    if problem is not None:
+        parser.error(f"argument --out: {problem}")
     print(f"wrote {write_shac_chart(curves, args.out)}")
     return 0
 
